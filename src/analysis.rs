@@ -1,0 +1,123 @@
+//! The front half of the pipeline shared by the CLI, training and the server: a decoded
+//! image plus where the sphere is and how bright white is → features, with what was used
+//! and every warning.
+
+use crate::features::Extractor;
+use crate::geometry::{self, Geometry, GeometryError, Method};
+use crate::image_io::{DecodeError, LinearImage};
+use crate::white::{self, White, WhiteError};
+use ndarray::Array2;
+use serde::Serialize;
+
+/// Where the sphere is.
+#[derive(Clone, Debug)]
+pub enum Locate {
+    Circle(geometry::Circle),
+    /// A separate mask image (same size as the image): alpha if it has one, else
+    /// linear luminance ≥ 0.5.
+    Mask(Array2<bool>),
+    /// The image's alpha channel if it has one, else automatic detection.
+    Auto,
+}
+
+/// How bright white is.
+#[derive(Clone, Debug)]
+pub enum WhiteInput {
+    Value(f64),
+    Card {
+        image: LinearImage,
+        reflectance: f64,
+    },
+    Missing,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum AnalysisError {
+    #[error(transparent)]
+    Decode(#[from] DecodeError),
+    #[error(transparent)]
+    Geometry(#[from] GeometryError),
+    #[error(transparent)]
+    White(#[from] WhiteError),
+}
+
+/// Features of one sphere and what produced them.
+#[derive(Clone, Debug, Serialize)]
+pub struct Analysis {
+    pub values: Vec<f64>,
+    pub geometry: Geometry,
+    pub white: White,
+    pub warnings: Vec<String>,
+}
+
+/// The mask of a decoded mask image.
+pub fn mask_from_image(mask: &LinearImage) -> Array2<bool> {
+    match &mask.alpha_mask {
+        Some(alpha) => alpha.clone(),
+        None => mask.luminance.mapv(|v| v >= 0.5),
+    }
+}
+
+/// Find the sphere and check it fits the image and the extractor's annulus.
+pub fn locate(
+    image: &LinearImage,
+    how: &Locate,
+    extractor: &Extractor,
+) -> Result<(Geometry, Vec<String>), GeometryError> {
+    let (width, height) = (image.width(), image.height());
+    let geometry = match how {
+        Locate::Circle(c) => {
+            geometry::given(Some(c.cx), Some(c.cy), Some(c.r))?.ok_or(GeometryError::Incomplete)?
+        }
+        Locate::Mask(mask) => {
+            if mask.dim() != image.luminance.dim() {
+                return Err(GeometryError::MaskSizeMismatch {
+                    mask_width: mask.ncols(),
+                    mask_height: mask.nrows(),
+                    width,
+                    height,
+                });
+            }
+            geometry::fit_mask(mask.view(), Method::Mask)?
+        }
+        Locate::Auto => match &image.alpha_mask {
+            Some(alpha) => geometry::fit_mask(alpha.view(), Method::Alpha)?,
+            None => geometry::detect(image.luminance.view())?,
+        },
+    };
+    let unwrap = &extractor.config().unwrap;
+    let warnings = geometry::validate(&geometry.circle(), width, height, unwrap.outer, unwrap.r0)?;
+    Ok((geometry, warnings))
+}
+
+/// Resolve the white reference, with a warning when there is none.
+pub fn resolve_white(input: &WhiteInput) -> Result<(White, Option<String>), WhiteError> {
+    match input {
+        WhiteInput::Value(v) => Ok((white::given(*v)?, None)),
+        WhiteInput::Card { image, reflectance } => {
+            Ok((white::from_card(image, *reflectance)?, None))
+        }
+        WhiteInput::Missing => Ok((white::missing(), Some(white::MISSING_WARNING.to_string()))),
+    }
+}
+
+/// Locate, normalize and extract.
+pub fn analyze(
+    extractor: &Extractor,
+    image: &LinearImage,
+    how: &Locate,
+    white_input: &WhiteInput,
+) -> Result<Analysis, AnalysisError> {
+    let mut warnings = image.warnings.clone();
+    let (white, white_warning) = resolve_white(white_input)?;
+    let (geometry, geometry_warnings) = locate(image, how, extractor)?;
+    warnings.extend(geometry_warnings);
+    warnings.extend(white_warning);
+    let values = extractor.extract(image.luminance.view(), &geometry.circle(), white.value);
+    Ok(Analysis {
+        values,
+        geometry,
+        white,
+        warnings,
+    })
+}

@@ -1,0 +1,320 @@
+//! Dataset manifests (`path,class,illumination[,cx,cy,r,white]`, paths relative to the
+//! manifest's folder) and feature tables (`path,class,illumination,<feature names>`).
+
+use crate::analysis::{self, AnalysisError, Locate, WhiteInput};
+use crate::features::Extractor;
+use crate::geometry::Circle;
+use crate::image_io::{self, DecodeOptions};
+use crate::progress;
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, thiserror::Error)]
+pub enum DatasetError {
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}: {detail}")]
+    Csv { path: String, detail: String },
+    #[error("{path}: missing required column {column:?}")]
+    MissingColumn { path: String, column: String },
+    #[error("{path} line {line}: {detail}")]
+    Row {
+        path: String,
+        line: u64,
+        detail: String,
+    },
+    #[error("{path} line {line} ({image}): {source}")]
+    Image {
+        path: String,
+        line: u64,
+        image: String,
+        source: AnalysisError,
+    },
+    #[error("{path}: {detail}")]
+    Table { path: String, detail: String },
+}
+
+/// One manifest row.
+#[derive(Clone, Debug)]
+pub struct Entry {
+    /// 1-based line number in the file (the header is line 1).
+    pub line: u64,
+    /// As written in the manifest.
+    pub path: String,
+    /// Resolved against the manifest's folder.
+    pub file: PathBuf,
+    pub class: Option<String>,
+    pub illumination: Option<String>,
+    pub circle: Option<Circle>,
+    pub white: Option<f64>,
+}
+
+#[derive(Clone, Debug)]
+pub struct Manifest {
+    pub source: PathBuf,
+    pub entries: Vec<Entry>,
+}
+
+fn display(path: &Path) -> String {
+    path.display().to_string()
+}
+
+fn csv_error(path: &Path, e: csv::Error) -> DatasetError {
+    let line = e.position().map(|p| p.line());
+    match line {
+        Some(line) => DatasetError::Row {
+            path: display(path),
+            line,
+            detail: e.to_string(),
+        },
+        None => DatasetError::Csv {
+            path: display(path),
+            detail: e.to_string(),
+        },
+    }
+}
+
+fn open_csv(path: &Path) -> Result<csv::Reader<std::fs::File>, DatasetError> {
+    let file = std::fs::File::open(path).map_err(|source| DatasetError::Io {
+        path: display(path),
+        source,
+    })?;
+    Ok(csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_reader(file))
+}
+
+/// Read a manifest. `path` is required; `class`, `illumination` and the geometry and white
+/// columns are optional (commands that need a class say so).
+pub fn read_manifest(path: &Path) -> Result<Manifest, DatasetError> {
+    let mut reader = open_csv(path)?;
+    let header = reader.headers().map_err(|e| csv_error(path, e))?.clone();
+    let column = |name: &str| header.iter().position(|h| h == name);
+    let path_col = column("path").ok_or_else(|| DatasetError::MissingColumn {
+        path: display(path),
+        column: "path".into(),
+    })?;
+    let cols = ["class", "illumination", "cx", "cy", "r", "white"].map(column);
+    let base = path.parent().unwrap_or(Path::new("."));
+    let mut entries = Vec::new();
+    for record in reader.records() {
+        let record = record.map_err(|e| csv_error(path, e))?;
+        let line = record.position().map_or(0, |p| p.line());
+        let bad = |detail: String| DatasetError::Row {
+            path: display(path),
+            line,
+            detail,
+        };
+        let text = |c: Option<usize>| c.and_then(|c| record.get(c)).filter(|s| !s.is_empty());
+        let number = |name: &str, c: Option<usize>| -> Result<Option<f64>, DatasetError> {
+            text(c)
+                .map(|s| {
+                    s.parse::<f64>()
+                        .map_err(|_| bad(format!("{name} is not a number: {s:?}")))
+                })
+                .transpose()
+        };
+        let rel = text(Some(path_col)).ok_or_else(|| bad("empty path".into()))?;
+        let [class, illumination, cx, cy, r, white] = cols;
+        let circle = match (number("cx", cx)?, number("cy", cy)?, number("r", r)?) {
+            (Some(cx), Some(cy), Some(r)) => Some(Circle { cx, cy, r }),
+            (None, None, None) => None,
+            _ => return Err(bad("give all of cx, cy and r, or none".into())),
+        };
+        entries.push(Entry {
+            line,
+            path: rel.to_string(),
+            file: base.join(rel),
+            class: text(class).map(str::to_string),
+            illumination: text(illumination).map(str::to_string),
+            circle,
+            white: number("white", white)?,
+        });
+    }
+    Ok(Manifest {
+        source: path.to_path_buf(),
+        entries,
+    })
+}
+
+impl Manifest {
+    /// Fails with the first row lacking a class or illumination.
+    pub fn require_labels(&self) -> Result<(), DatasetError> {
+        for e in &self.entries {
+            let missing = match (&e.class, &e.illumination) {
+                (None, _) => "class",
+                (_, None) => "illumination",
+                _ => continue,
+            };
+            return Err(DatasetError::Row {
+                path: display(&self.source),
+                line: e.line,
+                detail: format!("missing {missing}"),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// One row of a feature table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sample {
+    pub path: String,
+    pub class: String,
+    pub illumination: String,
+    pub values: Vec<f64>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct FeatureTable {
+    pub names: Vec<String>,
+    pub samples: Vec<Sample>,
+}
+
+/// Features of one manifest entry: decode, locate (row circle or automatic), normalize
+/// (row white, or 1), extract.
+pub fn extract_entry(
+    extractor: &Extractor,
+    entry: &Entry,
+    options: &DecodeOptions,
+) -> Result<Vec<f64>, AnalysisError> {
+    let image = image_io::decode_file(&entry.file, options)?;
+    let locate = entry.circle.map_or(Locate::Auto, Locate::Circle);
+    let white = WhiteInput::Value(entry.white.unwrap_or(1.0));
+    Ok(analysis::analyze(extractor, &image, &locate, &white)?.values)
+}
+
+/// Features of every entry, in parallel, in manifest order; the first failing row (by line)
+/// fails the whole run.
+pub fn extract_manifest(
+    extractor: &Extractor,
+    manifest: &Manifest,
+    options: &DecodeOptions,
+) -> Result<FeatureTable, DatasetError> {
+    let bar = progress::bar(manifest.entries.len() as u64, "features");
+    let results: Vec<_> = manifest
+        .entries
+        .par_iter()
+        .map(|entry| {
+            let result = extract_entry(extractor, entry, options);
+            bar.inc(1);
+            result
+        })
+        .collect();
+    bar.finish_and_clear();
+    let mut samples = Vec::with_capacity(results.len());
+    for (entry, result) in manifest.entries.iter().zip(results) {
+        let values = result.map_err(|source| DatasetError::Image {
+            path: display(&manifest.source),
+            line: entry.line,
+            image: entry.path.clone(),
+            source,
+        })?;
+        samples.push(Sample {
+            path: entry.path.clone(),
+            class: entry.class.clone().unwrap_or_default(),
+            illumination: entry.illumination.clone().unwrap_or_default(),
+            values,
+        });
+    }
+    Ok(FeatureTable {
+        names: extractor.config().names(),
+        samples,
+    })
+}
+
+/// Shortest representation that reads back to the same f64.
+pub fn format_f64(v: f64) -> String {
+    if v.is_finite() {
+        ryu::Buffer::new().format_finite(v).to_string()
+    } else {
+        v.to_string()
+    }
+}
+
+const LABEL_COLUMNS: [&str; 3] = ["path", "class", "illumination"];
+
+impl FeatureTable {
+    pub fn write(&self, path: &Path) -> Result<(), DatasetError> {
+        let io = |source| DatasetError::Io {
+            path: display(path),
+            source,
+        };
+        let mut out = csv::Writer::from_writer(Vec::new());
+        let header = LABEL_COLUMNS
+            .iter()
+            .copied()
+            .chain(self.names.iter().map(String::as_str));
+        let write_err = |e: csv::Error| csv_error(path, e);
+        out.write_record(header).map_err(write_err)?;
+        for s in &self.samples {
+            let labels = [s.path.clone(), s.class.clone(), s.illumination.clone()];
+            let values = s.values.iter().map(|&v| format_f64(v));
+            out.write_record(labels.into_iter().chain(values))
+                .map_err(write_err)?;
+        }
+        let bytes = out.into_inner().map_err(|e| io(e.into_error()))?;
+        crate::fsutil::write_atomic(path, &bytes).map_err(io)
+    }
+
+    pub fn read(path: &Path) -> Result<FeatureTable, DatasetError> {
+        let mut reader = open_csv(path)?;
+        let header = reader.headers().map_err(|e| csv_error(path, e))?.clone();
+        let table_error = |detail: String| DatasetError::Table {
+            path: display(path),
+            detail,
+        };
+        let labels: Vec<&str> = header.iter().take(3).collect();
+        if labels != LABEL_COLUMNS {
+            return Err(table_error(format!(
+                "expected the columns to start with path,class,illumination, found {labels:?}"
+            )));
+        }
+        let names: Vec<String> = header.iter().skip(3).map(str::to_string).collect();
+        let mut samples = Vec::new();
+        for record in reader.records() {
+            let record = record.map_err(|e| csv_error(path, e))?;
+            let line = record.position().map_or(0, |p| p.line());
+            let values = record
+                .iter()
+                .skip(3)
+                .zip(&names)
+                .map(|(text, name)| {
+                    text.parse::<f64>()
+                        .ok()
+                        .filter(|v| v.is_finite())
+                        .ok_or_else(|| DatasetError::Row {
+                            path: display(path),
+                            line,
+                            detail: format!("{name} is not a finite number: {text:?}"),
+                        })
+                })
+                .collect::<Result<Vec<f64>, _>>()?;
+            samples.push(Sample {
+                path: record[0].to_string(),
+                class: record[1].to_string(),
+                illumination: record[2].to_string(),
+                values,
+            });
+        }
+        Ok(FeatureTable { names, samples })
+    }
+
+    /// Column index of every name, or the first unknown name.
+    pub fn columns(&self, wanted: &[String]) -> Result<Vec<usize>, String> {
+        let index: HashMap<&str, usize> = self
+            .names
+            .iter()
+            .enumerate()
+            .map(|(i, n)| (n.as_str(), i))
+            .collect();
+        wanted
+            .iter()
+            .map(|w| index.get(w.as_str()).copied().ok_or_else(|| w.clone()))
+            .collect()
+    }
+}

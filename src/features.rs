@@ -1,0 +1,299 @@
+//! The named feature bank (117 features with the default configuration) and feature sets.
+//!
+//! Order: `pix.*` (7), `wav.s{k}.{h,v,d}.*` (7 per subband), `ratio.{h,v,d}.s{k}_s{k+1}`,
+//! `fft.b{1..4}.f{0,45,90,135}.pow`, `fft.lo.pow`. Every `*.var`, `*.kurt`, `*.pow` and
+//! `ratio.*` is log10 (argument floored at 1e-30); means, skews and percentiles are linear.
+
+use crate::geometry::Circle;
+use crate::pyramid::{self, Edge};
+use crate::spectrum::{BandPowers, ORIENTATIONS, SpectrumPlan};
+use crate::stats::{STAT_NAMES, Summary, summarize};
+use crate::unwrap::{UnwrapConfig, angle_table, unwrap};
+use ndarray::{Array2, ArrayView2};
+use serde::{Deserialize, Serialize};
+use std::sync::{Arc, OnceLock};
+
+/// Number of features with the default configuration.
+pub const FEATURE_COUNT: usize = 117;
+const LOG_FLOOR: f64 = 1e-30;
+const BAND_NAMES: [&str; 3] = ["h", "v", "d"];
+/// The smallest subband height the 9-tap filters can reflect within.
+const MIN_BAND_ROWS: usize = 9;
+
+/// Everything that determines the feature values: stored in every model file.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FeatureConfig {
+    pub unwrap: UnwrapConfig,
+    pub levels: usize,
+}
+
+impl Default for FeatureConfig {
+    fn default() -> Self {
+        FeatureConfig {
+            unwrap: UnwrapConfig::default(),
+            levels: 4,
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ConfigError {
+    #[error("unwrap width {cols} is not divisible by 2^{levels}")]
+    WidthNotDivisible { cols: usize, levels: usize },
+    #[error(
+        "unwrap height {rows} is too small for {levels} levels (level {level} would have {band_rows} < 9 rows)"
+    )]
+    HeightTooSmall {
+        rows: usize,
+        levels: usize,
+        level: usize,
+        band_rows: usize,
+    },
+    #[error("invalid annulus [{inner}, {outer}]·r (need 0 ≤ inner < outer ≤ 1) or r0 {r0} ≤ 0")]
+    BadAnnulus { inner: f64, outer: f64, r0: f64 },
+    #[error("levels must be between 2 and 8, not {0}")]
+    BadLevels(usize),
+}
+
+impl FeatureConfig {
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let u = &self.unwrap;
+        if !(2..=8).contains(&self.levels) {
+            return Err(ConfigError::BadLevels(self.levels));
+        }
+        if !(0.0 <= u.inner && u.inner < u.outer && u.outer <= 1.0 && u.r0 > 0.0) {
+            return Err(ConfigError::BadAnnulus {
+                inner: u.inner,
+                outer: u.outer,
+                r0: u.r0,
+            });
+        }
+        if u.cols % (1 << self.levels) != 0 {
+            return Err(ConfigError::WidthNotDivisible {
+                cols: u.cols,
+                levels: self.levels,
+            });
+        }
+        for level in 0..self.levels {
+            let band_rows = u.rows >> level;
+            if band_rows < MIN_BAND_ROWS {
+                return Err(ConfigError::HeightTooSmall {
+                    rows: u.rows,
+                    levels: self.levels,
+                    level,
+                    band_rows,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Canonical feature names for this configuration.
+    pub fn names(&self) -> Vec<String> {
+        let mut names: Vec<String> = STAT_NAMES.iter().map(|s| format!("pix.{s}")).collect();
+        for k in 1..=self.levels {
+            for band in BAND_NAMES {
+                names.extend(STAT_NAMES.iter().map(|s| format!("wav.s{k}.{band}.{s}")));
+            }
+        }
+        for band in BAND_NAMES {
+            names.extend((1..self.levels).map(|k| format!("ratio.{band}.s{k}_s{}", k + 1)));
+        }
+        for b in 1..=4 {
+            names.extend(ORIENTATIONS.iter().map(|o| format!("fft.b{b}.{o}.pow")));
+        }
+        names.push("fft.lo.pow".into());
+        names
+    }
+}
+
+/// The default configuration's names, computed once.
+pub fn default_names() -> &'static [String] {
+    static NAMES: OnceLock<Vec<String>> = OnceLock::new();
+    NAMES.get_or_init(|| FeatureConfig::default().names())
+}
+
+/// The paper's hand-picked sets (§6.3, Fig. 7) and the trivial ones.
+pub fn named_set(name: &str) -> Option<&'static [&'static str]> {
+    const HAND6: &[&str] = &[
+        "pix.mean",
+        "pix.p10",
+        "wav.s1.v.var",
+        "wav.s2.v.var",
+        "ratio.v.s1_s2",
+        "wav.s2.v.kurt",
+    ];
+    const HAND2: &[&str] = &["pix.p10", "wav.s2.v.var"];
+    const MEAN1: &[&str] = &["pix.mean"];
+    match name {
+        "hand6" => Some(HAND6),
+        "hand2" => Some(HAND2),
+        "mean1" => Some(MEAN1),
+        _ => None,
+    }
+}
+
+fn log10_floor(v: f64) -> f64 {
+    v.max(LOG_FLOOR).log10()
+}
+
+/// Computes feature vectors; holds the FFT plan and angle tables for its configuration.
+#[derive(Debug)]
+pub struct Extractor {
+    config: FeatureConfig,
+    spectrum: SpectrumPlan,
+    /// Angle tables for supersampling s = 1..=16, built on first use.
+    angles: [OnceLock<Arc<[(f64, f64)]>>; 16],
+}
+
+/// Per-stage intermediate results, for tests and diagnostics.
+pub struct Stages {
+    pub unwrapped: Array2<f64>,
+    pub pyramid: pyramid::Pyramid,
+    pub band_powers: BandPowers,
+}
+
+impl Extractor {
+    pub fn new(config: FeatureConfig) -> Result<Self, ConfigError> {
+        config.validate()?;
+        Ok(Extractor {
+            spectrum: SpectrumPlan::new(config.unwrap.rows, config.unwrap.cols),
+            config,
+            angles: Default::default(),
+        })
+    }
+
+    pub fn config(&self) -> &FeatureConfig {
+        &self.config
+    }
+
+    fn angles(&self, s: usize) -> Arc<[(f64, f64)]> {
+        let build = || Arc::from(angle_table(self.config.unwrap.cols, s));
+        match self.angles.get(s - 1) {
+            Some(cell) => cell.get_or_init(build).clone(),
+            None => build(),
+        }
+    }
+
+    /// The unwrapped, white-normalized annulus.
+    pub fn unwrap(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Array2<f64> {
+        let s = self.config.unwrap.supersampling(circle.r);
+        let mut grid = unwrap(luminance, circle, &self.config.unwrap, &self.angles(s));
+        grid.mapv_inplace(|v| v / white);
+        grid
+    }
+
+    /// Feature values (canonical order, transformed) of a sphere in a luminance image.
+    /// The circle must already be validated against the image.
+    pub fn extract(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Vec<f64> {
+        self.features_of(&self.stages(luminance, circle, white))
+    }
+
+    pub fn stages(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Stages {
+        let unwrapped = self.unwrap(luminance, circle, white);
+        self.stages_of_unwrapped(unwrapped)
+    }
+
+    pub fn stages_of_unwrapped(&self, unwrapped: Array2<f64>) -> Stages {
+        let pyramid = pyramid::build(unwrapped.view(), self.config.levels, Edge::Periodic);
+        let band_powers = self.spectrum.band_powers(unwrapped.view());
+        Stages {
+            unwrapped,
+            pyramid,
+            band_powers,
+        }
+    }
+
+    /// The feature vector of computed stages.
+    pub fn features_of(&self, stages: &Stages) -> Vec<f64> {
+        let mut scratch = Vec::with_capacity(stages.unwrapped.len());
+        let mut out = Vec::with_capacity(FEATURE_COUNT);
+        let summary = |values: &Array2<f64>, scratch: &mut Vec<f64>| {
+            summarize(values.as_slice().expect("standard layout"), scratch)
+        };
+        push_summary(&mut out, &summary(&stages.unwrapped, &mut scratch));
+        // Raw subband variances, [level][band], for the ratios.
+        let mut variances = Vec::with_capacity(self.config.levels);
+        for level in &stages.pyramid.levels {
+            let mut level_vars = [0.0; 3];
+            for (slot, band) in level_vars.iter_mut().zip([&level.h, &level.v, &level.d]) {
+                let s = summary(band, &mut scratch);
+                *slot = s.var;
+                push_summary(&mut out, &s);
+            }
+            variances.push(level_vars);
+        }
+        for band in 0..3 {
+            for pair in variances.windows(2) {
+                out.push(log10_floor(pair[0][band]) - log10_floor(pair[1][band]));
+            }
+        }
+        let powers = &stages.band_powers;
+        out.extend(powers.oriented.iter().flatten().map(|&p| log10_floor(p)));
+        out.push(log10_floor(powers.lo));
+        out
+    }
+}
+
+fn push_summary(out: &mut Vec<f64>, s: &Summary) {
+    out.extend([
+        s.mean,
+        log10_floor(s.var),
+        s.skew,
+        log10_floor(s.kurt),
+        s.p10,
+        s.p50,
+        s.p90,
+    ]);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_canonical_and_unique() {
+        let names = default_names();
+        assert_eq!(names.len(), FEATURE_COUNT);
+        let unique: std::collections::HashSet<_> = names.iter().collect();
+        assert_eq!(unique.len(), FEATURE_COUNT);
+        assert_eq!(names[0], "pix.mean");
+        assert_eq!(names[7], "wav.s1.h.mean");
+        assert_eq!(names[7 + 7 + 1], "wav.s1.v.var");
+        assert_eq!(names[90], "wav.s4.d.p90");
+        assert_eq!(names[91], "ratio.h.s1_s2");
+        assert_eq!(names[99], "ratio.d.s3_s4");
+        assert_eq!(names[100], "fft.b1.f0.pow");
+        assert_eq!(names[115], "fft.b4.f135.pow");
+        assert_eq!(names[116], "fft.lo.pow");
+        for set in ["hand6", "hand2", "mean1"] {
+            for n in named_set(set).unwrap() {
+                assert!(names.iter().any(|m| m == n), "{n}");
+            }
+        }
+    }
+
+    #[test]
+    fn config_validation() {
+        let ok = FeatureConfig::default();
+        assert_eq!(ok.validate(), Ok(()));
+        let mut bad = ok;
+        bad.unwrap.cols = 440;
+        assert!(matches!(
+            bad.validate(),
+            Err(ConfigError::WidthNotDivisible { .. })
+        ));
+        let mut bad = ok;
+        bad.unwrap.rows = 64;
+        assert!(matches!(
+            bad.validate(),
+            Err(ConfigError::HeightTooSmall { level: 3, .. })
+        ));
+        let mut bad = ok;
+        bad.unwrap.inner = 0.95;
+        assert!(matches!(
+            bad.validate(),
+            Err(ConfigError::BadAnnulus { .. })
+        ));
+    }
+}

@@ -1,0 +1,567 @@
+//! Where the sphere is: an explicit circle, a circle fitted to a mask's edge, or automatic
+//! detection on a clean (dark or uniform) background. Pixel centres are at integer
+//! coordinates, so an image spans [−0.5, width − 0.5] × [−0.5, height − 0.5].
+
+use ndarray::{Array2, ArrayView2};
+use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
+
+/// Radii below this are refused.
+pub const MIN_RADIUS: f64 = 32.0;
+/// Automatic detection refuses below this confidence.
+pub const MIN_CONFIDENCE: f64 = 0.9;
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Circle {
+    pub cx: f64,
+    pub cy: f64,
+    pub r: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Given by the caller.
+    Given,
+    /// Fitted to a separate mask image.
+    Mask,
+    /// Fitted to the image's alpha channel.
+    Alpha,
+    /// Detected against the background.
+    Auto,
+}
+
+/// The circle used, how it was found, and (for detection) how sure we are.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Geometry {
+    pub cx: f64,
+    pub cy: f64,
+    pub r: f64,
+    pub method: Method,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub confidence: Option<f64>,
+}
+
+impl Geometry {
+    pub fn circle(&self) -> Circle {
+        Circle {
+            cx: self.cx,
+            cy: self.cy,
+            r: self.r,
+        }
+    }
+
+    fn new(circle: Circle, method: Method, confidence: Option<f64>) -> Self {
+        Geometry {
+            cx: circle.cx,
+            cy: circle.cy,
+            r: circle.r,
+            method,
+            confidence,
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum GeometryError {
+    #[error("circle parameters must be finite numbers (cx={cx}, cy={cy}, r={r})")]
+    NotFinite { cx: f64, cy: f64, r: f64 },
+    #[error("give all of cx, cy and r, or none of them")]
+    Incomplete,
+    #[error("sphere radius {r} px is below the minimum of {min} px")]
+    TooSmall { r: f64, min: f64 },
+    #[error(
+        "circle (cx={cx}, cy={cy}, r={r}) is outside the {width}×{height} image: the sampled annulus (up to {outer}·r) must lie inside it"
+    )]
+    OutsideImage {
+        cx: f64,
+        cy: f64,
+        r: f64,
+        outer: f64,
+        width: usize,
+        height: usize,
+    },
+    #[error("mask is {mask_width}×{mask_height} but the image is {width}×{height}")]
+    MaskSizeMismatch {
+        mask_width: usize,
+        mask_height: usize,
+        width: usize,
+        height: usize,
+    },
+    #[error("mask is empty: no pixel is inside the sphere")]
+    EmptyMask,
+    #[error("mask has no usable edge (it covers the whole image or touches only its border)")]
+    NoMaskEdge,
+    #[error("mask is not a disc: its edge is {rms:.2} px (RMS) from the best-fitting circle")]
+    NotCircular { rms: f64 },
+    #[error("could not find the sphere automatically: {reason}; give cx, cy and r, or a mask")]
+    DetectionFailed { reason: String },
+}
+
+/// Validate a circle for an image of `width × height`: finite, r ≥ 32, and the sampled
+/// annulus (ρ ≤ outer·r) inside the image. Returns warnings for small spheres and for
+/// spheres that extend beyond the frame.
+pub fn validate(
+    circle: &Circle,
+    width: usize,
+    height: usize,
+    outer: f64,
+    r0: f64,
+) -> Result<Vec<String>, GeometryError> {
+    let Circle { cx, cy, r } = *circle;
+    if !(cx.is_finite() && cy.is_finite() && r.is_finite()) {
+        return Err(GeometryError::NotFinite { cx, cy, r });
+    }
+    if r < MIN_RADIUS {
+        return Err(GeometryError::TooSmall { r, min: MIN_RADIUS });
+    }
+    let inside = |reach: f64| {
+        cx - reach >= -0.5
+            && cy - reach >= -0.5
+            && cx + reach <= width as f64 - 0.5
+            && cy + reach <= height as f64 - 0.5
+    };
+    if !inside(outer * r) {
+        return Err(GeometryError::OutsideImage {
+            cx,
+            cy,
+            r,
+            outer,
+            width,
+            height,
+        });
+    }
+    let mut warnings = Vec::new();
+    if r < r0 {
+        warnings.push(format!(
+            "sphere radius {r:.1} px is below {r0} px: the image is upsampled and the finest scales are less reliable"
+        ));
+    }
+    if !inside(r) {
+        warnings.push(
+            "the sphere extends beyond the image edge (the sampled annulus is inside)".into(),
+        );
+    }
+    Ok(warnings)
+}
+
+/// Circle from optional `cx, cy, r` request values: all or none.
+pub fn given(
+    cx: Option<f64>,
+    cy: Option<f64>,
+    r: Option<f64>,
+) -> Result<Option<Geometry>, GeometryError> {
+    match (cx, cy, r) {
+        (Some(cx), Some(cy), Some(r)) => Ok(Some(Geometry::new(
+            Circle { cx, cy, r },
+            Method::Given,
+            None,
+        ))),
+        (None, None, None) => Ok(None),
+        _ => Err(GeometryError::Incomplete),
+    }
+}
+
+/// Least-squares circle fitted to the edge of a mask (`method` is Mask or Alpha).
+pub fn fit_mask(mask: ArrayView2<bool>, method: Method) -> Result<Geometry, GeometryError> {
+    if !mask.iter().any(|&m| m) {
+        return Err(GeometryError::EmptyMask);
+    }
+    let edge = edge_points(mask);
+    if edge.len() < 16 {
+        return Err(GeometryError::NoMaskEdge);
+    }
+    let circle = fit_circle(&edge).ok_or(GeometryError::NoMaskEdge)?;
+    let rms = rms_residual(&edge, &circle);
+    if rms > (0.02 * circle.r).max(1.0) {
+        return Err(GeometryError::NotCircular { rms });
+    }
+    Ok(Geometry::new(circle, method, None))
+}
+
+/// Midpoints between 4-neighbouring inside/outside pixel pairs: the mask's edge, to
+/// sub-pixel accuracy on average. The image border is not an edge.
+fn edge_points(mask: ArrayView2<bool>) -> Vec<(f64, f64)> {
+    let (h, w) = mask.dim();
+    let mut points = Vec::new();
+    for ((y, x), &inside) in mask.indexed_iter() {
+        if x + 1 < w && inside != mask[[y, x + 1]] {
+            points.push((x as f64 + 0.5, y as f64));
+        }
+        if y + 1 < h && inside != mask[[y + 1, x]] {
+            points.push((x as f64, y as f64 + 0.5));
+        }
+    }
+    points
+}
+
+/// Algebraic (Kåsa) fit, in coordinates centred on the points' mean for conditioning.
+fn fit_circle(points: &[(f64, f64)]) -> Option<Circle> {
+    let n = points.len() as f64;
+    let mx = points.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = points.iter().map(|p| p.1).sum::<f64>() / n;
+    // Minimize Σ (u² + v² + D u + E v + F)²: normal equations in (D, E, F).
+    let mut a = [[0.0f64; 3]; 3];
+    let mut b = [0.0f64; 3];
+    for &(x, y) in points {
+        let (u, v) = (x - mx, y - my);
+        let row = [u, v, 1.0];
+        let z = -(u * u + v * v);
+        for i in 0..3 {
+            for j in 0..3 {
+                a[i][j] += row[i] * row[j];
+            }
+            b[i] += row[i] * z;
+        }
+    }
+    let [d, e, f] = solve3(a, b)?;
+    let r2 = d * d / 4.0 + e * e / 4.0 - f;
+    (r2 > 0.0).then(|| Circle {
+        cx: mx - d / 2.0,
+        cy: my - e / 2.0,
+        r: r2.sqrt(),
+    })
+}
+
+/// Gaussian elimination with partial pivoting; None when singular.
+fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
+    for col in 0..3 {
+        let pivot = (col..3).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        if a[pivot][col].abs() < 1e-12 {
+            return None;
+        }
+        a.swap(col, pivot);
+        b.swap(col, pivot);
+        for row in col + 1..3 {
+            let factor = a[row][col] / a[col][col];
+            for k in col..3 {
+                a[row][k] -= factor * a[col][k];
+            }
+            b[row] -= factor * b[col];
+        }
+    }
+    let mut x = [0.0; 3];
+    for row in (0..3).rev() {
+        let tail: f64 = (row + 1..3).map(|k| a[row][k] * x[k]).sum();
+        x[row] = (b[row] - tail) / a[row][row];
+    }
+    Some(x)
+}
+
+fn residual(p: &(f64, f64), c: &Circle) -> f64 {
+    ((p.0 - c.cx).hypot(p.1 - c.cy) - c.r).abs()
+}
+
+fn rms_residual(points: &[(f64, f64)], c: &Circle) -> f64 {
+    (points.iter().map(|p| residual(p, c).powi(2)).sum::<f64>() / points.len() as f64).sqrt()
+}
+
+/// Find a sphere on a clean background.
+///
+/// The background level and noise come from the image border (median and MAD); pixels far
+/// from it are foreground; background is what is connected to the border, so dark patches
+/// inside the sphere do not make holes. A circle is fitted to the largest foreground
+/// component's edge with outlier rejection. Confidence = fraction of edge points on the
+/// circle × agreement between the component's area and the circle's.
+pub fn detect(luminance: ArrayView2<f64>) -> Result<Geometry, GeometryError> {
+    let fail = |reason: String| GeometryError::DetectionFailed { reason };
+    let (h, w) = luminance.dim();
+    if h < 2 * MIN_RADIUS as usize || w < 2 * MIN_RADIUS as usize {
+        return Err(fail(format!(
+            "the image ({w}×{h}) is too small to hold a sphere"
+        )));
+    }
+    let (background, noise) = border_level(luminance);
+    let mut sorted: Vec<f64> = luminance.iter().map(|v| (v - background).abs()).collect();
+    sorted.sort_unstable_by(f64::total_cmp);
+    let contrast = sorted[(sorted.len() as f64 * 0.99) as usize];
+    if contrast <= 0.0 || noise > 0.1 * contrast {
+        return Err(fail("the background is not uniform enough".into()));
+    }
+    let threshold = (6.0 * noise).max(0.02 * contrast);
+    let foreground = luminance.mapv(|v| (v - background).abs() > threshold);
+    let component = largest_component(&fill_holes(&foreground));
+    let area = component.iter().filter(|&&m| m).count() as f64;
+    if area == 0.0 {
+        return Err(fail("no object stands out from the background".into()));
+    }
+    let edge = edge_points(component.view());
+    let (circle, inliers) =
+        robust_fit(&edge).ok_or_else(|| fail("the object's edge is not round".into()))?;
+    let disc_area = std::f64::consts::PI * circle.r * circle.r;
+    let area_agreement = 1.0 - ((area - disc_area).abs() / disc_area).min(1.0);
+    let confidence = inliers * area_agreement;
+    if confidence < MIN_CONFIDENCE {
+        return Err(fail(format!(
+            "confidence {confidence:.2} is below {MIN_CONFIDENCE} (the object is not a clean disc)"
+        )));
+    }
+    Ok(Geometry::new(circle, Method::Auto, Some(confidence)))
+}
+
+/// Median and robust spread (1.4826·MAD) of a 2-pixel frame around the image.
+fn border_level(image: ArrayView2<f64>) -> (f64, f64) {
+    let (h, w) = image.dim();
+    let mut border: Vec<f64> = image
+        .indexed_iter()
+        .filter(|((y, x), _)| *y < 2 || *x < 2 || *y + 2 >= h || *x + 2 >= w)
+        .map(|(_, &v)| v)
+        .collect();
+    let median = median_of(&mut border);
+    let mut deviations: Vec<f64> = border.iter().map(|v| (v - median).abs()).collect();
+    (median, 1.4826 * median_of(&mut deviations))
+}
+
+fn median_of(values: &mut [f64]) -> f64 {
+    let mid = values.len() / 2;
+    values.select_nth_unstable_by(mid, f64::total_cmp);
+    values[mid]
+}
+
+/// Foreground plus every background region not connected to the image border.
+fn fill_holes(foreground: &Array2<bool>) -> Array2<bool> {
+    let (h, w) = foreground.dim();
+    let mut outside = Array2::from_elem((h, w), false);
+    let mut queue = VecDeque::new();
+    for (p, &fg) in foreground.indexed_iter() {
+        if (p.0 == 0 || p.1 == 0 || p.0 == h - 1 || p.1 == w - 1) && !fg {
+            outside[p] = true;
+            queue.push_back(p);
+        }
+    }
+    flood(&mut queue, (h, w), |p| {
+        let admit = !foreground[p] && !outside[p];
+        outside[p] |= admit;
+        admit
+    });
+    outside.mapv(|o| !o)
+}
+
+/// The largest 4-connected component of `mask`.
+fn largest_component(mask: &Array2<bool>) -> Array2<bool> {
+    let mut label = Array2::<u32>::zeros(mask.dim());
+    let mut sizes = vec![0usize];
+    for start in mask.indexed_iter().filter(|(_, m)| **m).map(|(p, _)| p) {
+        if label[start] != 0 {
+            continue;
+        }
+        let id = sizes.len() as u32;
+        label[start] = id;
+        let mut size = 1;
+        flood(&mut VecDeque::from([start]), mask.dim(), |p| {
+            let admit = mask[p] && label[p] == 0;
+            if admit {
+                label[p] = id;
+                size += 1;
+            }
+            admit
+        });
+        sizes.push(size);
+    }
+    let best = (1..sizes.len()).max_by_key(|&i| sizes[i]).unwrap_or(0) as u32;
+    label.mapv(|l| l == best && best != 0)
+}
+
+/// Breadth-first flood over 4-neighbours; `visit` marks a pixel and says whether to enter it.
+fn flood(
+    queue: &mut VecDeque<(usize, usize)>,
+    (h, w): (usize, usize),
+    mut visit: impl FnMut((usize, usize)) -> bool,
+) {
+    while let Some((y, x)) = queue.pop_front() {
+        let neighbours = [
+            (y.wrapping_sub(1), x),
+            (y + 1, x),
+            (y, x.wrapping_sub(1)),
+            (y, x + 1),
+        ];
+        for p in neighbours {
+            if p.0 < h && p.1 < w && visit(p) {
+                queue.push_back(p);
+            }
+        }
+    }
+}
+
+/// Fit, drop edge points far from the circle, refit; returns the circle and the fraction
+/// of all edge points within tolerance of it.
+fn robust_fit(points: &[(f64, f64)]) -> Option<(Circle, f64)> {
+    if points.len() < 16 {
+        return None;
+    }
+    let mut circle = fit_circle(points)?;
+    for _ in 0..4 {
+        let tolerance = (0.01 * circle.r).max(1.5);
+        let kept: Vec<(f64, f64)> = points
+            .iter()
+            .copied()
+            .filter(|p| residual(p, &circle) <= 3.0 * tolerance)
+            .collect();
+        if kept.len() < 16 {
+            return None;
+        }
+        circle = fit_circle(&kept)?;
+    }
+    let tolerance = (0.01 * circle.r).max(1.5);
+    let inliers = points
+        .iter()
+        .filter(|p| residual(p, &circle) <= tolerance)
+        .count();
+    Some((circle, inliers as f64 / points.len() as f64))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn disc(h: usize, w: usize, c: Circle) -> Array2<bool> {
+        Array2::from_shape_fn((h, w), |(y, x)| {
+            (x as f64 - c.cx).hypot(y as f64 - c.cy) <= c.r
+        })
+    }
+
+    const C: Circle = Circle {
+        cx: 101.3,
+        cy: 96.8,
+        r: 70.4,
+    };
+
+    #[test]
+    fn validation_rules() {
+        let v = |c: Circle| validate(&c, 200, 200, 0.9, 80.0);
+        assert!(matches!(
+            v(Circle { r: 31.9, ..C }),
+            Err(GeometryError::TooSmall { .. })
+        ));
+        assert!(matches!(
+            v(Circle { r: f64::NAN, ..C }),
+            Err(GeometryError::NotFinite { .. })
+        ));
+        assert!(matches!(
+            v(Circle { cx: 500.0, ..C }),
+            Err(GeometryError::OutsideImage { .. })
+        ));
+        assert!(matches!(
+            v(Circle { r: 1e9, ..C }),
+            Err(GeometryError::OutsideImage { .. })
+        ));
+        assert!(matches!(
+            v(Circle { r: -5.0, ..C }),
+            Err(GeometryError::TooSmall { .. })
+        ));
+        // r = 70.4 < 80: accepted with a warning.
+        assert_eq!(v(C).unwrap().len(), 1);
+        // Annulus inside but the rim outside: accepted with a warning.
+        let edge = Circle {
+            cx: 60.0,
+            cy: 100.0,
+            r: 64.0,
+        };
+        let warnings = v(edge).unwrap();
+        assert!(
+            warnings.iter().any(|w| w.contains("beyond")),
+            "{warnings:?}"
+        );
+        assert!(
+            v(Circle {
+                cx: 100.0,
+                cy: 100.0,
+                r: 99.0
+            })
+            .unwrap()
+            .is_empty()
+        );
+    }
+
+    #[test]
+    fn partial_circle_parameters_are_refused() {
+        assert_eq!(
+            given(Some(1.0), None, Some(3.0)),
+            Err(GeometryError::Incomplete)
+        );
+        assert_eq!(given(None, None, None), Ok(None));
+    }
+
+    #[test]
+    fn mask_fit_recovers_the_circle() {
+        let g = fit_mask(disc(200, 210, C).view(), Method::Mask).unwrap();
+        assert!(
+            (g.cx - C.cx).abs() < 0.1 && (g.cy - C.cy).abs() < 0.1,
+            "{g:?}"
+        );
+        assert!((g.r - C.r).abs() < 0.15, "{g:?}");
+    }
+
+    #[test]
+    fn bad_masks_are_refused() {
+        let empty = Array2::from_elem((100, 100), false);
+        assert_eq!(
+            fit_mask(empty.view(), Method::Mask),
+            Err(GeometryError::EmptyMask)
+        );
+        let full = Array2::from_elem((100, 100), true);
+        assert_eq!(
+            fit_mask(full.view(), Method::Mask),
+            Err(GeometryError::NoMaskEdge)
+        );
+        let square = Array2::from_shape_fn((100, 100), |(y, x)| {
+            (20..80).contains(&y) && (20..80).contains(&x)
+        });
+        assert!(matches!(
+            fit_mask(square.view(), Method::Mask),
+            Err(GeometryError::NotCircular { .. })
+        ));
+    }
+
+    #[test]
+    fn detection_on_a_dark_background() {
+        let mask = disc(220, 230, C);
+        // A shaded sphere with a dark patch touching nothing: detection must fill it.
+        let img = Array2::from_shape_fn((220, 230), |(y, x)| {
+            if !mask[[y, x]] {
+                return 0.01;
+            }
+            let dark_patch = (x as f64 - 100.0).hypot(y as f64 - 90.0) < 15.0;
+            if dark_patch {
+                0.01
+            } else {
+                0.3 + 0.002 * x as f64
+            }
+        });
+        let g = detect(img.view()).unwrap();
+        assert!(
+            (g.cx - C.cx).abs() < 0.3 && (g.cy - C.cy).abs() < 0.3 && (g.r - C.r).abs() < 0.5,
+            "{g:?}"
+        );
+        assert!(g.confidence.unwrap() >= MIN_CONFIDENCE);
+    }
+
+    #[test]
+    fn detection_refuses_noise_and_squares() {
+        let mut state = 99u64;
+        let noise = Array2::from_shape_fn((150, 150), |_| {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1);
+            (state >> 40) as f64
+        });
+        assert!(matches!(
+            detect(noise.view()),
+            Err(GeometryError::DetectionFailed { .. })
+        ));
+        let square = Array2::from_shape_fn((150, 150), |(y, x)| {
+            if (30..120).contains(&y) && (30..120).contains(&x) {
+                1.0
+            } else {
+                0.0
+            }
+        });
+        assert!(matches!(
+            detect(square.view()),
+            Err(GeometryError::DetectionFailed { .. })
+        ));
+        let flat = Array2::from_elem((150, 150), 0.5);
+        assert!(matches!(
+            detect(flat.view()),
+            Err(GeometryError::DetectionFailed { .. })
+        ));
+    }
+}

@@ -1,0 +1,77 @@
+//! OpenEXR through the `exr` crate: the first layer's R, G, B (or Y) and A channels.
+
+use super::{DecodeError, FloatPlane, Format, Limits, luminance, validate_float};
+use exr::prelude::{ReadChannels, ReadLayers};
+use ndarray::Array2;
+use std::io::Cursor;
+
+const FORMAT: Format = Format::Exr;
+
+fn map_error(error: exr::error::Error) -> DecodeError {
+    match error {
+        exr::error::Error::NotSupported(detail) => DecodeError::Unsupported {
+            format: FORMAT,
+            detail: detail.to_string(),
+        },
+        other => DecodeError::corrupt(FORMAT, other),
+    }
+}
+
+pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<FloatPlane, DecodeError> {
+    let meta =
+        exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(map_error)?;
+    for header in &meta.headers {
+        let size = header.layer_size;
+        limits.check(size.width() as u64, size.height() as u64)?;
+    }
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(Cursor::new(bytes))
+        .map_err(map_error)?;
+    let layer = image.layer_data;
+    let (width, height) = (layer.size.width(), layer.size.height());
+    let channel = |name: &str| -> Option<Vec<f64>> {
+        layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.to_string().rsplit('.').next() == Some(name))
+            .map(|c| c.sample_data.values_as_f32().map(f64::from).collect())
+    };
+    let values = match (channel("R"), channel("G"), channel("B"), channel("Y")) {
+        (Some(r), Some(g), Some(b), _) => {
+            let nonfinite = [&r, &g, &b]
+                .iter()
+                .flat_map(|c| c.iter())
+                .filter(|v| !v.is_finite())
+                .count();
+            let lum = (0..r.len()).map(|i| luminance(r[i], g[i], b[i])).collect();
+            (lum, nonfinite)
+        }
+        (_, _, _, Some(y)) => {
+            let nonfinite = y.iter().filter(|v| !v.is_finite()).count();
+            (y, nonfinite)
+        }
+        _ => {
+            return Err(DecodeError::Unsupported {
+                format: FORMAT,
+                detail: "no R,G,B or Y channels in the first layer".into(),
+            });
+        }
+    };
+    let to_plane = |v: Vec<f64>| {
+        Array2::from_shape_vec((height, width), v)
+            .map_err(|_| DecodeError::corrupt(FORMAT, "channel size does not match the layer"))
+    };
+    let lum = to_plane(values.0)?;
+    validate_float(&lum, values.1)?;
+    let alpha = channel("A").map(to_plane).transpose()?;
+    Ok(FloatPlane {
+        luminance: lum,
+        alpha,
+    })
+}

@@ -1,0 +1,137 @@
+//! PNG, JPEG, TIFF and PNM through the `image` crate: header check, EXIF orientation,
+//! then 8/16-bit samples through a transfer-function table (float TIFF stays linear).
+
+use super::{
+    DecodeError, DecodeOptions, Encoding, Format, Limits, LinearImage, alpha_to_mask, luminance,
+    validate_float,
+};
+use image::{DynamicImage, ImageDecoder, ImageError, ImageFormat, ImageReader};
+use ndarray::Array2;
+use std::io::Cursor;
+
+pub(crate) fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<LinearImage, DecodeError> {
+    let mut reader = ImageReader::new(Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|_| DecodeError::UnsupportedFormat)?;
+    let format = match reader.format() {
+        Some(ImageFormat::Png) => Format::Png,
+        Some(ImageFormat::Jpeg) => Format::Jpeg,
+        Some(ImageFormat::Tiff) => Format::Tiff,
+        Some(ImageFormat::Pnm) => Format::Pnm,
+        _ => return Err(DecodeError::UnsupportedFormat),
+    };
+    reader.limits(image_limits(&options.limits));
+    let mut decoder = reader.into_decoder().map_err(|e| map_error(e, format))?;
+    let (width, height) = decoder.dimensions();
+    options.limits.check(u64::from(width), u64::from(height))?;
+    let orientation = decoder
+        .orientation()
+        .unwrap_or(image::metadata::Orientation::NoTransforms);
+    let mut image = DynamicImage::from_decoder(decoder).map_err(|e| map_error(e, format))?;
+    image.apply_orientation(orientation);
+    to_linear(image, format, options.encoding)
+}
+
+fn image_limits(limits: &Limits) -> image::Limits {
+    let mut out = image::Limits::default();
+    out.max_image_width = Some(limits.max_width);
+    out.max_image_height = Some(limits.max_height);
+    // Room for the decoder's own buffer at up to 16 bytes per pixel (RGBA f32).
+    out.max_alloc = Some(limits.max_pixels.saturating_mul(16));
+    out
+}
+
+fn map_error(error: ImageError, format: Format) -> DecodeError {
+    match error {
+        ImageError::Limits(e) => DecodeError::LimitExceeded(e.to_string()),
+        ImageError::Unsupported(e) => DecodeError::Unsupported {
+            format,
+            detail: e.to_string(),
+        },
+        ImageError::IoError(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => {
+            DecodeError::corrupt(format, "file is truncated")
+        }
+        other => DecodeError::corrupt(format, other),
+    }
+}
+
+fn to_linear(
+    image: DynamicImage,
+    format: Format,
+    encoding: Option<Encoding>,
+) -> Result<LinearImage, DecodeError> {
+    let (w, h) = (image.width() as usize, image.height() as usize);
+    let enc = encoding.unwrap_or_default();
+    let (luminance, alpha_mask) = match image {
+        DynamicImage::ImageLuma8(img) => integer_planes(img.as_raw(), 1, w, h, &enc.table(8)),
+        DynamicImage::ImageLumaA8(img) => integer_planes(img.as_raw(), 2, w, h, &enc.table(8)),
+        DynamicImage::ImageRgb8(img) => integer_planes(img.as_raw(), 3, w, h, &enc.table(8)),
+        DynamicImage::ImageRgba8(img) => integer_planes(img.as_raw(), 4, w, h, &enc.table(8)),
+        DynamicImage::ImageLuma16(img) => integer_planes(img.as_raw(), 1, w, h, &enc.table(16)),
+        DynamicImage::ImageLumaA16(img) => integer_planes(img.as_raw(), 2, w, h, &enc.table(16)),
+        DynamicImage::ImageRgb16(img) => integer_planes(img.as_raw(), 3, w, h, &enc.table(16)),
+        DynamicImage::ImageRgba16(img) => integer_planes(img.as_raw(), 4, w, h, &enc.table(16)),
+        float => return float_tiff(float.into_rgba32f(), format),
+    };
+    Ok(LinearImage {
+        luminance,
+        alpha_mask,
+        format,
+        is_float: false,
+        warnings: Vec::new(),
+    })
+}
+
+/// Luminance through `table` and the alpha mask of interleaved integer samples
+/// (1 = grey, 2 = grey+alpha, 3 = RGB, 4 = RGBA).
+fn integer_planes<T: Copy + Into<u32>>(
+    samples: &[T],
+    channels: usize,
+    width: usize,
+    height: usize,
+    table: &[f64],
+) -> (Array2<f64>, Option<Array2<bool>>) {
+    let lookup = |s: T| table[s.into() as usize];
+    let pixels = samples.chunks_exact(channels);
+    let lum: Vec<f64> = match channels {
+        1 | 2 => pixels.map(|p| lookup(p[0])).collect(),
+        _ => pixels
+            .map(|p| luminance(lookup(p[0]), lookup(p[1]), lookup(p[2])))
+            .collect(),
+    };
+    let alpha_mask = (channels % 2 == 0).then(|| {
+        let max = (table.len() - 1) as f64;
+        let alpha = samples
+            .chunks_exact(channels)
+            .map(|p| f64::from(p[channels - 1].into()) / max)
+            .collect();
+        alpha_to_mask(&Array2::from_shape_vec((height, width), alpha).expect("plane size"))
+    });
+    let lum = Array2::from_shape_vec((height, width), lum).expect("plane size");
+    (lum, alpha_mask.flatten())
+}
+
+fn float_tiff(image: image::Rgba32FImage, format: Format) -> Result<LinearImage, DecodeError> {
+    let (w, h) = (image.width() as usize, image.height() as usize);
+    let pixels = image.pixels();
+    let nonfinite = pixels
+        .clone()
+        .flat_map(|p| p.0)
+        .filter(|v| !v.is_finite())
+        .count();
+    let lum = pixels
+        .clone()
+        .map(|p| luminance(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])))
+        .collect();
+    let lum = Array2::from_shape_vec((h, w), lum).expect("plane size");
+    validate_float(&lum, nonfinite)?;
+    let alpha = pixels.map(|p| f64::from(p[3])).collect();
+    let alpha = Array2::from_shape_vec((h, w), alpha).expect("plane size");
+    Ok(LinearImage {
+        luminance: lum,
+        alpha_mask: alpha_to_mask(&alpha),
+        format,
+        is_float: true,
+        warnings: Vec::new(),
+    })
+}

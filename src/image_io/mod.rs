@@ -1,0 +1,305 @@
+//! Decoding: bytes → linear luminance plane (+ optional alpha mask), DESIGN.md §3 "Pixels".
+//!
+//! Integer formats (PNG, JPEG, TIFF, PNM) go through the `image` crate; Radiance `.hdr`,
+//! PFM and OpenEXR are read here (RGBE and PFM by our own small parsers, EXR through the
+//! `exr` crate), because `image` has no PFM, no XYZE and no luminance-only EXR.
+//! Every path checks the header's dimensions against [`Limits`] before allocating pixels.
+
+mod color;
+mod exr_file;
+mod integer;
+pub mod pfm;
+pub mod rgbe;
+
+use ndarray::Array2;
+use std::fmt;
+use std::path::Path;
+use std::str::FromStr;
+
+pub use color::{Encoding, srgb_to_linear};
+
+/// Rec. 709 luminance weights for linear R, G, B.
+pub const LUMA_WEIGHTS: [f64; 3] = [0.2126, 0.7152, 0.0722];
+
+/// Linear Rec. 709 luminance of one linear RGB triple (same operation order everywhere).
+#[inline]
+pub fn luminance(r: f64, g: f64, b: f64) -> f64 {
+    LUMA_WEIGHTS[0] * r + LUMA_WEIGHTS[1] * g + LUMA_WEIGHTS[2] * b
+}
+
+/// Hard limits against decompression bombs; checked on the header, before pixels are allocated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Limits {
+    pub max_width: u32,
+    pub max_height: u32,
+    pub max_pixels: u64,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_width: 20_000,
+            max_height: 20_000,
+            max_pixels: 40_000_000,
+        }
+    }
+}
+
+impl Limits {
+    /// Ok when `width × height` is non-empty and within every limit.
+    pub fn check(&self, width: u64, height: u64) -> Result<(), DecodeError> {
+        if width == 0 || height == 0 {
+            return Err(DecodeError::Empty { width, height });
+        }
+        let pixels = width.saturating_mul(height);
+        if width > u64::from(self.max_width)
+            || height > u64::from(self.max_height)
+            || pixels > self.max_pixels
+        {
+            return Err(DecodeError::TooLarge {
+                width,
+                height,
+                limits: *self,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// What a file held, as far as the features care.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Format {
+    Png,
+    Jpeg,
+    Tiff,
+    Pnm,
+    Hdr,
+    Pfm,
+    Exr,
+}
+
+impl fmt::Display for Format {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let name = match self {
+            Format::Png => "PNG",
+            Format::Jpeg => "JPEG",
+            Format::Tiff => "TIFF",
+            Format::Pnm => "PNM",
+            Format::Hdr => "Radiance HDR",
+            Format::Pfm => "PFM",
+            Format::Exr => "OpenEXR",
+        };
+        f.write_str(name)
+    }
+}
+
+/// A decoded image: linear luminance (row-major, y = row) and the alpha channel as a mask.
+#[derive(Clone, Debug)]
+pub struct LinearImage {
+    pub luminance: Array2<f64>,
+    /// `true` where alpha ≥ 0.5; `None` when the file has no alpha or it is fully opaque.
+    pub alpha_mask: Option<Array2<bool>>,
+    pub format: Format,
+    /// Whether the samples were floating point (and so already linear).
+    pub is_float: bool,
+    pub warnings: Vec<String>,
+}
+
+impl LinearImage {
+    pub fn width(&self) -> usize {
+        self.luminance.ncols()
+    }
+    pub fn height(&self) -> usize {
+        self.luminance.nrows()
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum DecodeError {
+    #[error("could not read {path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error(
+        "unsupported image format (expected PNG, JPEG, TIFF, PNM, Radiance HDR, PFM or OpenEXR)"
+    )]
+    UnsupportedFormat,
+    #[error("unsupported {format} content: {detail}")]
+    Unsupported { format: Format, detail: String },
+    #[error("corrupt or truncated {format} file: {detail}")]
+    Corrupt { format: Format, detail: String },
+    #[error("image has zero size ({width}×{height})")]
+    Empty { width: u64, height: u64 },
+    #[error(
+        "image is {width}×{height} pixels, over the limits (max {}×{}, {} pixels)",
+        limits.max_width, limits.max_height, limits.max_pixels
+    )]
+    TooLarge {
+        width: u64,
+        height: u64,
+        limits: Limits,
+    },
+    #[error("image exceeds the decoding limits: {0}")]
+    LimitExceeded(String),
+    #[error("image has {count} non-finite sample values (NaN or infinity)")]
+    NonFinite { count: usize },
+    #[error(
+        "image has {count} pixels of negative luminance (minimum {min}); HDR input must be non-negative"
+    )]
+    Negative { count: usize, min: f64 },
+    #[error("invalid encoding {0:?} (expected srgb, linear or gamma:<g> with g > 0)")]
+    BadEncoding(String),
+}
+
+impl DecodeError {
+    pub(crate) fn corrupt(format: Format, detail: impl fmt::Display) -> Self {
+        DecodeError::Corrupt {
+            format,
+            detail: detail.to_string(),
+        }
+    }
+}
+
+/// Options of one decode.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct DecodeOptions {
+    /// How integer samples are linearized; ignored (with a warning) for float formats.
+    /// `None` means the default, sRGB, without a warning.
+    pub encoding: Option<Encoding>,
+    pub limits: Limits,
+}
+
+impl FromStr for Encoding {
+    type Err = DecodeError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Encoding::parse(s).ok_or_else(|| DecodeError::BadEncoding(s.to_string()))
+    }
+}
+
+enum Container {
+    Hdr,
+    Pfm,
+    Exr,
+    Other,
+}
+
+fn sniff(bytes: &[u8]) -> Container {
+    if bytes.starts_with(b"#?RADIANCE") || bytes.starts_with(b"#?RGBE") {
+        Container::Hdr
+    } else if bytes.starts_with(b"PF") || bytes.starts_with(b"Pf") {
+        Container::Pfm
+    } else if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+        Container::Exr
+    } else {
+        Container::Other
+    }
+}
+
+/// Decode an in-memory image file into linear luminance.
+pub fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<LinearImage, DecodeError> {
+    let mut image = match sniff(bytes) {
+        Container::Hdr => float_image(rgbe::decode(bytes, &options.limits)?, Format::Hdr),
+        Container::Pfm => float_image(pfm::decode(bytes, &options.limits)?, Format::Pfm),
+        Container::Exr => float_image(exr_file::decode(bytes, &options.limits)?, Format::Exr),
+        Container::Other => integer::decode(bytes, options)?,
+    };
+    let ignored = options
+        .encoding
+        .filter(|e| image.is_float && *e != Encoding::Linear);
+    if let Some(encoding) = ignored {
+        image.warnings.push(format!(
+            "encoding {encoding} ignored: {} samples are floating point and already linear",
+            image.format
+        ));
+    }
+    Ok(image)
+}
+
+/// Read and decode an image file.
+pub fn decode_file(path: &Path, options: &DecodeOptions) -> Result<LinearImage, DecodeError> {
+    let bytes = std::fs::read(path).map_err(|source| DecodeError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    decode(&bytes, options)
+}
+
+/// A float image's luminance plane after validation: finite and non-negative.
+pub(crate) struct FloatPlane {
+    pub luminance: Array2<f64>,
+    pub alpha: Option<Array2<f64>>,
+}
+
+fn float_image(plane: FloatPlane, format: Format) -> LinearImage {
+    LinearImage {
+        alpha_mask: plane.alpha.as_ref().and_then(alpha_to_mask),
+        luminance: plane.luminance,
+        format,
+        is_float: true,
+        warnings: Vec::new(),
+    }
+}
+
+/// Reject NaN/±Inf samples and negative luminance; shared by every float decoder.
+pub(crate) fn validate_float(
+    luminance: &Array2<f64>,
+    nonfinite_samples: usize,
+) -> Result<(), DecodeError> {
+    if nonfinite_samples > 0 {
+        return Err(DecodeError::NonFinite {
+            count: nonfinite_samples,
+        });
+    }
+    let (count, min) = luminance
+        .iter()
+        .filter(|v| **v < 0.0)
+        .fold((0usize, 0.0f64), |(n, m), &v| (n + 1, m.min(v)));
+    if count > 0 {
+        return Err(DecodeError::Negative { count, min });
+    }
+    Ok(())
+}
+
+/// Alpha ≥ 0.5 is inside; a fully opaque alpha carries no mask.
+pub(crate) fn alpha_to_mask(alpha: &Array2<f64>) -> Option<Array2<bool>> {
+    if alpha.iter().all(|&a| a >= 0.5) {
+        return None;
+    }
+    Some(alpha.mapv(|a| a >= 0.5))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn limits_reject_zero_and_huge_sizes() {
+        let limits = Limits::default();
+        assert!(matches!(
+            limits.check(0, 10),
+            Err(DecodeError::Empty { .. })
+        ));
+        assert!(matches!(
+            limits.check(100_000, 100_000),
+            Err(DecodeError::TooLarge { .. })
+        ));
+        assert!(matches!(
+            limits.check(10_000, 10_000),
+            Err(DecodeError::TooLarge { .. })
+        ));
+        assert!(limits.check(6_000, 4_000).is_ok());
+    }
+
+    #[test]
+    fn unknown_bytes_are_unsupported() {
+        let err = decode(b"hello world, not an image", &DecodeOptions::default()).unwrap_err();
+        assert!(matches!(err, DecodeError::UnsupportedFormat), "{err}");
+    }
+
+    #[test]
+    fn luminance_weights_sum_to_one() {
+        assert!((luminance(1.0, 1.0, 1.0) - 1.0).abs() < 1e-15);
+    }
+}

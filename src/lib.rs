@@ -1,0 +1,17 @@
+//! `reflectance`: what a sphere is made of, from one photograph under unknown real-world
+//! lighting (Dror, Adelson & Willsky 2001). DESIGN.md has the conventions; the modules
+//! follow the pipeline: decode → geometry → white → unwrap → pyramid → stats → spectrum →
+//! features → learn → model/registry → server.
+
+pub mod analysis;
+pub mod dataset;
+pub mod features;
+pub mod fsutil;
+pub mod geometry;
+pub mod image_io;
+pub mod progress;
+pub mod pyramid;
+pub mod spectrum;
+pub mod stats;
+pub mod unwrap;
+pub mod white;
