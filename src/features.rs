@@ -8,7 +8,7 @@ use crate::geometry::Circle;
 use crate::pyramid::{self, Edge};
 use crate::spectrum::{BandPowers, ORIENTATIONS, SpectrumPlan};
 use crate::stats::{STAT_NAMES, Summary, summarize};
-use crate::unwrap::{UnwrapConfig, angle_table, unwrap};
+use crate::unwrap::{AngleTable, UnwrapConfig, angle_table, unwrap};
 use ndarray::{Array2, ArrayView2};
 use serde::{Deserialize, Serialize};
 use std::sync::{Arc, OnceLock};
@@ -68,7 +68,7 @@ impl FeatureConfig {
                 r0: u.r0,
             });
         }
-        if u.cols % (1 << self.levels) != 0 {
+        if !u.cols.is_multiple_of(1 << self.levels) {
             return Err(ConfigError::WidthNotDivisible {
                 cols: u.cols,
                 levels: self.levels,
@@ -143,7 +143,7 @@ pub struct Extractor {
     config: FeatureConfig,
     spectrum: SpectrumPlan,
     /// Angle tables for supersampling s = 1..=16, built on first use.
-    angles: [OnceLock<Arc<[(f64, f64)]>>; 16],
+    angles: [OnceLock<Arc<AngleTable>>; 16],
 }
 
 /// Per-stage intermediate results, for tests and diagnostics.
@@ -167,8 +167,8 @@ impl Extractor {
         &self.config
     }
 
-    fn angles(&self, s: usize) -> Arc<[(f64, f64)]> {
-        let build = || Arc::from(angle_table(self.config.unwrap.cols, s));
+    fn angles(&self, s: usize) -> Arc<AngleTable> {
+        let build = || Arc::new(angle_table(self.config.unwrap.cols, s));
         match self.angles.get(s - 1) {
             Some(cell) => cell.get_or_init(build).clone(),
             None => build(),
@@ -206,9 +206,9 @@ impl Extractor {
 
     /// The feature vector of computed stages.
     pub fn features_of(&self, stages: &Stages) -> Vec<f64> {
-        let mut scratch = Vec::with_capacity(stages.unwrapped.len());
+        let mut scratch: Vec<u64> = Vec::with_capacity(stages.unwrapped.len());
         let mut out = Vec::with_capacity(FEATURE_COUNT);
-        let summary = |values: &Array2<f64>, scratch: &mut Vec<f64>| {
+        let summary = |values: &Array2<f64>, scratch: &mut Vec<u64>| {
             summarize(values.as_slice().expect("standard layout"), scratch)
         };
         push_summary(&mut out, &summary(&stages.unwrapped, &mut scratch));

@@ -4,6 +4,7 @@
 //! features → learn → model/registry → server.
 
 pub mod analysis;
+pub mod cli;
 pub mod dataset;
 pub mod features;
 pub mod fsutil;

@@ -40,9 +40,9 @@ pub struct SpectrumPlan {
     cols: usize,
     row_fft: Arc<dyn RealToComplex<f64>>,
     col_fft: Arc<dyn Fft<f64>>,
-    /// For half-spectrum bin (kx, ky) stored column-major: the classes of the bin and of its
-    /// implicit conjugate (NO_CLASS when there is none).
-    classes: Vec<[u8; 2]>,
+    /// For each class, the half-spectrum bins (column-major `kx·rows + ky`) whose power it
+    /// receives: once for the stored bin, once more for its implicit conjugate.
+    class_bins: Vec<Vec<u32>>,
 }
 
 impl std::fmt::Debug for SpectrumPlan {
@@ -87,17 +87,20 @@ impl SpectrumPlan {
         let row_fft = RealFftPlanner::<f64>::new().plan_fft_forward(cols);
         let col_fft = FftPlanner::<f64>::new().plan_fft_forward(rows);
         let half = cols / 2 + 1;
-        let mut classes = Vec::with_capacity(half * rows);
+        let mut class_bins = vec![Vec::new(); LO_CLASS as usize + 1];
         for kx in 0..half {
             let mirrored = kx != 0 && 2 * kx != cols;
             for ky in 0..rows {
+                let bin = (kx * rows + ky) as u32;
                 let own = classify(ky, kx, rows, cols);
                 let twin = if mirrored {
                     classify((rows - ky) % rows, cols - kx, rows, cols)
                 } else {
                     NO_CLASS
                 };
-                classes.push([own, twin]);
+                for class in [own, twin].into_iter().filter(|&c| c != NO_CLASS) {
+                    class_bins[class as usize].push(bin);
+                }
             }
         }
         SpectrumPlan {
@@ -105,7 +108,7 @@ impl SpectrumPlan {
             cols,
             row_fft,
             col_fft,
-            classes,
+            class_bins,
         }
     }
 
@@ -118,15 +121,11 @@ impl SpectrumPlan {
         );
         let spectrum = self.spectrum(image);
         let norm = 1.0 / ((self.rows * self.cols) as f64).powi(2);
-        let mut sums = [0.0f64; 17];
-        for (value, pair) in spectrum.iter().zip(&self.classes) {
-            let power = value.norm_sqr() * norm;
-            for &class in pair {
-                if class != NO_CLASS {
-                    sums[class as usize] += power;
-                }
-            }
-        }
+        let sums: Vec<f64> = self
+            .class_bins
+            .iter()
+            .map(|bins| sum_powers(&spectrum, bins) * norm)
+            .collect();
         let mut oriented = [[0.0; 4]; BANDS];
         for (i, slot) in oriented.iter_mut().flatten().enumerate() {
             *slot = sums[i];
@@ -157,6 +156,20 @@ impl SpectrumPlan {
         self.col_fft.process(&mut columns);
         columns
     }
+}
+
+/// Σ |F|² over `bins`, with independent accumulators (the order is fixed: deterministic).
+fn sum_powers(spectrum: &[Complex<f64>], bins: &[u32]) -> f64 {
+    let mut acc = [0.0f64; 4];
+    let chunks = bins.chunks_exact(4);
+    let tail = chunks.remainder();
+    for chunk in chunks {
+        for k in 0..4 {
+            acc[k] += spectrum[chunk[k] as usize].norm_sqr();
+        }
+    }
+    let tail_sum: f64 = tail.iter().map(|&b| spectrum[b as usize].norm_sqr()).sum();
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail_sum
 }
 
 #[cfg(test)]

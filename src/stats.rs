@@ -23,52 +23,113 @@ impl Summary {
     }
 }
 
+/// Independent accumulators per pass: breaks the add-latency chain; the summation order is
+/// fixed, so results are deterministic.
+const LANES: usize = 8;
+
 /// Mean, variance `m2`, skewness `m3/m2^1.5` and Pearson kurtosis `m4/m2²`.
 /// A numerically constant input (min == max, or m2 ≤ (1e-12·max|x|)²) has skew 0, kurt 3.
-pub fn moments(values: &[f64]) -> (f64, f64, f64, f64) {
+pub fn moments(values: &[f64]) -> Moments {
     let n = values.len() as f64;
-    let mean = values.iter().sum::<f64>() / n;
-    let (mut m2, mut m3, mut m4) = (0.0, 0.0, 0.0);
-    let (mut min, mut max, mut max_abs) = (f64::INFINITY, f64::NEG_INFINITY, 0.0f64);
-    for &x in values {
+    let (chunks, tail) = values.split_at(values.len() / LANES * LANES);
+    let mut sum = [0.0f64; LANES];
+    let (mut lo, mut hi) = ([f64::INFINITY; LANES], [f64::NEG_INFINITY; LANES]);
+    for chunk in chunks.chunks_exact(LANES) {
+        for k in 0..LANES {
+            sum[k] += chunk[k];
+            lo[k] = if chunk[k] < lo[k] { chunk[k] } else { lo[k] };
+            hi[k] = if chunk[k] > hi[k] { chunk[k] } else { hi[k] };
+        }
+    }
+    let mut total: f64 = sum.iter().sum();
+    let (mut min, mut max) = (
+        lo.iter().copied().fold(f64::INFINITY, f64::min),
+        hi.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    );
+    for &x in tail {
+        total += x;
+        min = min.min(x);
+        max = max.max(x);
+    }
+    let mean = total / n;
+    let (mut m2, mut m3, mut m4) = ([0.0f64; LANES], [0.0f64; LANES], [0.0f64; LANES]);
+    for chunk in chunks.chunks_exact(LANES) {
+        for k in 0..LANES {
+            let d = chunk[k] - mean;
+            let d2 = d * d;
+            m2[k] += d2;
+            m3[k] += d2 * d;
+            m4[k] += d2 * d2;
+        }
+    }
+    let (mut m2, mut m3, mut m4) = (
+        m2.iter().sum::<f64>(),
+        m3.iter().sum::<f64>(),
+        m4.iter().sum::<f64>(),
+    );
+    for &x in tail {
         let d = x - mean;
         let d2 = d * d;
         m2 += d2;
         m3 += d2 * d;
         m4 += d2 * d2;
-        min = min.min(x);
-        max = max.max(x);
-        max_abs = max_abs.max(x.abs());
     }
     let (m2, m3, m4) = (m2 / n, m3 / n, m4 / n);
-    let scale = 1e-12 * max_abs;
-    if min == max || m2 <= scale * scale {
-        return (mean, m2, 0.0, 3.0);
+    let scale = 1e-12 * min.abs().max(max.abs());
+    let constant = min == max || m2 <= scale * scale;
+    Moments {
+        mean,
+        var: m2,
+        skew: if constant { 0.0 } else { m3 / m2.powf(1.5) },
+        kurt: if constant { 3.0 } else { m4 / (m2 * m2) },
+        min,
+        max,
     }
-    (mean, m2, m3 / m2.powf(1.5), m4 / (m2 * m2))
 }
 
-/// All seven statistics; `scratch` is reused for the percentile selection.
-pub fn summarize(values: &[f64], scratch: &mut Vec<f64>) -> Summary {
+/// The moment statistics and the range of a set of values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Moments {
+    pub mean: f64,
+    pub var: f64,
+    pub skew: f64,
+    pub kurt: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+/// All seven statistics; `scratch` is reused by the percentile selection.
+pub fn summarize(values: &[f64], scratch: &mut Vec<u64>) -> Summary {
     assert!(!values.is_empty(), "statistics of an empty set");
-    let (mean, var, skew, kurt) = moments(values);
-    scratch.clear();
-    scratch.extend_from_slice(values);
-    let [p10, p50, p90] = percentiles(scratch, [10.0, 50.0, 90.0]);
+    let m = moments(values);
+    let [p10, p50, p90] = percentile_ranks(values.len(), [10.0, 50.0, 90.0], |wanted| {
+        order_statistics(values, wanted, scratch)
+    });
     Summary {
-        mean,
-        var,
-        skew,
-        kurt,
+        mean: m.mean,
+        var: m.var,
+        skew: m.skew,
+        kurt: m.kurt,
         p10,
         p50,
         p90,
     }
 }
 
-/// Percentiles with numpy's default (linear) method; reorders `values`.
-pub fn percentiles<const K: usize>(values: &mut [f64], ps: [f64; K]) -> [f64; K] {
-    let n = values.len();
+/// Percentiles with numpy's default (linear) method.
+pub fn percentiles<const K: usize>(values: &[f64], ps: [f64; K]) -> [f64; K] {
+    percentile_ranks(values.len(), ps, |wanted| {
+        order_statistics(values, wanted, &mut Vec::new())
+    })
+}
+
+/// numpy's linear percentiles of `n` values, given a function that returns the order
+/// statistics of a sorted list of distinct ranks.
+fn percentile_ranks<const K: usize>(
+    n: usize,
+    ps: [f64; K],
+    order_statistics: impl FnOnce(&[usize]) -> Vec<f64>,
+) -> [f64; K] {
     let positions = ps.map(|p| {
         let h = (p / 100.0) * (n - 1) as f64;
         let lo = (h.floor() as usize).min(n - 1);
@@ -77,8 +138,38 @@ pub fn percentiles<const K: usize>(values: &mut [f64], ps: [f64; K]) -> [f64; K]
     let mut wanted: Vec<usize> = positions.iter().flat_map(|&(lo, hi, _)| [lo, hi]).collect();
     wanted.sort_unstable();
     wanted.dedup();
-    select_many(values, &wanted, 0);
-    positions.map(|(lo, hi, t)| lerp(values[lo], values[hi], t))
+    let found = order_statistics(&wanted);
+    let at = |rank: usize| found[wanted.partition_point(|&w| w < rank)];
+    positions.map(|(lo, hi, t)| lerp(at(lo), at(hi), t))
+}
+
+/// The values at the given (sorted, distinct) ranks, by introselect on order keys (integer
+/// compares are cheaper than `total_cmp`); `keys` is scratch space.
+fn order_statistics(values: &[f64], wanted: &[usize], keys: &mut Vec<u64>) -> Vec<f64> {
+    keys.clear();
+    keys.extend(values.iter().map(|&v| order_key(v)));
+    select_many(keys, wanted, 0);
+    wanted.iter().map(|&r| from_order_key(keys[r])).collect()
+}
+
+/// A u64 whose unsigned order is the total order of f64.
+#[inline]
+fn order_key(v: f64) -> u64 {
+    let bits = v.to_bits();
+    if bits >> 63 == 1 {
+        !bits
+    } else {
+        bits | 1 << 63
+    }
+}
+
+#[inline]
+fn from_order_key(key: u64) -> f64 {
+    f64::from_bits(if key >> 63 == 1 {
+        key & !(1 << 63)
+    } else {
+        !key
+    })
 }
 
 /// numpy's `_lerp`: symmetric form that is exact at both ends.
@@ -93,13 +184,13 @@ fn lerp(a: f64, b: f64, t: f64) -> f64 {
 
 /// Places the order statistics at the (sorted, absolute) indices `wanted` where a full sort
 /// would put them; `offset` is the absolute index of `values[0]`.
-fn select_many(values: &mut [f64], wanted: &[usize], offset: usize) {
+fn select_many(values: &mut [u64], wanted: &[usize], offset: usize) {
     if wanted.is_empty() || values.is_empty() {
         return;
     }
     let mid = wanted[wanted.len() / 2];
     let k = mid - offset;
-    let (left, _, right) = values.select_nth_unstable_by(k, f64::total_cmp);
+    let (left, _, right) = values.select_nth_unstable(k);
     let split = wanted.partition_point(|&w| w < mid);
     select_many(left, &wanted[..split], offset);
     let after = wanted.partition_point(|&w| w <= mid);
@@ -145,16 +236,39 @@ mod tests {
     #[test]
     fn percentiles_interpolate_like_numpy() {
         // numpy.percentile([0,1,...,10] shuffled, [10,50,90]) = [1, 5, 9].
-        let mut v = vec![3.0, 10.0, 0.0, 7.0, 1.0, 9.0, 2.0, 8.0, 4.0, 6.0, 5.0];
-        assert_eq!(percentiles(&mut v, [10.0, 50.0, 90.0]), [1.0, 5.0, 9.0]);
+        let v = [3.0, 10.0, 0.0, 7.0, 1.0, 9.0, 2.0, 8.0, 4.0, 6.0, 5.0];
+        assert_eq!(percentiles(&v, [10.0, 50.0, 90.0]), [1.0, 5.0, 9.0]);
         // Four values 1,2,3,4: h = 0.3, 1.5, 2.7 → 1.3, 2.5, 3.7.
-        let mut v = vec![4.0, 1.0, 3.0, 2.0];
-        let p = percentiles(&mut v, [10.0, 50.0, 90.0]);
+        let p = percentiles(&[4.0, 1.0, 3.0, 2.0], [10.0, 50.0, 90.0]);
         for (got, want) in p.iter().zip([1.3, 2.5, 3.7]) {
             assert!((got - want).abs() < 1e-15, "{got} vs {want}");
         }
-        let mut two = vec![2.0, -2.0];
-        assert_eq!(percentiles(&mut two, [50.0]), [0.0]);
+        assert_eq!(percentiles(&[2.0, -2.0], [50.0]), [0.0]);
+        let signed = [-0.5, 3.0, -7.25, 0.0, 1e-300, -1e-300];
+        assert_eq!(percentiles(&signed, [0.0, 100.0]), [-7.25, 3.0]);
+    }
+
+    #[test]
+    fn order_keys_sort_like_floats() {
+        let mut v = [
+            3.5,
+            -0.0,
+            0.0,
+            -1e-308,
+            1e-308,
+            -2.0,
+            f64::MAX,
+            f64::MIN,
+            1.0,
+        ];
+        let mut keys: Vec<u64> = v.iter().map(|&x| order_key(x)).collect();
+        keys.sort_unstable();
+        v.sort_by(f64::total_cmp);
+        let back: Vec<f64> = keys.iter().map(|&k| from_order_key(k)).collect();
+        assert!(
+            back.iter().zip(&v).all(|(a, b)| a.to_bits() == b.to_bits()),
+            "{back:?}"
+        );
     }
 
     #[test]
@@ -166,12 +280,18 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             ((state >> 11) as f64) / (1u64 << 53) as f64
         };
-        for n in [1usize, 2, 3, 10, 101, 1000, 4097] {
-            let values: Vec<f64> = (0..n).map(|_| (next() * 20.0).floor()).collect();
+        for n in [1usize, 2, 3, 10, 101, 1000, 4097, 30_000] {
+            // Ties, both signs, and a heavy tail that squeezes most values into few buckets.
+            let values: Vec<f64> = (0..n)
+                .map(|i| match i % 3 {
+                    0 => (next() * 20.0).floor() - 10.0,
+                    1 => next().powi(9) * 1e6,
+                    _ => -next() * 1e-3,
+                })
+                .collect();
             let mut sorted = values.clone();
             sorted.sort_by(f64::total_cmp);
-            let mut work = values.clone();
-            let got = percentiles(&mut work, [10.0, 50.0, 90.0]);
+            let got = percentiles(&values, [10.0, 50.0, 90.0]);
             for (g, p) in got.iter().zip([10.0, 50.0, 90.0]) {
                 let h = p / 100.0 * (n - 1) as f64;
                 let lo = h.floor() as usize;

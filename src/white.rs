@@ -62,7 +62,7 @@ pub fn from_card(card: &LinearImage, card_reflectance: f64) -> Result<White, Whi
         None => card.luminance.iter().copied().collect(),
     };
     let median = median(&mut values);
-    if !(median > 0.0) {
+    if median.is_nan() || median <= 0.0 {
         return Err(WhiteError::BlackImage(median));
     }
     Ok(White {

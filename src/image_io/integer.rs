@@ -99,7 +99,7 @@ fn integer_planes<T: Copy + Into<u32>>(
             .map(|p| luminance(lookup(p[0]), lookup(p[1]), lookup(p[2])))
             .collect(),
     };
-    let alpha_mask = (channels % 2 == 0).then(|| {
+    let alpha_mask = channels.is_multiple_of(2).then(|| {
         let max = (table.len() - 1) as f64;
         let alpha = samples
             .chunks_exact(channels)

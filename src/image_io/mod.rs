@@ -117,11 +117,8 @@ impl LinearImage {
 
 #[derive(Debug, thiserror::Error)]
 pub enum DecodeError {
-    #[error("could not read {path}: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
+    #[error("could not read the file: {0}")]
+    Io(#[source] std::io::Error),
     #[error(
         "unsupported image format (expected PNG, JPEG, TIFF, PNM, Radiance HDR, PFM or OpenEXR)"
     )]
@@ -219,10 +216,7 @@ pub fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<LinearImage, Deco
 
 /// Read and decode an image file.
 pub fn decode_file(path: &Path, options: &DecodeOptions) -> Result<LinearImage, DecodeError> {
-    let bytes = std::fs::read(path).map_err(|source| DecodeError::Io {
-        path: path.display().to_string(),
-        source,
-    })?;
+    let bytes = std::fs::read(path).map_err(DecodeError::Io)?;
     decode(&bytes, options)
 }
 

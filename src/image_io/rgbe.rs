@@ -82,7 +82,7 @@ pub fn rgbe_to_float([r, g, b, e]: [u8; 4]) -> [f64; 3] {
 /// The RGBE code of a non-negative linear triple (largest component sets the exponent).
 pub fn float_to_rgbe(rgb: [f64; 3]) -> [u8; 4] {
     let max = rgb[0].max(rgb[1]).max(rgb[2]);
-    if !(max >= 1e-38) {
+    if max.is_nan() || max < 1e-38 {
         return [0; 4];
     }
     // max = f · 2^exp with f in [0.5, 1): mantissas are c · 256 / 2^exp.

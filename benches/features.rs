@@ -1,0 +1,120 @@
+//! Feature extraction speed: a 512×512 8-bit PNG sphere, single thread.
+//! Target (issue 2): ≤ 1.0 ms per image excluding decode.
+
+use divan::Bencher;
+use ndarray::Array2;
+use reflectance::features::{Extractor, FeatureConfig};
+use reflectance::geometry::Circle;
+use reflectance::image_io::{self, DecodeOptions, LinearImage};
+use reflectance::pyramid::{self, Edge};
+use reflectance::spectrum::SpectrumPlan;
+
+fn main() {
+    divan::main();
+}
+
+const SIZE: usize = 512;
+
+/// The sphere as the renderer frames it: centre (N−1)/2, radius N/2.2.
+fn circle() -> Circle {
+    let c = (SIZE as f64 - 1.0) / 2.0;
+    Circle {
+        cx: c,
+        cy: c,
+        r: SIZE as f64 / 2.2,
+    }
+}
+
+/// An 8-bit grey PNG of a textured, shaded sphere on black.
+fn png_bytes() -> Vec<u8> {
+    let c = circle();
+    let pixels: Vec<u8> = (0..SIZE * SIZE)
+        .map(|i| {
+            let (x, y) = ((i % SIZE) as f64, (i / SIZE) as f64);
+            let (dx, dy) = ((x - c.cx) / c.r, (y - c.cy) / c.r);
+            let d2 = dx * dx + dy * dy;
+            if d2 > 1.0 {
+                return 0;
+            }
+            let shade = 0.25 + 0.5 * (1.0 - d2).sqrt() + 0.15 * (9.0 * dx).sin() * (7.0 * dy).cos();
+            let grain = ((i * 2_654_435_761) % 17) as f64 / 170.0;
+            ((shade + grain).clamp(0.0, 1.0) * 255.0) as u8
+        })
+        .collect();
+    let mut out = Vec::new();
+    let encoder = image::codecs::png::PngEncoder::new(&mut out);
+    image::ImageEncoder::write_image(
+        encoder,
+        &pixels,
+        SIZE as u32,
+        SIZE as u32,
+        image::ExtendedColorType::L8,
+    )
+    .expect("encode png");
+    out
+}
+
+fn decoded() -> LinearImage {
+    image_io::decode(&png_bytes(), &DecodeOptions::default()).expect("decode")
+}
+
+#[divan::bench]
+fn decode_png(bencher: Bencher) {
+    let bytes = png_bytes();
+    bencher.bench(|| {
+        image_io::decode(divan::black_box(&bytes), &DecodeOptions::default()).expect("decode")
+    });
+}
+
+#[divan::bench]
+fn features_excluding_decode(bencher: Bencher) {
+    let image = decoded();
+    let extractor = Extractor::new(FeatureConfig::default()).expect("config");
+    let c = circle();
+    bencher.bench(|| extractor.extract(divan::black_box(image.luminance.view()), &c, 1.0));
+}
+
+#[divan::bench]
+fn features_including_decode(bencher: Bencher) {
+    let bytes = png_bytes();
+    let extractor = Extractor::new(FeatureConfig::default()).expect("config");
+    let c = circle();
+    bencher.bench(|| {
+        let image =
+            image_io::decode(divan::black_box(&bytes), &DecodeOptions::default()).expect("decode");
+        extractor.extract(image.luminance.view(), &c, 1.0)
+    });
+}
+
+#[divan::bench]
+fn stage_unwrap(bencher: Bencher) {
+    let image = decoded();
+    let extractor = Extractor::new(FeatureConfig::default()).expect("config");
+    let c = circle();
+    bencher.bench(|| extractor.unwrap(divan::black_box(image.luminance.view()), &c, 1.0));
+}
+
+fn unwrapped() -> Array2<f64> {
+    let extractor = Extractor::new(FeatureConfig::default()).expect("config");
+    extractor.unwrap(decoded().luminance.view(), &circle(), 1.0)
+}
+
+#[divan::bench]
+fn stage_pyramid(bencher: Bencher) {
+    let u = unwrapped();
+    bencher.bench(|| pyramid::build(divan::black_box(u.view()), 4, Edge::Periodic));
+}
+
+#[divan::bench]
+fn stage_band_powers(bencher: Bencher) {
+    let u = unwrapped();
+    let plan = SpectrumPlan::new(96, 448);
+    bencher.bench(|| plan.band_powers(divan::black_box(u.view())));
+}
+
+#[divan::bench]
+fn stage_statistics(bencher: Bencher) {
+    let extractor = Extractor::new(FeatureConfig::default()).expect("config");
+    let stages = extractor.stages_of_unwrapped(unwrapped());
+    bencher.bench(|| extractor.features_of(divan::black_box(&stages)));
+}

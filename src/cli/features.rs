@@ -1,0 +1,121 @@
+//! `reflectance features IMAGE …` (JSON) and `reflectance features --manifest M --out F` (CSV).
+
+use super::{CliResult, LimitArgs};
+use crate::analysis::{self, Locate, WhiteInput};
+use crate::dataset::{self, Manifest};
+use crate::features::{Extractor, FeatureConfig};
+use crate::geometry::Circle;
+use crate::image_io::{self, DecodeOptions, Encoding};
+use clap::Args;
+use serde::Serialize;
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct FeaturesArgs {
+    /// Image of the sphere (PNG, JPEG, TIFF, PNM, Radiance HDR, PFM, OpenEXR).
+    #[arg(required_unless_present = "manifest", conflicts_with = "manifest")]
+    image: Option<PathBuf>,
+    /// Circle centre x in pixels (column; pixel centres are integers).
+    #[arg(long, requires_all = ["cy", "r"], allow_negative_numbers = true)]
+    cx: Option<f64>,
+    /// Circle centre y in pixels (row, downwards).
+    #[arg(long, requires_all = ["cx", "r"], allow_negative_numbers = true)]
+    cy: Option<f64>,
+    /// Circle radius in pixels.
+    #[arg(long, requires_all = ["cx", "cy"], allow_negative_numbers = true)]
+    r: Option<f64>,
+    /// Mask image (same size; alpha, or bright = sphere); a circle is fitted to its edge.
+    #[arg(long, conflicts_with = "cx")]
+    mask: Option<PathBuf>,
+    /// Linear luminance of an ideal white surface facing the viewer at the sphere.
+    #[arg(long, allow_negative_numbers = true)]
+    white: Option<f64>,
+    /// Crop of a white card; its median luminance is the white reference.
+    #[arg(long, conflicts_with = "white")]
+    white_image: Option<PathBuf>,
+    /// Reflectance of the white card (white = card median / reflectance).
+    #[arg(long, default_value_t = 1.0, requires = "white_image")]
+    white_reflectance: f64,
+    /// How integer samples are linearized: srgb, linear or gamma:<g>.
+    #[arg(long)]
+    encoding: Option<String>,
+    /// Dataset manifest (path,class,illumination[,cx,cy,r,white]).
+    #[arg(long, requires = "out")]
+    manifest: Option<PathBuf>,
+    /// Output CSV for --manifest.
+    #[arg(long, requires = "manifest")]
+    out: Option<PathBuf>,
+    #[command(flatten)]
+    limits: LimitArgs,
+}
+
+#[derive(Serialize)]
+struct Output<'a> {
+    names: Vec<String>,
+    values: &'a [f64],
+    geometry: &'a crate::geometry::Geometry,
+    white: &'a crate::white::White,
+    warnings: &'a [String],
+}
+
+pub fn run(args: FeaturesArgs) -> CliResult {
+    let extractor = Extractor::new(FeatureConfig::default()).map_err(|e| e.to_string())?;
+    let encoding = args
+        .encoding
+        .as_deref()
+        .map(str::parse::<Encoding>)
+        .transpose()
+        .map_err(|e| e.to_string())?;
+    let options = DecodeOptions {
+        encoding,
+        limits: args.limits.limits(),
+    };
+    match (&args.manifest, &args.out) {
+        (Some(manifest), Some(out)) => {
+            let manifest: Manifest = dataset::read_manifest(manifest).map_err(|e| e.to_string())?;
+            let table = dataset::extract_manifest(&extractor, &manifest, &options)
+                .map_err(|e| e.to_string())?;
+            table.write(out).map_err(|e| e.to_string())
+        }
+        _ => single(&args, &extractor, &options),
+    }
+}
+
+fn single(args: &FeaturesArgs, extractor: &Extractor, options: &DecodeOptions) -> CliResult {
+    let path = args.image.as_ref().ok_or("give an IMAGE or --manifest")?;
+    let decode = |p: &PathBuf, options: &DecodeOptions| {
+        image_io::decode_file(p, options).map_err(|e| format!("{}: {e}", p.display()))
+    };
+    let image = decode(path, options)?;
+    let locate = match (args.cx, args.cy, args.r, &args.mask) {
+        (Some(cx), Some(cy), Some(r), _) => Locate::Circle(Circle { cx, cy, r }),
+        (_, _, _, Some(mask)) => {
+            let linear = DecodeOptions {
+                encoding: Some(Encoding::Linear),
+                ..*options
+            };
+            Locate::Mask(analysis::mask_from_image(&decode(mask, &linear)?))
+        }
+        _ => Locate::Auto,
+    };
+    let white = match (args.white, &args.white_image) {
+        (Some(v), _) => WhiteInput::Value(v),
+        (None, Some(card)) => WhiteInput::Card {
+            image: decode(card, options)?,
+            reflectance: args.white_reflectance,
+        },
+        (None, None) => WhiteInput::Missing,
+    };
+    let result =
+        analysis::analyze(extractor, &image, &locate, &white).map_err(|e| e.to_string())?;
+    let output = Output {
+        names: extractor.config().names(),
+        values: &result.values,
+        geometry: &result.geometry,
+        white: &result.white,
+        warnings: &result.warnings,
+    };
+    let json = serde_json::to_string_pretty(&output).map_err(|e| e.to_string())?;
+    println!("{json}");
+    Ok(())
+}

@@ -1,0 +1,64 @@
+//! The command line (DESIGN.md §6 is the contract: extend it, never rename).
+
+mod features;
+
+use clap::{Args, Parser, Subcommand};
+use std::process::ExitCode;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "reflectance",
+    version,
+    about = "Classify what a sphere is made of from one photograph"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Extract the 117 features of one image (JSON) or of a manifest (CSV).
+    Features(features::FeaturesArgs),
+}
+
+/// Decoding limits against decompression bombs.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct LimitArgs {
+    /// Largest accepted image width in pixels.
+    #[arg(long, env = "REFLECTANCE_MAX_WIDTH", default_value_t = crate::image_io::Limits::default().max_width)]
+    max_width: u32,
+    /// Largest accepted image height in pixels.
+    #[arg(long, env = "REFLECTANCE_MAX_HEIGHT", default_value_t = crate::image_io::Limits::default().max_height)]
+    max_height: u32,
+    /// Largest accepted number of pixels.
+    #[arg(long, env = "REFLECTANCE_MAX_PIXELS", default_value_t = crate::image_io::Limits::default().max_pixels)]
+    max_pixels: u64,
+}
+
+impl LimitArgs {
+    pub fn limits(&self) -> crate::image_io::Limits {
+        crate::image_io::Limits {
+            max_width: self.max_width,
+            max_height: self.max_height,
+            max_pixels: self.max_pixels,
+        }
+    }
+}
+
+/// A command's failure: one line for stderr.
+pub type CliResult = Result<(), String>;
+
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Features(args) => features::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("reflectance: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
