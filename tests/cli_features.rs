@@ -8,7 +8,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_reflectance")).args(args).output().expect("run binary")
+    Command::new(env!("CARGO_BIN_EXE_reflectance"))
+        .args(args)
+        .output()
+        .expect("run binary")
 }
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -18,7 +21,8 @@ fn temp_dir(name: &str) -> PathBuf {
 }
 
 fn fixture(name: &str) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(fixtures().join("features").join(name)).unwrap()).unwrap()
+    serde_json::from_str(&std::fs::read_to_string(fixtures().join("features").join(name)).unwrap())
+        .unwrap()
 }
 
 fn image(name: &str) -> String {
@@ -36,11 +40,31 @@ fn assert_refused(out: &Output, needle: &str) {
 #[test]
 fn single_image_json_matches_the_reference() {
     let want = fixture("sphere_rgb8.json");
-    let out = run(&["features", &image("sphere_rgb8.png"), "--cx", "96.5", "--cy", "94.25", "--r", "85", "--white", "0.8"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = run(&[
+        "features",
+        &image("sphere_rgb8.png"),
+        "--cx",
+        "96.5",
+        "--cy",
+        "94.25",
+        "--r",
+        "85",
+        "--white",
+        "0.8",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let got: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(got["names"], want["names"]);
-    for (g, w) in got["values"].as_array().unwrap().iter().zip(want["values"].as_array().unwrap()) {
+    for (g, w) in got["values"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(want["values"].as_array().unwrap())
+    {
         let (g, w) = (g.as_f64().unwrap(), w.as_f64().unwrap());
         assert!((g - w).abs() <= 1e-9 * w.abs().max(1.0), "{g} vs {w}");
     }
@@ -71,14 +95,28 @@ fn bad_requests_fail_with_one_line() {
         args.extend(circle);
         assert_refused(&run(&args), "white");
     }
-    assert_refused(&run(&["features", &img, "--cx", "500", "--cy", "48", "--r", "40"]), "outside");
-    assert_refused(&run(&["features", &img, "--cx", "50", "--cy", "48", "--r", "20"]), "below the minimum");
-    assert_refused(&run(&["features", &img, "--encoding", "gamma:-2"]), "encoding");
+    assert_refused(
+        &run(&["features", &img, "--cx", "500", "--cy", "48", "--r", "40"]),
+        "outside",
+    );
+    assert_refused(
+        &run(&["features", &img, "--cx", "50", "--cy", "48", "--r", "20"]),
+        "below the minimum",
+    );
+    assert_refused(
+        &run(&["features", &img, "--encoding", "gamma:-2"]),
+        "encoding",
+    );
     assert_refused(&run(&["features", "/nonexistent/x.png"]), "could not read");
     let noise = temp_dir("noise").join("noise.png");
-    let samples: Vec<u8> = (0..128u32 * 128).map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8).collect();
+    let samples: Vec<u8> = (0..128u32 * 128)
+        .map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8)
+        .collect();
     std::fs::write(&noise, common::png8(128, 128, 1, &samples)).unwrap();
-    assert_refused(&run(&["features", noise.to_str().unwrap()]), "could not find the sphere");
+    assert_refused(
+        &run(&["features", noise.to_str().unwrap()]),
+        "could not find the sphere",
+    );
 }
 
 fn write_manifest(dir: &Path, rows: &[&str]) -> PathBuf {
@@ -96,24 +134,56 @@ fn write_manifest(dir: &Path, rows: &[&str]) -> PathBuf {
 fn manifest_to_feature_table() {
     let dir = temp_dir("manifest");
     let rows = [
-        format!("{},shiny,env1,52.35,48.7,40.3,1.0", image("sphere_gray8.png")),
-        format!("{},chrome,env2,80.3,79.8,70.0,2.5", image("sphere_rgb_le.pfm")),
-        format!("{},shiny,env2,181.6,180.2,170.4,1.0", image("sphere_gray_be.pfm")),
+        format!(
+            "{},shiny,env1,52.35,48.7,40.3,1.0",
+            image("sphere_gray8.png")
+        ),
+        format!(
+            "{},chrome,env2,80.3,79.8,70.0,2.5",
+            image("sphere_rgb_le.pfm")
+        ),
+        format!(
+            "{},shiny,env2,181.6,180.2,170.4,1.0",
+            image("sphere_gray_be.pfm")
+        ),
     ];
     let rows: Vec<&str> = rows.iter().map(String::as_str).collect();
     let manifest = write_manifest(&dir, &rows);
     let out_csv = dir.join("features.csv");
-    let out = run(&["features", "--manifest", manifest.to_str().unwrap(), "--out", out_csv.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = run(&[
+        "features",
+        "--manifest",
+        manifest.to_str().unwrap(),
+        "--out",
+        out_csv.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let table = reflectance::dataset::FeatureTable::read(&out_csv).unwrap();
     assert_eq!(table.names, reflectance::features::default_names());
     assert_eq!(table.samples.len(), 3);
-    assert_eq!((table.samples[1].class.as_str(), table.samples[1].illumination.as_str()), ("chrome", "env2"));
-    for (sample, name) in table.samples.iter().zip(["sphere_gray8.json", "sphere_rgb_le.json", "sphere_gray_be.json"]) {
+    assert_eq!(
+        (
+            table.samples[1].class.as_str(),
+            table.samples[1].illumination.as_str()
+        ),
+        ("chrome", "env2")
+    );
+    for (sample, name) in table.samples.iter().zip([
+        "sphere_gray8.json",
+        "sphere_rgb_le.json",
+        "sphere_gray_be.json",
+    ]) {
         let want = fixture(name);
         for (g, w) in sample.values.iter().zip(want["values"].as_array().unwrap()) {
             let w = w.as_f64().unwrap();
-            assert!((g - w).abs() <= 1e-9 * w.abs().max(1.0), "{name}: {g} vs {w}");
+            assert!(
+                (g - w).abs() <= 1e-9 * w.abs().max(1.0),
+                "{name}: {g} vs {w}"
+            );
         }
     }
 }
@@ -124,9 +194,24 @@ fn a_bad_manifest_row_names_its_line() {
     let good = format!("{},a,e,52.35,48.7,40.3,1", image("sphere_gray8.png"));
     let manifest = write_manifest(&dir, &[&good, "missing.png,a,e,1,2,40,1", &good]);
     let out_csv = dir.join("f.csv");
-    let out = run(&["features", "--manifest", manifest.to_str().unwrap(), "--out", out_csv.to_str().unwrap()]);
+    let out = run(&[
+        "features",
+        "--manifest",
+        manifest.to_str().unwrap(),
+        "--out",
+        out_csv.to_str().unwrap(),
+    ]);
     assert_refused(&out, "line 3");
     assert!(!out_csv.exists(), "nothing is written on failure");
     let manifest = write_manifest(&dir, &[&good, "x.png,a,e,abc,2,40,1"]);
-    assert_refused(&run(&["features", "--manifest", manifest.to_str().unwrap(), "--out", out_csv.to_str().unwrap()]), "cx is not a number");
+    assert_refused(
+        &run(&[
+            "features",
+            "--manifest",
+            manifest.to_str().unwrap(),
+            "--out",
+            out_csv.to_str().unwrap(),
+        ]),
+        "cx is not a number",
+    );
 }

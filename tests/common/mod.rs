@@ -28,7 +28,11 @@ pub fn sphere_png(size: u32, r: f64) -> Vec<u8> {
         .map(|i| {
             let (x, y) = ((i % size) as f64 - c, (i / size) as f64 - c);
             let d2 = (x * x + y * y) / (r * r);
-            if d2 > 1.0 { 0 } else { (60.0 + 150.0 * (1.0 - d2).sqrt() + 20.0 * (x / 7.0).sin()) as u8 }
+            if d2 > 1.0 {
+                0
+            } else {
+                (60.0 + 150.0 * (1.0 - d2).sqrt() + 20.0 * (x / 7.0).sin()) as u8
+            }
         })
         .collect();
     png8(size, size, 1, &samples)
@@ -40,7 +44,11 @@ pub fn crc32(bytes: &[u8]) -> u32 {
     for &b in bytes {
         crc ^= u32::from(b);
         for _ in 0..8 {
-            crc = if crc & 1 != 0 { (crc >> 1) ^ 0xedb8_8320 } else { crc >> 1 };
+            crc = if crc & 1 != 0 {
+                (crc >> 1) ^ 0xedb8_8320
+            } else {
+                crc >> 1
+            };
         }
     }
     !crc
