@@ -12,6 +12,7 @@ pub mod geometry;
 pub mod image_io;
 pub mod progress;
 pub mod pyramid;
+pub mod render;
 pub mod rng;
 pub mod spectrum;
 pub mod stats;

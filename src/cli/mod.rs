@@ -1,6 +1,7 @@
 //! The command line (DESIGN.md §6 is the contract: extend it, never rename).
 
 mod features;
+mod render;
 
 use clap::{Args, Parser, Subcommand};
 use std::process::ExitCode;
@@ -20,6 +21,8 @@ struct Cli {
 enum Command {
     /// Extract the 117 features of one image (JSON) or of a manifest (CSV).
     Features(features::FeaturesArgs),
+    /// Render Ward spheres under light probes: every probe × class, with a manifest.
+    Render(render::RenderArgs),
 }
 
 /// Decoding limits against decompression bombs.
@@ -53,6 +56,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Features(args) => features::run(args),
+        Command::Render(args) => render::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,386 @@
+//! Rendering whole datasets: every probe × class (× augmentation views), in parallel,
+//! deterministic for a seed, resumable, with `manifest.csv`
+//! (`path,class,illumination,cx,cy,r,white`; illumination = probe file stem, or
+//! `<stem>@<variant>` for augmented views).
+
+use super::envmap::{EnvMap, EnvMapError};
+use super::ward::{Material, MaterialError};
+use super::{Lighting, Quality, View, render};
+use crate::dataset::format_f64;
+use crate::fsutil::write_atomic;
+use crate::image_io::pfm;
+use crate::progress;
+use crate::rng::Rng;
+use rayon::prelude::*;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}: not a class file ({detail})")]
+    Classes { path: String, detail: String },
+    #[error(transparent)]
+    Material(#[from] MaterialError),
+    #[error("duplicate class name {0:?}")]
+    DuplicateClass(String),
+    #[error(transparent)]
+    Probe(#[from] EnvMapError),
+    #[error("no probes found in {0}")]
+    NoProbes(String),
+    #[error("probe {name:?} listed in {list} was not found")]
+    MissingProbe { list: String, name: String },
+    #[error("invalid rendering option: {0}")]
+    Options(String),
+}
+
+fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> RenderError + '_ {
+    move |source| RenderError::Io {
+        path: path.display().to_string(),
+        source,
+    }
+}
+
+#[derive(Deserialize)]
+struct ClassFile {
+    classes: Vec<Material>,
+}
+
+/// Read a class file (`{"classes": [{"name", "rho_d", "rho_s", "alpha"}, …]}`).
+pub fn load_classes(path: &Path) -> Result<Vec<Material>, RenderError> {
+    let text = std::fs::read_to_string(path).map_err(io_error(path))?;
+    let file: ClassFile = serde_json::from_str(&text).map_err(|e| RenderError::Classes {
+        path: path.display().to_string(),
+        detail: e.to_string(),
+    })?;
+    let mut seen = std::collections::HashSet::new();
+    for class in &file.classes {
+        class.validate()?;
+        if !seen.insert(class.name.as_str()) {
+            return Err(RenderError::DuplicateClass(class.name.clone()));
+        }
+    }
+    if file.classes.is_empty() {
+        return Err(RenderError::Classes {
+            path: path.display().to_string(),
+            detail: "no classes".into(),
+        });
+    }
+    Ok(file.classes)
+}
+
+/// Probe files: every `*.hdr` of a directory (sorted), or the names listed in a text file
+/// (one per line, `#` comments), resolved against the list's folder, then its parent (so
+/// `probes/sets/all.txt` finds `probes/*.hdr`).
+pub fn probe_list(arg: &Path) -> Result<Vec<PathBuf>, RenderError> {
+    let probes = if arg.is_dir() {
+        let mut found: Vec<PathBuf> = std::fs::read_dir(arg)
+            .map_err(io_error(arg))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("hdr")))
+            .collect();
+        found.sort();
+        found
+    } else {
+        let text = std::fs::read_to_string(arg).map_err(io_error(arg))?;
+        let base = arg.parent().unwrap_or(Path::new("."));
+        let mut found = Vec::new();
+        for name in text
+            .lines()
+            .map(str::trim)
+            .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        {
+            let candidates = [base.join(name), base.join("..").join(name)];
+            let path = candidates
+                .into_iter()
+                .find(|p| p.is_file())
+                .ok_or_else(|| RenderError::MissingProbe {
+                    list: arg.display().to_string(),
+                    name: name.to_string(),
+                })?;
+            found.push(path);
+        }
+        found
+    };
+    if probes.is_empty() {
+        return Err(RenderError::NoProbes(arg.display().to_string()));
+    }
+    Ok(probes)
+}
+
+/// Extra training views of each probe: turns about +Y and changes of viewer elevation.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Augment {
+    /// Number of evenly spaced azimuths (1 = only the original); each is a whole number of
+    /// map columns so that a turn equals rolling the map.
+    pub rotations: usize,
+    /// Additional viewer elevations in degrees (the default 45° view is always rendered).
+    pub elevations: Vec<f64>,
+}
+
+/// One view of a probe: the illumination label suffix and the camera.
+#[derive(Clone, Debug)]
+struct Variant {
+    suffix: String,
+    view: View,
+}
+
+fn variants(augment: &Augment, map_width: usize) -> Vec<Variant> {
+    let mut out = vec![Variant {
+        suffix: String::new(),
+        view: View::default(),
+    }];
+    let turns = augment.rotations.max(1);
+    for t in 1..turns {
+        let columns = t * map_width / turns;
+        let degrees = 360.0 * columns as f64 / map_width as f64;
+        out.push(Variant {
+            suffix: format!("@rot{:03}", degrees.round() as i64),
+            view: View {
+                azimuth_deg: degrees,
+                ..View::default()
+            },
+        });
+    }
+    for &e in &augment.elevations {
+        out.push(Variant {
+            suffix: format!(
+                "@el{}",
+                if e.fract() == 0.0 {
+                    format!("{e:.0}")
+                } else {
+                    format_f64(e)
+                }
+            ),
+            view: View {
+                elevation_deg: e,
+                ..View::default()
+            },
+        });
+    }
+    out
+}
+
+/// What to render.
+#[derive(Clone, Debug)]
+pub struct BatchSpec {
+    pub probes: Vec<PathBuf>,
+    pub classes: Vec<Material>,
+    pub out: PathBuf,
+    pub size: usize,
+    pub seed: u64,
+    pub quality: Quality,
+    pub augment: Augment,
+}
+
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct BatchSummary {
+    pub images: usize,
+    pub rendered: usize,
+    pub skipped: usize,
+    pub manifest: PathBuf,
+}
+
+struct Probe {
+    path: PathBuf,
+    stem: String,
+    map: OnceLock<Result<EnvMap, String>>,
+    lighting: OnceLock<Lighting>,
+}
+
+impl Probe {
+    /// The map, loaded once.
+    fn map(&self) -> Result<&EnvMap, RenderError> {
+        let loaded = self
+            .map
+            .get_or_init(|| EnvMap::load(&self.path).map_err(|e| e.to_string()));
+        loaded
+            .as_ref()
+            .map_err(|e| RenderError::Probe(EnvMapError::Other(e.clone())))
+    }
+}
+
+struct Job {
+    probe: usize,
+    variant: Variant,
+    class: usize,
+    name: String,
+}
+
+/// FNV-1a: a stable per-image seed from its name.
+fn stable_hash(text: &str) -> u64 {
+    text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
+    })
+}
+
+fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
+    if !(16..=4096).contains(&spec.size) {
+        return Err(RenderError::Options(format!(
+            "size {} must be between 16 and 4096",
+            spec.size
+        )));
+    }
+    let q = &spec.quality;
+    if !(1..=16).contains(&q.pixel_samples)
+        || !(1..=16).contains(&q.lobe_pixel_samples)
+        || !(1..=1024).contains(&q.lobe_points)
+    {
+        return Err(RenderError::Options(
+            "pixel and lobe sub-pixel samples per side must be 1…16, lobe points 1…1024".into(),
+        ));
+    }
+    if spec.augment.rotations > 360
+        || spec
+            .augment
+            .elevations
+            .iter()
+            .any(|e| !(5.0..=85.0).contains(e))
+    {
+        return Err(RenderError::Options(
+            "rotations must be ≤ 360 and elevations within 5°…85°".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Render every probe × variant × class into `spec.out`; images already complete are
+/// skipped (resume). Writes `manifest.csv` last, atomically.
+pub fn render_dataset(spec: &BatchSpec) -> Result<BatchSummary, RenderError> {
+    validate(spec)?;
+    std::fs::create_dir_all(&spec.out).map_err(io_error(&spec.out))?;
+    let probes: Vec<Probe> = spec
+        .probes
+        .iter()
+        .map(|path| Probe {
+            stem: path
+                .file_stem()
+                .map_or_else(String::new, |s| s.to_string_lossy().into_owned()),
+            path: path.clone(),
+            map: OnceLock::new(),
+            lighting: OnceLock::new(),
+        })
+        .collect();
+    // Jobs in manifest order: probe, view, class.
+    let mut jobs = Vec::new();
+    for (pi, probe) in probes.iter().enumerate() {
+        let width = probe.map()?.width;
+        for variant in variants(&spec.augment, width) {
+            for (ci, class) in spec.classes.iter().enumerate() {
+                let name = format!("{}{}__{}", probe.stem, variant.suffix, class.name);
+                jobs.push(Job {
+                    probe: pi,
+                    variant: variant.clone(),
+                    class: ci,
+                    name,
+                });
+            }
+        }
+    }
+    let expected_len =
+        pfm::encode_gray(spec.size, spec.size, &vec![0.0; spec.size * spec.size]).len() as u64;
+    let complete = |job: &Job| {
+        let pfm_path = spec.out.join(format!("{}.pfm", job.name));
+        std::fs::metadata(&pfm_path).is_ok_and(|m| m.len() == expected_len)
+            && spec.out.join(format!("{}.mask.png", job.name)).is_file()
+    };
+    let bar = progress::bar(jobs.len() as u64, "render");
+    let outcomes: Vec<Result<bool, RenderError>> = jobs
+        .par_iter()
+        .map(|job| {
+            let result = if complete(job) {
+                Ok(false)
+            } else {
+                let probe = &probes[job.probe];
+                let map = probe.map()?;
+                let lighting = probe.lighting.get_or_init(|| Lighting::new(map.clone()));
+                let mut rng = Rng::fork(spec.seed, stable_hash(&job.name));
+                let image = render(
+                    lighting,
+                    &spec.classes[job.class],
+                    spec.size,
+                    &job.variant.view,
+                    &spec.quality,
+                    &mut rng,
+                );
+                write_image(&spec.out, &job.name, &image).map(|()| true)
+            };
+            bar.inc(1);
+            result
+        })
+        .collect();
+    bar.finish_and_clear();
+    let mut rendered = 0;
+    for outcome in outcomes {
+        rendered += usize::from(outcome?);
+    }
+    let manifest = write_manifest(spec, &probes, &jobs)?;
+    Ok(BatchSummary {
+        images: jobs.len(),
+        rendered,
+        skipped: jobs.len() - rendered,
+        manifest,
+    })
+}
+
+/// Luminance as PFM and coverage as an 8-bit PNG mask, each written atomically (the PFM
+/// last, so its presence means the image is complete).
+fn write_image(out: &Path, name: &str, image: &super::Rendering) -> Result<(), RenderError> {
+    let mask_path = out.join(format!("{name}.mask.png"));
+    let mask: Vec<u8> = image
+        .coverage
+        .iter()
+        .map(|c| (c * 255.0).round() as u8)
+        .collect();
+    let mut png = Vec::new();
+    let encoder = image::codecs::png::PngEncoder::new(&mut png);
+    let size = image.size as u32;
+    image::ImageEncoder::write_image(encoder, &mask, size, size, image::ExtendedColorType::L8)
+        .map_err(|e| RenderError::Options(format!("encoding {name} mask: {e}")))?;
+    write_atomic(&mask_path, &png).map_err(io_error(&mask_path))?;
+    let pfm_path = out.join(format!("{name}.pfm"));
+    write_atomic(
+        &pfm_path,
+        &pfm::encode_gray(image.size, image.size, &image.luminance),
+    )
+    .map_err(io_error(&pfm_path))
+}
+
+fn write_manifest(
+    spec: &BatchSpec,
+    probes: &[Probe],
+    jobs: &[Job],
+) -> Result<PathBuf, RenderError> {
+    let circle = super::circle(spec.size);
+    let mut text = String::from("path,class,illumination,cx,cy,r,white\n");
+    let mut white_cache: std::collections::HashMap<String, f64> = Default::default();
+    for job in jobs {
+        let illumination = format!("{}{}", probes[job.probe].stem, job.variant.suffix);
+        let white = match white_cache.get(&illumination) {
+            Some(&w) => w,
+            None => {
+                let w = super::white(probes[job.probe].map()?, &job.variant.view);
+                white_cache.insert(illumination.clone(), w);
+                w
+            }
+        };
+        text.push_str(&format!(
+            "{}.pfm,{},{},{},{},{},{}\n",
+            job.name,
+            spec.classes[job.class].name,
+            illumination,
+            format_f64(circle.cx),
+            format_f64(circle.cy),
+            format_f64(circle.r),
+            format_f64(white)
+        ));
+    }
+    let path = spec.out.join("manifest.csv");
+    write_atomic(&path, text.as_bytes()).map_err(io_error(&path))?;
+    Ok(path)
+}

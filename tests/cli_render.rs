@@ -1,0 +1,242 @@
+//! `reflectance render` end to end: manifest, images, resume, determinism, features.
+
+mod common;
+
+use reflectance::image_io::rgbe;
+use reflectance::render::envmap::EnvMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_reflectance"))
+        .args(args)
+        .output()
+        .expect("run binary")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("reflectance-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Two small synthetic probes and a list file naming them.
+fn probes(dir: &Path) -> PathBuf {
+    let maps = [
+        EnvMap::from_fn(64, 32, |d| 0.3 + d.y.max(0.0) + 0.2 * (6.0 * d.x).sin()),
+        EnvMap::from_fn(64, 32, |d| 0.5 + 0.4 * d.x + 0.1 * (9.0 * d.z).cos()),
+    ];
+    for (k, map) in maps.iter().enumerate() {
+        std::fs::write(
+            dir.join(format!("probe{k}.hdr")),
+            rgbe::write_flat(map.width, map.height, &map.luminance),
+        )
+        .unwrap();
+    }
+    let list = dir.join("sets").join("two.txt");
+    std::fs::create_dir_all(list.parent().unwrap()).unwrap();
+    std::fs::write(&list, "# two probes\nprobe0.hdr\nprobe1.hdr\n").unwrap();
+    list
+}
+
+fn classes(dir: &Path) -> PathBuf {
+    let path = dir.join("classes.json");
+    std::fs::write(
+        &path,
+        r#"{"classes": [{"name": "matte", "rho_d": 0.8, "rho_s": 0.0, "alpha": 0.0},
+                        {"name": "chrome", "rho_d": 0.0, "rho_s": 0.75, "alpha": 0.0},
+                        {"name": "shiny", "rho_d": 0.3, "rho_s": 0.1, "alpha": 0.02}]}"#,
+    )
+    .unwrap();
+    path
+}
+
+#[test]
+fn renders_a_dataset_that_resumes_and_feeds_the_features() {
+    let dir = temp_dir("render");
+    let list = probes(&dir);
+    let classes = classes(&dir);
+    let out = dir.join("out");
+    let args = [
+        "render",
+        "--probes",
+        list.to_str().unwrap(),
+        "--classes",
+        classes.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--size",
+        "96",
+        "--seed",
+        "3",
+    ];
+    let first = run(&args);
+    assert!(
+        first.status.success(),
+        "{}",
+        String::from_utf8_lossy(&first.stderr)
+    );
+    let manifest = std::fs::read_to_string(out.join("manifest.csv")).unwrap();
+    let lines: Vec<&str> = manifest.lines().collect();
+    assert_eq!(lines[0], "path,class,illumination,cx,cy,r,white");
+    assert_eq!(lines.len(), 1 + 2 * 3);
+    assert!(
+        lines[1].starts_with("probe0__matte.pfm,matte,probe0,47.5,47.5,43.63636363636363"),
+        "{}",
+        lines[1]
+    );
+    let image = std::fs::read(out.join("probe1__shiny.pfm")).unwrap();
+
+    // Re-running skips complete images and reproduces the manifest exactly.
+    std::fs::remove_file(out.join("probe1__chrome.pfm")).unwrap();
+    let second = run(&args);
+    assert!(
+        String::from_utf8_lossy(&second.stderr)
+            .contains("rendered 1 of 6 images (5 already complete)"),
+        "{}",
+        String::from_utf8_lossy(&second.stderr)
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("manifest.csv")).unwrap(),
+        manifest
+    );
+
+    // Deterministic for a seed: a fresh render is byte-identical.
+    let again = dir.join("again");
+    let mut fresh = args.to_vec();
+    fresh[6] = again.to_str().unwrap();
+    assert!(run(&fresh).status.success());
+    assert_eq!(
+        std::fs::read(again.join("probe1__shiny.pfm")).unwrap(),
+        image
+    );
+
+    // The manifest feeds the feature extractor directly.
+    let table = dir.join("features.csv");
+    let features = run(&[
+        "features",
+        "--manifest",
+        out.join("manifest.csv").to_str().unwrap(),
+        "--out",
+        table.to_str().unwrap(),
+    ]);
+    assert!(
+        features.status.success(),
+        "{}",
+        String::from_utf8_lossy(&features.stderr)
+    );
+    let table = reflectance::dataset::FeatureTable::read(&table).unwrap();
+    assert_eq!(table.samples.len(), 6);
+    // The white reference normalizes: a white-ish matte sphere's mean is below ρd = 0.8.
+    let mean = table.samples[0].values[0];
+    assert!(mean > 0.2 && mean < 0.8, "{mean}");
+}
+
+#[test]
+fn augmentation_adds_views_with_suffixed_illuminations() {
+    let dir = temp_dir("augment");
+    let list = probes(&dir);
+    let classes = classes(&dir);
+    let out = dir.join("out");
+    let result = run(&[
+        "render",
+        "--probes",
+        list.to_str().unwrap(),
+        "--classes",
+        classes.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--size",
+        "48",
+        "--rotations",
+        "4",
+        "--elevations",
+        "40,50",
+    ]);
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    let manifest = std::fs::read_to_string(out.join("manifest.csv")).unwrap();
+    let illuminations: std::collections::BTreeSet<&str> = manifest
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(2).unwrap())
+        .collect();
+    let expected = [
+        "probe0",
+        "probe0@el40",
+        "probe0@el50",
+        "probe0@rot090",
+        "probe0@rot180",
+        "probe0@rot270",
+    ];
+    for e in expected {
+        assert!(illuminations.contains(e), "{illuminations:?}");
+    }
+    assert_eq!(manifest.lines().count(), 1 + 2 * 6 * 3);
+}
+
+#[test]
+fn bad_inputs_are_reported() {
+    let dir = temp_dir("render-bad");
+    let list = probes(&dir);
+    let classes = classes(&dir);
+    let bad_classes = dir.join("bad.json");
+    std::fs::write(
+        &bad_classes,
+        r#"{"classes": [{"name": "x", "rho_d": 0.9, "rho_s": 0.5, "alpha": 0.0}]}"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let cases: [(&[&str], &str); 4] = [
+        (
+            &[
+                "--probes",
+                list.to_str().unwrap(),
+                "--classes",
+                bad_classes.to_str().unwrap(),
+            ],
+            "rho_d + rho_s",
+        ),
+        (
+            &[
+                "--probes",
+                "/nonexistent/list.txt",
+                "--classes",
+                classes.to_str().unwrap(),
+            ],
+            "/nonexistent/list.txt",
+        ),
+        (
+            &[
+                "--probes",
+                list.to_str().unwrap(),
+                "--classes",
+                classes.to_str().unwrap(),
+                "--size",
+                "4",
+            ],
+            "size",
+        ),
+        (
+            &[
+                "--probes",
+                classes.to_str().unwrap(),
+                "--classes",
+                classes.to_str().unwrap(),
+            ],
+            "was not found",
+        ),
+    ];
+    for (extra, needle) in cases {
+        let mut args = vec!["render", "--out", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let result = run(&args);
+        assert!(!result.status.success());
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert!(stderr.contains(needle), "{needle}: {stderr}");
+    }
+}
