@@ -258,3 +258,158 @@ pub fn cross_validate(ds: &Dataset, spec: &TrainSpec, seed: u64) -> Result<CvRep
         predictions: records.into_iter().map(|(_, rec)| rec).collect(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dataset::FeatureTable;
+    use crate::learn::feature_set::FeatureSet;
+    use crate::learn::model::ClassifierKind;
+    use crate::learn::testutil::table;
+
+    fn spec(features: &str, classifier: ClassifierKind) -> TrainSpec {
+        let names: Vec<String> = (0..4).map(|j| format!("f{j}")).collect();
+        TrainSpec::new(
+            FeatureSet::parse_with(features, &names).unwrap(),
+            classifier,
+        )
+    }
+
+    fn base() -> FeatureTable {
+        table(21, 3, 5, 4, 4, 1.5)
+    }
+
+    #[test]
+    fn report_is_consistent() {
+        let ds = Dataset::from_table(&base()).unwrap();
+        let r = cross_validate(&ds, &spec("all", ClassifierKind::Svm), 5).unwrap();
+        assert_eq!(r.n, ds.n_rows());
+        assert_eq!(r.folds.len(), 5);
+        assert_eq!(r.confusion.iter().flatten().sum::<usize>(), r.n);
+        let correct = r.predictions.iter().filter(|p| p.correct).count();
+        assert_eq!(correct, r.correct);
+        assert_eq!(r.folds.iter().map(|f| f.correct).sum::<usize>(), r.correct);
+        assert!((r.accuracy - correct as f64 / r.n as f64).abs() < 1e-15);
+        assert!(r.accuracy > 0.5 && r.accuracy < 1.0, "{}", r.accuracy);
+        assert_eq!(r.random_guess_accuracy, 1.0 / 3.0);
+        for (c, s) in r.per_class.iter().enumerate() {
+            assert_eq!(s.n, 20);
+            assert_eq!(s.correct, r.confusion[c][c]);
+        }
+        // Log-loss and ECE recomputed from the records.
+        let ll: f64 = r
+            .predictions
+            .iter()
+            .map(|p| {
+                let t = ds.classes.iter().position(|c| *c == p.truth).unwrap();
+                -p.probabilities[t].max(1e-15).ln()
+            })
+            .sum::<f64>()
+            / r.n as f64;
+        assert!((ll - r.log_loss).abs() < 1e-12);
+        assert!(r.ece >= 0.0 && r.ece <= 1.0);
+        for (i, p) in r.predictions.iter().enumerate() {
+            assert_eq!(p.path, ds.paths[i]);
+            assert_eq!(p.nearest.is_some(), !p.correct);
+            if let Some(n) = &p.nearest {
+                // The nearest training image comes from another illumination.
+                assert_ne!(n.illumination, p.illumination);
+                assert!(n.distance >= 0.0);
+            }
+        }
+        assert!(
+            r.folds
+                .iter()
+                .all(|f| f.c == Some(100.0) && f.gamma == Some(0.25))
+        );
+        serde_json::to_string(&r).unwrap();
+    }
+
+    #[test]
+    fn same_report_with_one_or_two_threads() {
+        let ds = Dataset::from_table(&base()).unwrap();
+        let run = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| cross_validate(&ds, &spec("auto2", ClassifierKind::Svm), 9).unwrap())
+        };
+        assert_eq!(run(1), run(2));
+    }
+
+    #[test]
+    fn nearest_neighbour_of_a_1nn_mistake_has_the_predicted_class() {
+        let ds = Dataset::from_table(&base()).unwrap();
+        let r = cross_validate(&ds, &spec("f0,f1", ClassifierKind::Nn), 1).unwrap();
+        let wrong: Vec<_> = r.predictions.iter().filter(|p| !p.correct).collect();
+        assert!(!wrong.is_empty());
+        for p in wrong {
+            assert_eq!(p.nearest.as_ref().unwrap().class, p.predicted);
+        }
+    }
+
+    #[test]
+    fn chance_baseline() {
+        let ds = Dataset::from_table(&base()).unwrap();
+        let r = cross_validate(&ds, &spec("all", ClassifierKind::Chance), 1).unwrap();
+        // Balanced classes: always the first class, accuracy 1/3, log-loss ln 3.
+        assert!(r.predictions.iter().all(|p| p.predicted == "c0"));
+        assert!((r.accuracy - 1.0 / 3.0).abs() < 1e-15);
+        assert!((r.log_loss - 3f64.ln()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn augmented_rows_train_only_and_leave_with_their_probe() {
+        let mut t = base();
+        let originals = t.samples.len();
+        let extra: Vec<_> = t
+            .samples
+            .iter()
+            .map(|s| {
+                let mut a = s.clone();
+                a.illumination = format!("{}@rot090", s.illumination);
+                a.path = format!("rot/{}", s.path);
+                a.values.iter_mut().for_each(|v| *v += 0.01);
+                a
+            })
+            .collect();
+        t.samples.extend(extra);
+        let ds = Dataset::from_table(&t).unwrap();
+        assert_eq!(ds.group_names.len(), 5);
+        let r = cross_validate(&ds, &spec("all", ClassifierKind::Nn), 1).unwrap();
+        assert_eq!(r.n, originals);
+        assert!(r.predictions.iter().all(|p| !p.illumination.contains('@')));
+        for f in &r.folds {
+            // 2 × (4 other groups × 12 rows): the held-out probe's copies left with it.
+            assert_eq!((f.n_train, f.n_test), (96, 12));
+        }
+        for p in r.predictions.iter().filter(|p| !p.correct) {
+            let n = p.nearest.as_ref().unwrap();
+            let probe = n.illumination.split('@').next().unwrap();
+            assert_ne!(probe, p.illumination);
+        }
+        // Only augmented rows for a probe: it trains but is not a fold.
+        let mut t2 = base();
+        for s in t2.samples.iter_mut().filter(|s| s.illumination == "g4") {
+            s.illumination = "g4@flip".into();
+        }
+        let ds2 = Dataset::from_table(&t2).unwrap();
+        let r2 = cross_validate(&ds2, &spec("all", ClassifierKind::Nn), 1).unwrap();
+        assert_eq!(r2.folds.len(), 4);
+        assert!(r2.folds.iter().all(|f| f.n_train == 48));
+    }
+
+    #[test]
+    fn needs_two_illuminations() {
+        let mut t = base();
+        t.samples
+            .iter_mut()
+            .for_each(|s| s.illumination = "only".into());
+        let ds = Dataset::from_table(&t).unwrap();
+        assert_eq!(
+            cross_validate(&ds, &spec("all", ClassifierKind::Svm), 1),
+            Err(LearnError::TooFewGroups(1))
+        );
+    }
+}

@@ -702,3 +702,204 @@ fn to_matrix<'a>(rows: impl ExactSizeIterator<Item = &'a Vec<f64>>, k: usize) ->
     }
     m
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::learn::testutil::table;
+
+    fn dataset(noise: f64) -> Dataset {
+        Dataset::from_table(&table(3, 3, 4, 6, 5, noise)).unwrap()
+    }
+
+    fn spec(features: &str, classifier: ClassifierKind) -> TrainSpec {
+        let names: Vec<String> = (0..5).map(|j| format!("f{j}")).collect();
+        TrainSpec::new(
+            FeatureSet::parse_with(features, &names).unwrap(),
+            classifier,
+        )
+    }
+
+    #[test]
+    fn svm_pipeline_predicts_and_calibrates() {
+        let ds = dataset(0.6);
+        let clf = fit(&ds, &spec("all", ClassifierKind::Svm), 1).unwrap();
+        clf.validate().unwrap();
+        let Model::Svm(m) = &clf.model else {
+            panic!("not an SVM")
+        };
+        assert_eq!((m.c, m.gamma), (100.0, 0.2));
+        let mut correct = 0;
+        for i in 0..ds.n_rows() {
+            let row = ds.x.row(i).to_vec();
+            let out = clf.classify(&row).unwrap();
+            assert_eq!(out.class, svm::argmax(&out.decision));
+            assert!((out.probabilities.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+            assert!(out.probabilities.iter().all(|&p| p > 0.0 && p < 1.0));
+            assert_eq!(clf.predict(&row).unwrap(), out.class);
+            assert_eq!(clf.predict_proba(&row).unwrap(), out.probabilities);
+            correct += usize::from(out.class == ds.labels[i]);
+        }
+        assert!(correct >= ds.n_rows() * 9 / 10, "{correct}");
+        // Batch = one by one.
+        let batch = clf.predict_proba_batch(ds.x.view()).unwrap();
+        let dec = clf.decision_values_batch(ds.x.view()).unwrap();
+        let classes = clf.predict_batch(ds.x.view()).unwrap();
+        for (i, &class) in classes.iter().enumerate() {
+            let out = clf.classify(&ds.x.row(i).to_vec()).unwrap();
+            assert_eq!(batch.row(i).to_vec(), out.probabilities);
+            assert_eq!(dec.row(i).to_vec(), out.decision);
+            assert_eq!(class, out.class);
+        }
+    }
+
+    #[test]
+    fn serde_round_trip_is_exact_and_validated() {
+        let ds = dataset(0.8);
+        for s in [
+            spec("auto3", ClassifierKind::Svm),
+            spec("pca2", ClassifierKind::Svm),
+            spec("f1,f3", ClassifierKind::Knn5),
+            spec("all", ClassifierKind::Chance),
+        ] {
+            let clf = fit(&ds, &s, 3).unwrap();
+            let json = serde_json::to_string(&clf).unwrap();
+            let back: Classifier = serde_json::from_str(&json).unwrap();
+            back.validate().unwrap();
+            assert_eq!(back, clf);
+            for i in 0..ds.n_rows() {
+                let row = ds.x.row(i).to_vec();
+                assert_eq!(back.classify(&row).unwrap(), clf.classify(&row).unwrap());
+            }
+        }
+        let clf = fit(&ds, &spec("all", ClassifierKind::Svm), 3).unwrap();
+        let mut bad = clf.clone();
+        bad.selected_indices[0] = 99;
+        assert!(matches!(bad.validate(), Err(LearnError::InvalidModel(_))));
+        let mut bad = clf.clone();
+        if let Model::Svm(m) = &mut bad.model {
+            m.support_vectors[0].pop();
+        }
+        assert!(bad.validate().is_err());
+        let mut bad = clf.clone();
+        bad.scaler.std[0] = 0.0;
+        assert!(bad.validate().is_err());
+        assert_eq!(
+            clf.predict(&[1.0, 2.0]),
+            Err(LearnError::RowLength {
+                expected: 5,
+                got: 2
+            })
+        );
+        assert!(matches!(
+            clf.predict(&[0.0, f64::NAN, 0.0, 0.0, 0.0]),
+            Err(LearnError::NonFiniteInput { .. })
+        ));
+    }
+
+    #[test]
+    fn deterministic_for_a_seed() {
+        let ds = dataset(1.0);
+        let s = spec("auto2", ClassifierKind::Svm);
+        let a = fit(&ds, &s, 11).unwrap();
+        let b = fit(&ds, &s, 11).unwrap();
+        assert_eq!(a, b);
+        let c = fit(&ds, &s, 12).unwrap();
+        // Only the calibration folds depend on the seed.
+        assert_eq!(a.model, c.model);
+        assert_ne!(a.calibration, c.calibration);
+    }
+
+    #[test]
+    fn selection_pca_and_baselines() {
+        let ds = dataset(0.8);
+        let auto = fit(&ds, &spec("auto2", ClassifierKind::Nn), 1).unwrap();
+        assert_eq!(auto.selected.len(), 2);
+        assert_eq!(auto.selection_errors.as_ref().map(Vec::len), Some(2));
+        for (name, &i) in auto.selected.iter().zip(&auto.selected_indices) {
+            assert_eq!(&ds.names[i], name);
+        }
+        let pca = fit(&ds, &spec("pca3", ClassifierKind::Svm), 1).unwrap();
+        assert_eq!(pca.selected, ["pc1", "pc2", "pc3"]);
+        assert_eq!(pca.selected_indices, [0, 1, 2, 3, 4]);
+        let Model::Svm(m) = &pca.model else { panic!() };
+        assert!((m.gamma - 1.0 / 3.0).abs() < 1e-15);
+        // 1-NN reproduces its training labels (distinct points).
+        let nn = fit(&ds, &spec("all", ClassifierKind::Nn), 1).unwrap();
+        for i in 0..ds.n_rows() {
+            let out = nn.classify(&ds.x.row(i).to_vec()).unwrap();
+            assert_eq!(out.class, ds.labels[i]);
+            assert_eq!(out.probabilities[out.class], 1.0);
+        }
+        let chance = fit(&ds, &spec("all", ClassifierKind::Chance), 1).unwrap();
+        let out = chance.classify(&ds.x.row(0).to_vec()).unwrap();
+        assert_eq!(out.class, 0);
+        assert_eq!(out.probabilities, [1.0 / 3.0; 3]);
+    }
+
+    #[test]
+    fn grid_search_is_inner_and_deterministic() {
+        let ds = dataset(1.2);
+        let mut s = spec("all", ClassifierKind::Svm);
+        s.grid = Some(Grid {
+            c: vec![0.1, 10.0],
+            gamma_multipliers: vec![0.5, 2.0],
+        });
+        let train: Vec<usize> = (0..ds.n_rows()).filter(|&r| ds.groups[r] != 0).collect();
+        let a = fit_rows(&ds, &train, &s, 1).unwrap();
+        let b = fit_rows(&ds, &train, &s, 1).unwrap();
+        assert_eq!(a, b);
+        let gs = a.grid_search.as_ref().unwrap();
+        assert_eq!(gs.points.len(), 4);
+        // Inner CV on the 3 training groups only: 3 × 18 evaluated rows.
+        assert!(gs.points.iter().all(|p| p.n == 54));
+        let best = gs.points.iter().map(|p| p.correct).max().unwrap();
+        assert_eq!(gs.points[gs.chosen].correct, best);
+        assert!(gs.points.iter().take(gs.chosen).all(|p| p.correct < best));
+        let Model::Svm(m) = &a.model else { panic!() };
+        assert_eq!(
+            (m.c, m.gamma),
+            (gs.points[gs.chosen].c, gs.points[gs.chosen].gamma)
+        );
+    }
+
+    #[test]
+    fn rejects_degenerate_training_sets() {
+        let ds = dataset(0.5);
+        let one_class: Vec<usize> = (0..ds.n_rows()).filter(|&r| ds.labels[r] == 1).collect();
+        assert_eq!(
+            fit_rows(&ds, &one_class, &spec("all", ClassifierKind::Svm), 1),
+            Err(LearnError::TooFewTrainingClasses(1))
+        );
+        assert_eq!(
+            fit_rows(&ds, &[], &spec("all", ClassifierKind::Svm), 1),
+            Err(LearnError::NoRows)
+        );
+        let mut s = spec("all", ClassifierKind::Svm);
+        s.c = -1.0;
+        assert!(matches!(
+            fit(&ds, &s, 1),
+            Err(LearnError::InvalidParameter(_))
+        ));
+        assert!(fit(&ds, &spec("auto9", ClassifierKind::Svm), 1).is_err());
+        assert!("svm2".parse::<ClassifierKind>().is_err());
+        assert_eq!("knn5".parse::<ClassifierKind>(), Ok(ClassifierKind::Knn5));
+    }
+
+    #[test]
+    fn absent_class_is_never_predicted() {
+        let ds = dataset(0.5);
+        let rows: Vec<usize> = (0..ds.n_rows()).filter(|&r| ds.labels[r] != 2).collect();
+        let clf = fit_rows(&ds, &rows, &spec("all", ClassifierKind::Svm), 1).unwrap();
+        clf.validate().unwrap();
+        for i in 0..ds.n_rows() {
+            let out = clf.classify(&ds.x.row(i).to_vec()).unwrap();
+            assert_ne!(out.class, 2);
+            assert_eq!(out.probabilities[2], 0.0);
+            assert_eq!(out.decision[2], f64::NEG_INFINITY);
+        }
+        let json = serde_json::to_string(&clf).unwrap();
+        let back: Classifier = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, clf);
+    }
+}

@@ -38,7 +38,7 @@ const D: [f64; 8] = [
     19_685.429_676_859_99,
 ];
 const P: [f64; 6] = [
-    0.215_898_534_057_956_99,
+    0.215_898_534_057_957,
     0.127_401_161_160_247_36,
     0.022_235_277_870_649_807,
     0.001_421_619_193_227_893_5,
@@ -46,7 +46,7 @@ const P: [f64; 6] = [
     0.023_073_441_764_940_173,
 ];
 const Q: [f64; 5] = [
-    1.284_260_096_144_911_2,
+    1.284_260_096_144_911,
     0.468_238_212_480_865_1,
     0.065_988_137_868_928_55,
     0.003_782_396_332_027_582_4,
@@ -123,7 +123,7 @@ pub fn sf(x: f64) -> f64 {
 /// P(lo < Z < hi) for a standard normal Z (lo ≤ hi, infinities allowed), computed from the
 /// tail on the side of the interval so that small masses keep their relative precision.
 pub fn interval_mass(lo: f64, hi: f64) -> f64 {
-    if !(lo < hi) {
+    if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
         return 0.0;
     }
     let mass = if lo >= 0.0 {

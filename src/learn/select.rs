@@ -72,7 +72,7 @@ fn crossings(a: &Component, b: &Component, out: &mut Vec<f64>) {
         return;
     }
     let disc = q1 * q1 - 4.0 * q2 * q0;
-    if !(disc >= 0.0) {
+    if disc.is_nan() || disc < 0.0 {
         return;
     }
     let root = disc.sqrt();
@@ -111,7 +111,7 @@ pub fn bayes_error(components: &[Component]) -> f64 {
     let mut error = 0.0;
     for w in edges.windows(2) {
         let (lo, hi) = (w[0], w[1]);
-        if !(lo < hi) {
+        if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
             continue;
         }
         // Any point inside the interval decides its winner (no crossing lies inside).
@@ -160,7 +160,7 @@ fn class_components(
     counts: &[usize],
 ) -> Option<Vec<Component>> {
     let (_, overall, _) = mean_std(values.iter().copied());
-    if !(overall > 0.0) {
+    if overall.is_nan() || overall <= 0.0 {
         return None;
     }
     let floor = STD_FLOOR * overall;
@@ -248,7 +248,7 @@ pub fn select(
         for (pos, &j) in remaining.iter().enumerate() {
             let values = &current[j];
             let (_, std_now, _) = mean_std(values.iter().copied());
-            let exhausted = !(std_now > EXHAUSTED * original_std[j]);
+            let exhausted = std_now.is_nan() || std_now <= EXHAUSTED * original_std[j];
             let error = if exhausted {
                 guess_error
             } else {

@@ -75,8 +75,8 @@ impl<T: KernelValue> Gram<T> {
             .par_chunks_mut(n.max(1))
             .enumerate()
             .for_each(|(i, out)| {
-                for j in i..n {
-                    out[j] = T::from_f64(rbf(row(i), row(j), gamma));
+                for (j, o) in out.iter_mut().enumerate().skip(i) {
+                    *o = T::from_f64(rbf(row(i), row(j), gamma));
                 }
             });
         for i in 0..n {
@@ -787,8 +787,8 @@ mod tests {
         let rows = all_rows(90);
         let sol = solve(&gram, &rows, &y, &SolverParams::default());
         assert!(sol.converged);
-        for i in 0..90 {
-            assert!(f64::from(y[i]) * sol.decision_at(&gram, &rows, i) > 0.0);
+        for (i, &yi) in y.iter().enumerate() {
+            assert!(f64::from(yi) * sol.decision_at(&gram, &rows, i) > 0.0);
         }
         assert_kkt(&gram, &sol, 100.0, 2e-3);
         // Few support vectors on well-separated blobs.
