@@ -52,9 +52,11 @@ impl KnnModel {
         let mut votes = vec![0usize; self.n_classes];
         let mut nearest = vec![f64::INFINITY; self.n_classes];
         for &(d, i) in &nb {
-            let c = self.labels[i];
-            votes[c] += 1;
-            nearest[c] = nearest[c].min(d);
+            let c = self.labels.get(i).copied().unwrap_or(usize::MAX);
+            if let (Some(v), Some(n)) = (votes.get_mut(c), nearest.get_mut(c)) {
+                *v += 1;
+                *n = n.min(d);
+            }
         }
         let top = votes.iter().copied().max().unwrap_or(0);
         let mut class = 0;

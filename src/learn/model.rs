@@ -443,6 +443,12 @@ pub fn fit_rows(
     if rows.is_empty() {
         return Err(LearnError::NoRows);
     }
+    if let Some(&r) = rows.iter().find(|&&r| r >= ds.n_rows()) {
+        return Err(LearnError::InvalidParameter(format!(
+            "row {r} outside the dataset ({} rows)",
+            ds.n_rows()
+        )));
+    }
     let k = ds.n_classes();
     let labels: Vec<usize> = rows.iter().map(|&r| ds.labels[r]).collect();
     let present = count_classes(&labels, k);
@@ -567,10 +573,16 @@ impl Classifier {
                 if m.n_classes() != k {
                     return bad("SVM class count disagrees".into());
                 }
-                if let Some(c) = &self.calibration
-                    && c.sigmoids.len() != k
-                {
-                    return bad("calibration class count disagrees".into());
+                if let Some(c) = &self.calibration {
+                    if c.sigmoids.len() != k {
+                        return bad("calibration class count disagrees".into());
+                    }
+                    if c.sigmoids
+                        .iter()
+                        .any(|s| !(s.a.is_finite() && s.b.is_finite()))
+                    {
+                        return bad("calibration has non-finite values".into());
+                    }
                 }
             }
             Model::Knn(m) => {
@@ -597,7 +609,11 @@ impl Classifier {
             });
         }
         for &i in &self.selected_indices {
-            let v = row[i];
+            let Some(&v) = row.get(i) else {
+                return Err(LearnError::InvalidModel(format!(
+                    "selected index {i} outside the input row"
+                )));
+            };
             if !v.is_finite() {
                 return Err(LearnError::NonFiniteInput {
                     name: self.input_names[i].clone(),
