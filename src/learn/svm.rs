@@ -476,7 +476,7 @@ impl<T: KernelValue> Solver<'_, T> {
             self.status[p] = status;
             let is_upper = status == Bound::Upper;
             if was_upper != is_upper {
-                let w = if is_upper { c } else { -c } * self.y[p];
+                let w = (if is_upper { c } else { -c }) * self.y[p];
                 for t in 0..self.l {
                     self.g_bar[t] += w * self.y[t] * k[self.gi[t]].get();
                 }
@@ -485,7 +485,8 @@ impl<T: KernelValue> Solver<'_, T> {
     }
 }
 
-/// Solves the C-SVC dual for the Gram rows `rows` with labels `y` (±1), starting at α = 0.
+/// Solves the C-SVC dual for the Gram rows `rows` with labels `y` (±1, same length as
+/// `rows`), starting at α = 0.
 /// A problem whose labels are all equal has α = 0 and f ≡ that label (libsvm's convention
 /// for a one-class training fold).
 pub fn solve<T: KernelValue>(
