@@ -10,6 +10,7 @@ pub mod features;
 pub mod fsutil;
 pub mod geometry;
 pub mod image_io;
+pub mod learn;
 pub mod progress;
 pub mod pyramid;
 pub mod render;

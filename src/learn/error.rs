@@ -1,0 +1,47 @@
+//! The one error type of the learning layer.
+
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum LearnError {
+    #[error("the feature table has no rows")]
+    NoRows,
+    #[error("row {row} ({path}): empty {what}")]
+    EmptyLabel {
+        row: usize,
+        path: String,
+        what: &'static str,
+    },
+    #[error("row {row} ({path}): {got} values for {expected} feature columns")]
+    RaggedRow {
+        row: usize,
+        path: String,
+        expected: usize,
+        got: usize,
+    },
+    #[error("row {row} ({path}): feature {name} is not finite ({value})")]
+    NonFinite {
+        row: usize,
+        path: String,
+        name: String,
+        value: f64,
+    },
+    #[error("need at least 2 classes, found {0}")]
+    TooFewClasses(usize),
+    #[error("invalid feature set {spec:?}: {detail}")]
+    BadFeatureSet { spec: String, detail: String },
+    #[error("unknown feature names: {}", .0.join(", "))]
+    UnknownFeatures(Vec<String>),
+    #[error("{0}")]
+    InvalidParameter(String),
+    #[error("the training data has {0} class(es) with rows; at least 2 are needed")]
+    TooFewTrainingClasses(usize),
+    #[error("cross-validation needs at least 2 illuminations, found {0}")]
+    TooFewGroups(usize),
+    #[error("input row has {got} values, the model expects {expected}")]
+    RowLength { expected: usize, got: usize },
+    #[error("input feature {name} is not finite ({value})")]
+    NonFiniteInput { name: String, value: f64 },
+    #[error("inconsistent model: {0}")]
+    InvalidModel(String),
+    #[error("numerical failure: {0}")]
+    Numerical(String),
+}

@@ -1,0 +1,216 @@
+//! Feature sets: `hand6`, `hand2`, `mean1`, `all`, `auto<N>`, `pca<N>`, or a comma-separated
+//! list of feature names. Fixed sets resolve to columns directly; `auto<N>` and `pca<N>` are
+//! fitted on training rows only (inside every cross-validation fold).
+
+use super::error::LearnError;
+use crate::features::{default_names, named_set};
+use std::fmt;
+use std::str::FromStr;
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum FeatureSet {
+    Hand6,
+    Hand2,
+    Mean1,
+    All,
+    /// Automatic selection of N features (DESIGN.md §3 "Automatic selection").
+    Auto(usize),
+    /// First N principal components of the standardized features, whitened.
+    Pca(usize),
+    /// Explicit feature names, in the given order.
+    List(Vec<String>),
+}
+
+fn bad(spec: &str, detail: impl Into<String>) -> LearnError {
+    LearnError::BadFeatureSet {
+        spec: spec.to_string(),
+        detail: detail.into(),
+    }
+}
+
+fn count(spec: &str, digits: &str) -> Result<usize, LearnError> {
+    match digits.parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(bad(spec, "N must be a positive integer")),
+    }
+}
+
+impl FeatureSet {
+    /// Parses a specification, checking explicit names against `names` (the table's columns).
+    pub fn parse_with(spec: &str, names: &[String]) -> Result<FeatureSet, LearnError> {
+        let spec = spec.trim();
+        match spec {
+            "hand6" => return Ok(FeatureSet::Hand6),
+            "hand2" => return Ok(FeatureSet::Hand2),
+            "mean1" => return Ok(FeatureSet::Mean1),
+            "all" => return Ok(FeatureSet::All),
+            "" => return Err(bad(spec, "empty feature set")),
+            _ => {}
+        }
+        let numbered = |prefix: &str| {
+            spec.strip_prefix(prefix)
+                .filter(|rest| !rest.is_empty() && rest.bytes().all(|b| b.is_ascii_digit()))
+        };
+        if let Some(d) = numbered("auto") {
+            return Ok(FeatureSet::Auto(count(spec, d)?));
+        }
+        if let Some(d) = numbered("pca") {
+            return Ok(FeatureSet::Pca(count(spec, d)?));
+        }
+        let list: Vec<String> = spec.split(',').map(|s| s.trim().to_string()).collect();
+        if list.iter().any(String::is_empty) {
+            return Err(bad(spec, "empty name in the list"));
+        }
+        let unknown: Vec<String> = list
+            .iter()
+            .filter(|n| !names.contains(n))
+            .cloned()
+            .collect();
+        if !unknown.is_empty() {
+            return Err(LearnError::UnknownFeatures(unknown));
+        }
+        let mut seen = list.clone();
+        seen.sort();
+        if let Some(w) = seen.windows(2).find(|w| w[0] == w[1]) {
+            return Err(bad(spec, format!("{} is listed twice", w[0])));
+        }
+        Ok(FeatureSet::List(list))
+    }
+
+    /// The names of a fixed set (`None` for the fitted `auto<N>` and `pca<N>`), `all` being
+    /// every column of `names`.
+    pub fn fixed_names(&self, names: &[String]) -> Option<Vec<String>> {
+        let named = |set: &str| {
+            named_set(set)
+                .unwrap_or_default()
+                .iter()
+                .map(|s| s.to_string())
+                .collect()
+        };
+        match self {
+            FeatureSet::Hand6 => Some(named("hand6")),
+            FeatureSet::Hand2 => Some(named("hand2")),
+            FeatureSet::Mean1 => Some(named("mean1")),
+            FeatureSet::All => Some(names.to_vec()),
+            FeatureSet::List(list) => Some(list.clone()),
+            FeatureSet::Auto(_) | FeatureSet::Pca(_) => None,
+        }
+    }
+
+    /// Column indices of a fixed set in a table with columns `names`.
+    pub fn resolve(&self, names: &[String]) -> Result<Option<Vec<usize>>, LearnError> {
+        let Some(wanted) = self.fixed_names(names) else {
+            return Ok(None);
+        };
+        let mut missing = Vec::new();
+        let mut idx = Vec::with_capacity(wanted.len());
+        for w in &wanted {
+            match names.iter().position(|n| n == w) {
+                Some(i) => idx.push(i),
+                None => missing.push(w.clone()),
+            }
+        }
+        if missing.is_empty() {
+            Ok(Some(idx))
+        } else {
+            Err(LearnError::UnknownFeatures(missing))
+        }
+    }
+}
+
+impl FromStr for FeatureSet {
+    type Err = LearnError;
+
+    /// Parses against the default configuration's 117 names.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        FeatureSet::parse_with(s, default_names())
+    }
+}
+
+impl fmt::Display for FeatureSet {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FeatureSet::Hand6 => f.write_str("hand6"),
+            FeatureSet::Hand2 => f.write_str("hand2"),
+            FeatureSet::Mean1 => f.write_str("mean1"),
+            FeatureSet::All => f.write_str("all"),
+            FeatureSet::Auto(n) => write!(f, "auto{n}"),
+            FeatureSet::Pca(n) => write!(f, "pca{n}"),
+            FeatureSet::List(list) => f.write_str(&list.join(",")),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_and_round_trips() {
+        for spec in [
+            "hand6",
+            "hand2",
+            "mean1",
+            "all",
+            "auto6",
+            "pca12",
+            "pix.mean",
+            "wav.s2.v.kurt,pix.p10",
+        ] {
+            let set: FeatureSet = spec.parse().unwrap();
+            assert_eq!(set.to_string(), spec);
+            assert_eq!(set.to_string().parse::<FeatureSet>().unwrap(), set);
+        }
+        assert_eq!(
+            " pix.mean , pix.p10 ".parse::<FeatureSet>().unwrap(),
+            FeatureSet::List(vec!["pix.mean".into(), "pix.p10".into()])
+        );
+        assert_eq!("auto3".parse::<FeatureSet>(), Ok(FeatureSet::Auto(3)));
+    }
+
+    #[test]
+    fn rejects_bad_specs() {
+        assert_eq!(
+            "pix.mean,nope,wav.s9.v.var".parse::<FeatureSet>(),
+            Err(LearnError::UnknownFeatures(vec![
+                "nope".into(),
+                "wav.s9.v.var".into()
+            ]))
+        );
+        for bad in [
+            "auto0",
+            "pca0",
+            "",
+            "pix.mean,,pix.p10",
+            "pix.mean,pix.mean",
+        ] {
+            assert!(
+                matches!(
+                    bad.parse::<FeatureSet>(),
+                    Err(LearnError::BadFeatureSet { .. })
+                ),
+                "{bad:?}"
+            );
+        }
+        // Not a number after the prefix: read as a (unknown) feature name.
+        assert!(matches!(
+            "autox".parse::<FeatureSet>(),
+            Err(LearnError::UnknownFeatures(_))
+        ));
+    }
+
+    #[test]
+    fn resolves_columns() {
+        let names = default_names();
+        let idx = FeatureSet::Hand6.resolve(names).unwrap().unwrap();
+        assert_eq!(idx[0], 0);
+        assert_eq!(names[idx[2]], "wav.s1.v.var");
+        assert_eq!(FeatureSet::All.resolve(names).unwrap().unwrap().len(), 117);
+        assert_eq!(FeatureSet::Auto(3).resolve(names).unwrap(), None);
+        let short = vec!["pix.mean".to_string()];
+        assert!(matches!(
+            FeatureSet::Hand2.resolve(&short),
+            Err(LearnError::UnknownFeatures(m)) if m.len() == 2
+        ));
+    }
+}

@@ -1,0 +1,921 @@
+//! The fitted pipeline: choose the classifier's inputs (fixed set, automatic selection or
+//! PCA), standardize, classify (SVM one-against-all, k-NN, or chance), calibrate.
+//!
+//! [`Classifier`] serializes with serde to plain numbers and vectors (no array types), so a
+//! model file can embed it; after deserializing, call [`Classifier::validate`] before use.
+
+use super::calibration::{Calibration, Sigmoid, stratified_folds};
+use super::dataset::Dataset;
+use super::error::LearnError;
+use super::feature_set::FeatureSet;
+use super::knn::{ChanceModel, KnnModel};
+use super::pca::Pca;
+use super::scaler::Scaler;
+use super::select;
+use super::svm::{self, Gram, SolverParams, SvmModel};
+use crate::rng::Rng;
+use ndarray::{Array2, ArrayView2, Axis};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+/// Folds of the internal cross-validation that produces the calibration decision values.
+pub const CALIBRATION_FOLDS: usize = 5;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ClassifierKind {
+    Svm,
+    Nn,
+    Knn5,
+    Chance,
+}
+
+impl FromStr for ClassifierKind {
+    type Err = LearnError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim() {
+            "svm" => Ok(ClassifierKind::Svm),
+            "nn" => Ok(ClassifierKind::Nn),
+            "knn5" => Ok(ClassifierKind::Knn5),
+            "chance" => Ok(ClassifierKind::Chance),
+            other => Err(LearnError::InvalidParameter(format!(
+                "unknown classifier {other:?} (expected svm, nn, knn5 or chance)"
+            ))),
+        }
+    }
+}
+
+impl fmt::Display for ClassifierKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            ClassifierKind::Svm => "svm",
+            ClassifierKind::Nn => "nn",
+            ClassifierKind::Knn5 => "knn5",
+            ClassifierKind::Chance => "chance",
+        })
+    }
+}
+
+/// Hyper-parameter grid of the SVM: C values × γ multipliers (γ = multiplier / number of
+/// classifier inputs).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Grid {
+    pub c: Vec<f64>,
+    pub gamma_multipliers: Vec<f64>,
+}
+
+impl Default for Grid {
+    fn default() -> Self {
+        Grid {
+            c: vec![1.0, 10.0, 100.0, 1000.0],
+            gamma_multipliers: vec![0.25, 0.5, 1.0, 2.0, 4.0],
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrainSpec {
+    pub features: FeatureSet,
+    pub classifier: ClassifierKind,
+    /// SVM C (default 100).
+    pub c: f64,
+    /// SVM γ; `None` = 1 / number of classifier inputs.
+    pub gamma: Option<f64>,
+    /// Choose (C, γ) by inner leave-one-illumination-out CV on the training data.
+    pub grid: Option<Grid>,
+}
+
+impl TrainSpec {
+    pub fn new(features: FeatureSet, classifier: ClassifierKind) -> Self {
+        TrainSpec {
+            features,
+            classifier,
+            c: 100.0,
+            gamma: None,
+            grid: None,
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Model {
+    Svm(SvmModel),
+    Knn(KnnModel),
+    Chance(ChanceModel),
+}
+
+/// One grid point's inner-CV score.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GridPoint {
+    pub c: f64,
+    pub gamma: f64,
+    pub correct: usize,
+    pub n: usize,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GridSearch {
+    pub points: Vec<GridPoint>,
+    /// Index of the chosen point: the most correct, the first in grid order (C major, then
+    /// γ) on ties.
+    pub chosen: usize,
+}
+
+/// Output of one classification.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Output {
+    pub class: usize,
+    /// Class probabilities (calibrated for the SVM), in class order, summing to 1.
+    pub probabilities: Vec<f64>,
+    /// SVM decision values; k-NN vote fractions; chance: training frequencies.
+    pub decision: Vec<f64>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Classifier {
+    pub classes: Vec<String>,
+    pub classifier: ClassifierKind,
+    /// The feature set as specified (`hand6`, `auto6`, …).
+    pub feature_set: String,
+    /// Names of the full input row's columns (the 117 features, canonical order).
+    pub input_names: Vec<String>,
+    /// Names of the classifier's inputs: the selected features, in selection order, or
+    /// `pc1…pcN` for PCA.
+    pub selected: Vec<String>,
+    /// Indices into the full row of the selected features (for PCA: of the PCA inputs,
+    /// i.e. every column).
+    pub selected_indices: Vec<usize>,
+    /// auto<N>: the Bayes error of each feature when it was selected.
+    pub selection_errors: Option<Vec<f64>>,
+    pub pca: Option<Pca>,
+    pub scaler: Scaler,
+    pub model: Model,
+    pub calibration: Option<Calibration>,
+    pub grid_search: Option<GridSearch>,
+    pub n_train: usize,
+}
+
+/// The input transformation fitted on training rows.
+struct Prepared {
+    selected: Vec<String>,
+    selected_indices: Vec<usize>,
+    selection_errors: Option<Vec<f64>>,
+    pca: Option<Pca>,
+    scaler: Scaler,
+    /// Standardized classifier inputs of the training rows (in the order given).
+    z: Array2<f64>,
+}
+
+fn prepare(ds: &Dataset, rows: &[usize], features: &FeatureSet) -> Result<Prepared, LearnError> {
+    let x = ds.x.select(Axis(0), rows);
+    let labels: Vec<usize> = rows.iter().map(|&r| ds.labels[r]).collect();
+    let mut selection_errors = None;
+    let mut pca = None;
+    let (selected, selected_indices, inputs) = match features.resolve(&ds.names)? {
+        Some(idx) => {
+            let names = idx.iter().map(|&i| ds.names[i].clone()).collect();
+            let inputs = x.select(Axis(1), &idx);
+            (names, idx, inputs)
+        }
+        None => match features {
+            FeatureSet::Auto(n) => {
+                let sel = select::select(x.view(), &labels, ds.n_classes(), *n)?;
+                let idx = sel.columns.clone();
+                selection_errors = Some(sel.errors);
+                let names = idx.iter().map(|&i| ds.names[i].clone()).collect();
+                let inputs = x.select(Axis(1), &idx);
+                (names, idx, inputs)
+            }
+            FeatureSet::Pca(n) => {
+                let p = Pca::fit(x.view(), *n)?;
+                let mut inputs = Array2::zeros((rows.len(), *n));
+                for (i, row) in x.rows().into_iter().enumerate() {
+                    let scores = p.transform_row(&row.to_vec());
+                    inputs
+                        .row_mut(i)
+                        .assign(&ndarray::ArrayView1::from(&scores));
+                }
+                pca = Some(p);
+                let names = (1..=*n).map(|k| format!("pc{k}")).collect();
+                (names, (0..ds.names.len()).collect(), inputs)
+            }
+            _ => {
+                return Err(LearnError::InvalidParameter(format!(
+                    "feature set {features} did not resolve"
+                )));
+            }
+        },
+    };
+    if selected_indices.is_empty() {
+        return Err(LearnError::InvalidParameter("empty feature set".into()));
+    }
+    let scaler = Scaler::fit(inputs.view());
+    let z = scaler.transform(inputs.view());
+    Ok(Prepared {
+        selected,
+        selected_indices,
+        selection_errors,
+        pca,
+        scaler,
+        z,
+    })
+}
+
+/// Standardized classifier inputs of a full row (no checks: rows come from the dataset).
+fn apply_transform(
+    selected_indices: &[usize],
+    pca: Option<&Pca>,
+    scaler: &Scaler,
+    row: &[f64],
+) -> Vec<f64> {
+    let picked: Vec<f64> = selected_indices.iter().map(|&i| row[i]).collect();
+    let mut v = match pca {
+        Some(p) => p.transform_row(&picked),
+        None => picked,
+    };
+    scaler.apply(&mut v);
+    v
+}
+
+fn check_svm_params(c: f64, gamma: f64) -> Result<(), LearnError> {
+    if !(c.is_finite() && c > 0.0) {
+        return Err(LearnError::InvalidParameter(format!(
+            "C must be > 0, not {c}"
+        )));
+    }
+    if !(gamma.is_finite() && gamma > 0.0) {
+        return Err(LearnError::InvalidParameter(format!(
+            "gamma must be > 0, not {gamma}"
+        )));
+    }
+    Ok(())
+}
+
+/// Decision values of the internal `CALIBRATION_FOLDS`-fold cross-validation (stratified,
+/// seeded) and one Platt sigmoid per class fitted on them. Uses the fit's kernel matrix:
+/// the internal folds solve the same problems on subsets of its rows (the selection and
+/// standardization of the enclosing fit are kept, as libsvm does).
+fn calibrate(
+    gram: &Gram<f64>,
+    labels: &[usize],
+    n_classes: usize,
+    params: &SolverParams,
+    rng: &mut Rng,
+) -> Calibration {
+    let n = labels.len();
+    let k = CALIBRATION_FOLDS.min(n);
+    let folds = stratified_folds(labels, n_classes, k, rng);
+    let per_fold: Vec<Vec<(usize, Vec<f64>)>> = (0..k)
+        .into_par_iter()
+        .map(|f| {
+            let train: Vec<usize> = (0..n).filter(|&i| folds[i] != f).collect();
+            let test: Vec<usize> = (0..n).filter(|&i| folds[i] == f).collect();
+            let train_labels: Vec<usize> = train.iter().map(|&i| labels[i]).collect();
+            let sols = svm::train_one_vs_all(gram, &train, &train_labels, n_classes, params);
+            test.iter()
+                .map(|&t| {
+                    let dec = sols
+                        .iter()
+                        .map(|s| match s {
+                            Some(s) => s.decision_at(gram, &train, t),
+                            // No row of the class in this fold's training part: libsvm's
+                            // convention for a one-class problem, f = −1.
+                            None => -1.0,
+                        })
+                        .collect();
+                    (t, dec)
+                })
+                .collect()
+        })
+        .collect();
+    let mut dec = vec![vec![0.0; n]; n_classes];
+    for (t, values) in per_fold.into_iter().flatten() {
+        for (class, v) in values.into_iter().enumerate() {
+            dec[class][t] = v;
+        }
+    }
+    let sigmoids = (0..n_classes)
+        .map(|class| {
+            let positive: Vec<bool> = labels.iter().map(|&l| l == class).collect();
+            Sigmoid::fit(&dec[class], &positive)
+        })
+        .collect();
+    Calibration { sigmoids }
+}
+
+fn count_classes(labels: &[usize], n_classes: usize) -> usize {
+    let mut seen = vec![false; n_classes];
+    for &l in labels {
+        seen[l] = true;
+    }
+    seen.iter().filter(|&&s| s).count()
+}
+
+/// Inner leave-one-illumination-out CV over the grid, on the training rows only.
+fn grid_search(
+    ds: &Dataset,
+    rows: &[usize],
+    spec: &TrainSpec,
+    grid: &Grid,
+) -> Result<GridSearch, LearnError> {
+    if grid.c.is_empty() || grid.gamma_multipliers.is_empty() {
+        return Err(LearnError::InvalidParameter(
+            "empty hyper-parameter grid".into(),
+        ));
+    }
+    let mut groups: Vec<usize> = rows
+        .iter()
+        .filter(|&&r| !ds.augmented[r])
+        .map(|&r| ds.groups[r])
+        .collect();
+    groups.sort_unstable();
+    groups.dedup();
+    if groups.len() < 2 {
+        return Err(LearnError::InvalidParameter(format!(
+            "grid search needs at least 2 training illuminations, found {}",
+            groups.len()
+        )));
+    }
+    let k = ds.n_classes();
+    let n_points = grid.c.len() * grid.gamma_multipliers.len();
+    let per_group: Vec<Vec<usize>> = groups
+        .par_iter()
+        .map(|&g| -> Result<Vec<usize>, LearnError> {
+            let (train, test) = ds.split_group(rows, g);
+            let train_labels: Vec<usize> = train.iter().map(|&r| ds.labels[r]).collect();
+            if test.is_empty() || count_classes(&train_labels, k) < 2 {
+                return Ok(vec![0; n_points]);
+            }
+            let prep = prepare(ds, &train, &spec.features)?;
+            let d = prep.z.ncols();
+            let mut all = prep.z.clone();
+            for &r in &test {
+                let z = apply_transform(
+                    &prep.selected_indices,
+                    prep.pca.as_ref(),
+                    &prep.scaler,
+                    &ds.x.row(r).to_vec(),
+                );
+                all.push_row(ndarray::ArrayView1::from(&z))
+                    .map_err(|e| LearnError::Numerical(e.to_string()))?;
+            }
+            let local_train: Vec<usize> = (0..train.len()).collect();
+            let mut correct = vec![0; n_points];
+            for (gi, m) in grid.gamma_multipliers.iter().enumerate() {
+                let gamma = m / d as f64;
+                let gram = Gram::<f64>::rbf(all.view(), gamma);
+                for (ci, &c) in grid.c.iter().enumerate() {
+                    check_svm_params(c, gamma)?;
+                    let params = SolverParams {
+                        c,
+                        ..SolverParams::default()
+                    };
+                    let sols =
+                        svm::train_one_vs_all(&gram, &local_train, &train_labels, k, &params);
+                    let point = ci * grid.gamma_multipliers.len() + gi;
+                    for (t, &r) in test.iter().enumerate() {
+                        let dec: Vec<f64> = sols
+                            .iter()
+                            .map(|s| match s {
+                                Some(s) => s.decision_at(&gram, &local_train, train.len() + t),
+                                None => f64::NEG_INFINITY,
+                            })
+                            .collect();
+                        if svm::argmax(&dec) == ds.labels[r] {
+                            correct[point] += 1;
+                        }
+                    }
+                }
+            }
+            Ok(correct)
+        })
+        .collect::<Result<_, _>>()?;
+    let n_eval: usize = groups
+        .iter()
+        .map(|&g| ds.split_group(rows, g).1.len())
+        .sum();
+    let d_final = match &spec.features {
+        FeatureSet::Auto(n) | FeatureSet::Pca(n) => *n,
+        fixed => fixed.resolve(&ds.names)?.map_or(1, |v| v.len()),
+    };
+    let mut points = Vec::with_capacity(n_points);
+    for &c in &grid.c {
+        for &m in &grid.gamma_multipliers {
+            points.push(GridPoint {
+                c,
+                gamma: m / d_final as f64,
+                correct: 0,
+                n: n_eval,
+            });
+        }
+    }
+    for correct in &per_group {
+        for (p, &c) in points.iter_mut().zip(correct) {
+            p.correct += c;
+        }
+    }
+    let mut chosen = 0;
+    for (i, p) in points.iter().enumerate() {
+        if p.correct > points[chosen].correct {
+            chosen = i;
+        }
+    }
+    Ok(GridSearch { points, chosen })
+}
+
+/// Fits the pipeline on every row of `ds`.
+pub fn fit(ds: &Dataset, spec: &TrainSpec, seed: u64) -> Result<Classifier, LearnError> {
+    let rows: Vec<usize> = (0..ds.n_rows()).collect();
+    fit_rows(ds, &rows, spec, seed)
+}
+
+/// Fits the pipeline on the rows `rows` of `ds` (selection, PCA, standardization, SVM and
+/// calibration all see these rows only).
+pub fn fit_rows(
+    ds: &Dataset,
+    rows: &[usize],
+    spec: &TrainSpec,
+    seed: u64,
+) -> Result<Classifier, LearnError> {
+    if rows.is_empty() {
+        return Err(LearnError::NoRows);
+    }
+    if let Some(&r) = rows.iter().find(|&&r| r >= ds.n_rows()) {
+        return Err(LearnError::InvalidParameter(format!(
+            "row {r} outside the dataset ({} rows)",
+            ds.n_rows()
+        )));
+    }
+    let k = ds.n_classes();
+    let labels: Vec<usize> = rows.iter().map(|&r| ds.labels[r]).collect();
+    let present = count_classes(&labels, k);
+    if present < 2 {
+        return Err(LearnError::TooFewTrainingClasses(present));
+    }
+    let prep = prepare(ds, rows, &spec.features)?;
+    let d = prep.z.ncols();
+    let mut rng = Rng::new(seed);
+    let mut grid_result = None;
+    let mut calibration = None;
+    let model = match spec.classifier {
+        ClassifierKind::Svm => {
+            let (c, gamma) = match &spec.grid {
+                Some(grid) => {
+                    let gs = grid_search(ds, rows, spec, grid)?;
+                    let p = &gs.points[gs.chosen];
+                    let cg = (p.c, p.gamma);
+                    grid_result = Some(gs);
+                    cg
+                }
+                None => (spec.c, spec.gamma.unwrap_or(1.0 / d as f64)),
+            };
+            check_svm_params(c, gamma)?;
+            let params = SolverParams {
+                c,
+                ..SolverParams::default()
+            };
+            let gram = Gram::<f64>::rbf(prep.z.view(), gamma);
+            let local: Vec<usize> = (0..rows.len()).collect();
+            let sols = svm::train_one_vs_all(&gram, &local, &labels, k, &params);
+            calibration = Some(calibrate(&gram, &labels, k, &params, &mut rng));
+            Model::Svm(SvmModel::from_solutions(
+                prep.z.view(),
+                &local,
+                &sols,
+                gamma,
+                c,
+            ))
+        }
+        ClassifierKind::Nn | ClassifierKind::Knn5 => Model::Knn(KnnModel {
+            k: if spec.classifier == ClassifierKind::Nn {
+                1
+            } else {
+                5
+            },
+            n_classes: k,
+            train: prep.z.rows().into_iter().map(|r| r.to_vec()).collect(),
+            labels: labels.clone(),
+        }),
+        ClassifierKind::Chance => Model::Chance(ChanceModel::fit(&labels, k)),
+    };
+    Ok(Classifier {
+        classes: ds.classes.clone(),
+        classifier: spec.classifier,
+        feature_set: spec.features.to_string(),
+        input_names: ds.names.clone(),
+        selected: prep.selected,
+        selected_indices: prep.selected_indices,
+        selection_errors: prep.selection_errors,
+        pca: prep.pca,
+        scaler: prep.scaler,
+        model,
+        calibration,
+        grid_search: grid_result,
+        n_train: rows.len(),
+    })
+}
+
+impl Classifier {
+    pub fn n_classes(&self) -> usize {
+        self.classes.len()
+    }
+
+    /// Length of the full input row.
+    pub fn n_inputs(&self) -> usize {
+        self.input_names.len()
+    }
+
+    /// Dimension of the classifier's (standardized) input space.
+    pub fn dim(&self) -> usize {
+        self.scaler.dim()
+    }
+
+    /// Checks that the parts fit together (after deserializing a model file).
+    pub fn validate(&self) -> Result<(), LearnError> {
+        let bad = |m: String| Err(LearnError::InvalidModel(m));
+        let k = self.n_classes();
+        if k < 2 {
+            return bad(format!("{k} classes"));
+        }
+        if let Some(&i) = self
+            .selected_indices
+            .iter()
+            .find(|&&i| i >= self.n_inputs())
+        {
+            return bad(format!("selected index {i} ≥ {} inputs", self.n_inputs()));
+        }
+        let picked = self.selected_indices.len();
+        let dim = match &self.pca {
+            Some(p) => {
+                p.check().map_err(LearnError::InvalidModel)?;
+                if p.input_dim() != picked {
+                    return bad("PCA input dimension disagrees".into());
+                }
+                p.output_dim()
+            }
+            None => picked,
+        };
+        if self.scaler.mean.len() != dim || self.scaler.std.len() != dim || dim == 0 {
+            return bad("scaler dimension disagrees".into());
+        }
+        if self.selected.len() != dim {
+            return bad("selected names disagree with the input dimension".into());
+        }
+        if self.scaler.std.iter().any(|&s| !(s.is_finite() && s > 0.0)) {
+            return bad("scaler std must be positive".into());
+        }
+        match &self.model {
+            Model::Svm(m) => {
+                m.check(dim).map_err(LearnError::InvalidModel)?;
+                if m.n_classes() != k {
+                    return bad("SVM class count disagrees".into());
+                }
+                if let Some(c) = &self.calibration {
+                    if c.sigmoids.len() != k {
+                        return bad("calibration class count disagrees".into());
+                    }
+                    if c.sigmoids
+                        .iter()
+                        .any(|s| !(s.a.is_finite() && s.b.is_finite()))
+                    {
+                        return bad("calibration has non-finite values".into());
+                    }
+                }
+            }
+            Model::Knn(m) => {
+                m.check(dim).map_err(LearnError::InvalidModel)?;
+                if m.n_classes != k {
+                    return bad("k-NN class count disagrees".into());
+                }
+            }
+            Model::Chance(m) => {
+                if m.frequencies.len() != k {
+                    return bad("chance class count disagrees".into());
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The standardized classifier inputs of a full feature row.
+    pub fn transform(&self, row: &[f64]) -> Result<Vec<f64>, LearnError> {
+        if row.len() != self.n_inputs() {
+            return Err(LearnError::RowLength {
+                expected: self.n_inputs(),
+                got: row.len(),
+            });
+        }
+        for &i in &self.selected_indices {
+            let Some(&v) = row.get(i) else {
+                return Err(LearnError::InvalidModel(format!(
+                    "selected index {i} outside the input row"
+                )));
+            };
+            if !v.is_finite() {
+                return Err(LearnError::NonFiniteInput {
+                    name: self.input_names[i].clone(),
+                    value: v,
+                });
+            }
+        }
+        Ok(apply_transform(
+            &self.selected_indices,
+            self.pca.as_ref(),
+            &self.scaler,
+            row,
+        ))
+    }
+
+    /// Classifies standardized inputs.
+    pub fn classify_transformed(&self, z: &[f64]) -> Output {
+        match &self.model {
+            Model::Svm(m) => {
+                let decision = m.decision_values(z);
+                let class = svm::argmax(&decision);
+                let probabilities = match &self.calibration {
+                    Some(c) => c.probabilities(&decision),
+                    None => (0..decision.len())
+                        .map(|k| if k == class { 1.0 } else { 0.0 })
+                        .collect(),
+                };
+                Output {
+                    class,
+                    probabilities,
+                    decision,
+                }
+            }
+            Model::Knn(m) => {
+                let vote = m.vote(z);
+                Output {
+                    class: vote.class,
+                    probabilities: vote.fractions.clone(),
+                    decision: vote.fractions,
+                }
+            }
+            Model::Chance(m) => Output {
+                class: m.class(),
+                probabilities: m.frequencies.clone(),
+                decision: m.frequencies.clone(),
+            },
+        }
+    }
+
+    /// Class, probabilities and decision values of a full feature row.
+    pub fn classify(&self, row: &[f64]) -> Result<Output, LearnError> {
+        Ok(self.classify_transformed(&self.transform(row)?))
+    }
+
+    /// Class probabilities in class order (calibrated for the SVM).
+    pub fn predict_proba(&self, row: &[f64]) -> Result<Vec<f64>, LearnError> {
+        Ok(self.classify(row)?.probabilities)
+    }
+
+    /// The predicted class index: the largest SVM decision value (first class on ties), or
+    /// the k-NN vote, or the most frequent training class.
+    pub fn predict(&self, row: &[f64]) -> Result<usize, LearnError> {
+        Ok(self.classify(row)?.class)
+    }
+
+    pub fn decision_values(&self, row: &[f64]) -> Result<Vec<f64>, LearnError> {
+        Ok(self.classify(row)?.decision)
+    }
+
+    /// [`Classifier::classify`] of every row of `x` (in parallel, results in row order).
+    pub fn classify_batch(&self, x: ArrayView2<f64>) -> Result<Vec<Output>, LearnError> {
+        (0..x.nrows())
+            .into_par_iter()
+            .map(|i| self.classify(&x.row(i).to_vec()))
+            .collect()
+    }
+
+    pub fn predict_proba_batch(&self, x: ArrayView2<f64>) -> Result<Array2<f64>, LearnError> {
+        let out = self.classify_batch(x)?;
+        Ok(to_matrix(
+            out.iter().map(|o| &o.probabilities),
+            self.n_classes(),
+        ))
+    }
+
+    pub fn decision_values_batch(&self, x: ArrayView2<f64>) -> Result<Array2<f64>, LearnError> {
+        let out = self.classify_batch(x)?;
+        Ok(to_matrix(out.iter().map(|o| &o.decision), self.n_classes()))
+    }
+
+    pub fn predict_batch(&self, x: ArrayView2<f64>) -> Result<Vec<usize>, LearnError> {
+        Ok(self.classify_batch(x)?.iter().map(|o| o.class).collect())
+    }
+}
+
+fn to_matrix<'a>(rows: impl ExactSizeIterator<Item = &'a Vec<f64>>, k: usize) -> Array2<f64> {
+    let mut m = Array2::zeros((rows.len(), k));
+    for (i, r) in rows.enumerate() {
+        for (j, &v) in r.iter().enumerate().take(k) {
+            m[[i, j]] = v;
+        }
+    }
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::learn::testutil::table;
+
+    fn dataset(noise: f64) -> Dataset {
+        Dataset::from_table(&table(3, 3, 4, 6, 5, noise)).unwrap()
+    }
+
+    fn spec(features: &str, classifier: ClassifierKind) -> TrainSpec {
+        let names: Vec<String> = (0..5).map(|j| format!("f{j}")).collect();
+        TrainSpec::new(
+            FeatureSet::parse_with(features, &names).unwrap(),
+            classifier,
+        )
+    }
+
+    #[test]
+    fn svm_pipeline_predicts_and_calibrates() {
+        let ds = dataset(0.6);
+        let clf = fit(&ds, &spec("all", ClassifierKind::Svm), 1).unwrap();
+        clf.validate().unwrap();
+        let Model::Svm(m) = &clf.model else {
+            panic!("not an SVM")
+        };
+        assert_eq!((m.c, m.gamma), (100.0, 0.2));
+        let mut correct = 0;
+        for i in 0..ds.n_rows() {
+            let row = ds.x.row(i).to_vec();
+            let out = clf.classify(&row).unwrap();
+            assert_eq!(out.class, svm::argmax(&out.decision));
+            assert!((out.probabilities.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+            assert!(out.probabilities.iter().all(|&p| p > 0.0 && p < 1.0));
+            assert_eq!(clf.predict(&row).unwrap(), out.class);
+            assert_eq!(clf.predict_proba(&row).unwrap(), out.probabilities);
+            correct += usize::from(out.class == ds.labels[i]);
+        }
+        assert!(correct >= ds.n_rows() * 9 / 10, "{correct}");
+        // Batch = one by one.
+        let batch = clf.predict_proba_batch(ds.x.view()).unwrap();
+        let dec = clf.decision_values_batch(ds.x.view()).unwrap();
+        let classes = clf.predict_batch(ds.x.view()).unwrap();
+        for (i, &class) in classes.iter().enumerate() {
+            let out = clf.classify(&ds.x.row(i).to_vec()).unwrap();
+            assert_eq!(batch.row(i).to_vec(), out.probabilities);
+            assert_eq!(dec.row(i).to_vec(), out.decision);
+            assert_eq!(class, out.class);
+        }
+    }
+
+    #[test]
+    fn serde_round_trip_is_exact_and_validated() {
+        let ds = dataset(0.8);
+        for s in [
+            spec("auto3", ClassifierKind::Svm),
+            spec("pca2", ClassifierKind::Svm),
+            spec("f1,f3", ClassifierKind::Knn5),
+            spec("all", ClassifierKind::Chance),
+        ] {
+            let clf = fit(&ds, &s, 3).unwrap();
+            let json = serde_json::to_string(&clf).unwrap();
+            let back: Classifier = serde_json::from_str(&json).unwrap();
+            back.validate().unwrap();
+            assert_eq!(back, clf);
+            for i in 0..ds.n_rows() {
+                let row = ds.x.row(i).to_vec();
+                assert_eq!(back.classify(&row).unwrap(), clf.classify(&row).unwrap());
+            }
+        }
+        let clf = fit(&ds, &spec("all", ClassifierKind::Svm), 3).unwrap();
+        let mut bad = clf.clone();
+        bad.selected_indices[0] = 99;
+        assert!(matches!(bad.validate(), Err(LearnError::InvalidModel(_))));
+        let mut bad = clf.clone();
+        if let Model::Svm(m) = &mut bad.model {
+            m.support_vectors[0].pop();
+        }
+        assert!(bad.validate().is_err());
+        let mut bad = clf.clone();
+        bad.scaler.std[0] = 0.0;
+        assert!(bad.validate().is_err());
+        assert_eq!(
+            clf.predict(&[1.0, 2.0]),
+            Err(LearnError::RowLength {
+                expected: 5,
+                got: 2
+            })
+        );
+        assert!(matches!(
+            clf.predict(&[0.0, f64::NAN, 0.0, 0.0, 0.0]),
+            Err(LearnError::NonFiniteInput { .. })
+        ));
+    }
+
+    #[test]
+    fn deterministic_for_a_seed() {
+        let ds = dataset(1.0);
+        let s = spec("auto2", ClassifierKind::Svm);
+        let a = fit(&ds, &s, 11).unwrap();
+        let b = fit(&ds, &s, 11).unwrap();
+        assert_eq!(a, b);
+        let c = fit(&ds, &s, 12).unwrap();
+        // Only the calibration folds depend on the seed.
+        assert_eq!(a.model, c.model);
+        assert_ne!(a.calibration, c.calibration);
+    }
+
+    #[test]
+    fn selection_pca_and_baselines() {
+        let ds = dataset(0.8);
+        let auto = fit(&ds, &spec("auto2", ClassifierKind::Nn), 1).unwrap();
+        assert_eq!(auto.selected.len(), 2);
+        assert_eq!(auto.selection_errors.as_ref().map(Vec::len), Some(2));
+        for (name, &i) in auto.selected.iter().zip(&auto.selected_indices) {
+            assert_eq!(&ds.names[i], name);
+        }
+        let pca = fit(&ds, &spec("pca3", ClassifierKind::Svm), 1).unwrap();
+        assert_eq!(pca.selected, ["pc1", "pc2", "pc3"]);
+        assert_eq!(pca.selected_indices, [0, 1, 2, 3, 4]);
+        let Model::Svm(m) = &pca.model else { panic!() };
+        assert!((m.gamma - 1.0 / 3.0).abs() < 1e-15);
+        // 1-NN reproduces its training labels (distinct points).
+        let nn = fit(&ds, &spec("all", ClassifierKind::Nn), 1).unwrap();
+        for i in 0..ds.n_rows() {
+            let out = nn.classify(&ds.x.row(i).to_vec()).unwrap();
+            assert_eq!(out.class, ds.labels[i]);
+            assert_eq!(out.probabilities[out.class], 1.0);
+        }
+        let chance = fit(&ds, &spec("all", ClassifierKind::Chance), 1).unwrap();
+        let out = chance.classify(&ds.x.row(0).to_vec()).unwrap();
+        assert_eq!(out.class, 0);
+        assert_eq!(out.probabilities, [1.0 / 3.0; 3]);
+    }
+
+    #[test]
+    fn grid_search_is_inner_and_deterministic() {
+        let ds = dataset(1.2);
+        let mut s = spec("all", ClassifierKind::Svm);
+        s.grid = Some(Grid {
+            c: vec![0.1, 10.0],
+            gamma_multipliers: vec![0.5, 2.0],
+        });
+        let train: Vec<usize> = (0..ds.n_rows()).filter(|&r| ds.groups[r] != 0).collect();
+        let a = fit_rows(&ds, &train, &s, 1).unwrap();
+        let b = fit_rows(&ds, &train, &s, 1).unwrap();
+        assert_eq!(a, b);
+        let gs = a.grid_search.as_ref().unwrap();
+        assert_eq!(gs.points.len(), 4);
+        // Inner CV on the 3 training groups only: 3 × 18 evaluated rows.
+        assert!(gs.points.iter().all(|p| p.n == 54));
+        let best = gs.points.iter().map(|p| p.correct).max().unwrap();
+        assert_eq!(gs.points[gs.chosen].correct, best);
+        assert!(gs.points.iter().take(gs.chosen).all(|p| p.correct < best));
+        let Model::Svm(m) = &a.model else { panic!() };
+        assert_eq!(
+            (m.c, m.gamma),
+            (gs.points[gs.chosen].c, gs.points[gs.chosen].gamma)
+        );
+    }
+
+    #[test]
+    fn rejects_degenerate_training_sets() {
+        let ds = dataset(0.5);
+        let one_class: Vec<usize> = (0..ds.n_rows()).filter(|&r| ds.labels[r] == 1).collect();
+        assert_eq!(
+            fit_rows(&ds, &one_class, &spec("all", ClassifierKind::Svm), 1),
+            Err(LearnError::TooFewTrainingClasses(1))
+        );
+        assert_eq!(
+            fit_rows(&ds, &[], &spec("all", ClassifierKind::Svm), 1),
+            Err(LearnError::NoRows)
+        );
+        let mut s = spec("all", ClassifierKind::Svm);
+        s.c = -1.0;
+        assert!(matches!(
+            fit(&ds, &s, 1),
+            Err(LearnError::InvalidParameter(_))
+        ));
+        assert!(fit(&ds, &spec("auto9", ClassifierKind::Svm), 1).is_err());
+        assert!("svm2".parse::<ClassifierKind>().is_err());
+        assert_eq!("knn5".parse::<ClassifierKind>(), Ok(ClassifierKind::Knn5));
+    }
+
+    #[test]
+    fn absent_class_is_never_predicted() {
+        let ds = dataset(0.5);
+        let rows: Vec<usize> = (0..ds.n_rows()).filter(|&r| ds.labels[r] != 2).collect();
+        let clf = fit_rows(&ds, &rows, &spec("all", ClassifierKind::Svm), 1).unwrap();
+        clf.validate().unwrap();
+        for i in 0..ds.n_rows() {
+            let out = clf.classify(&ds.x.row(i).to_vec()).unwrap();
+            assert_ne!(out.class, 2);
+            assert_eq!(out.probabilities[2], 0.0);
+            assert_eq!(out.decision[2], f64::NEG_INFINITY);
+        }
+        let json = serde_json::to_string(&clf).unwrap();
+        let back: Classifier = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, clf);
+    }
+}
