@@ -239,26 +239,28 @@ pub fn format_f64(v: f64) -> String {
 const LABEL_COLUMNS: [&str; 3] = ["path", "class", "illumination"];
 
 impl FeatureTable {
-    pub fn write(&self, path: &Path) -> Result<(), DatasetError> {
-        let io = |source| DatasetError::Io {
-            path: display(path),
-            source,
-        };
+    /// The table as CSV, exactly as [`FeatureTable::write`] stores it.
+    pub fn to_csv(&self) -> Vec<u8> {
         let mut out = csv::Writer::from_writer(Vec::new());
         let header = LABEL_COLUMNS
             .iter()
             .copied()
             .chain(self.names.iter().map(String::as_str));
-        let write_err = |e: csv::Error| csv_error(path, e);
-        out.write_record(header).map_err(write_err)?;
+        // Writing records into memory cannot fail.
+        let _ = out.write_record(header);
         for s in &self.samples {
             let labels = [s.path.clone(), s.class.clone(), s.illumination.clone()];
             let values = s.values.iter().map(|&v| format_f64(v));
-            out.write_record(labels.into_iter().chain(values))
-                .map_err(write_err)?;
+            let _ = out.write_record(labels.into_iter().chain(values));
         }
-        let bytes = out.into_inner().map_err(|e| io(e.into_error()))?;
-        crate::fsutil::write_atomic(path, &bytes).map_err(io)
+        out.into_inner().unwrap_or_default()
+    }
+
+    pub fn write(&self, path: &Path) -> Result<(), DatasetError> {
+        crate::fsutil::write_atomic(path, &self.to_csv()).map_err(|source| DatasetError::Io {
+            path: display(path),
+            source,
+        })
     }
 
     pub fn read(path: &Path) -> Result<FeatureTable, DatasetError> {

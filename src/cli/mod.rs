@@ -1,6 +1,7 @@
 //! The command line (DESIGN.md §6 is the contract: extend it, never rename).
 
 mod features;
+mod learn;
 mod render;
 
 use clap::{Args, Parser, Subcommand};
@@ -23,6 +24,12 @@ enum Command {
     Features(features::FeaturesArgs),
     /// Render Ward spheres under light probes: every probe × class, with a manifest.
     Render(render::RenderArgs),
+    /// Leave-one-illumination-out cross-validation.
+    Cv(learn::CvArgs),
+    /// Train a model and write it as a new version into a model registry.
+    Train(learn::TrainArgs),
+    /// Classify the images of a manifest with a trained model.
+    Predict(learn::PredictArgs),
 }
 
 /// Decoding limits against decompression bombs.
@@ -57,6 +64,9 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Features(args) => features::run(args),
         Command::Render(args) => render::run(args),
+        Command::Cv(args) => learn::cv(args),
+        Command::Train(args) => learn::train(args),
+        Command::Predict(args) => learn::predict(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

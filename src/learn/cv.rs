@@ -21,7 +21,7 @@ pub const LOG_LOSS_FLOOR: f64 = 1e-15;
 /// Equal-width confidence bins of the expected calibration error.
 pub const ECE_BINS: usize = 10;
 
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
 pub struct ClassScore {
     pub class: String,
     pub n: usize,

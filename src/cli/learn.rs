@@ -1,0 +1,325 @@
+//! `reflectance cv`, `train` and `predict`.
+
+use super::{CliResult, LimitArgs};
+use crate::dataset::{self, FeatureTable};
+use crate::features::{Extractor, FeatureConfig};
+use crate::image_io::DecodeOptions;
+use crate::learn::{ClassifierKind, CvReport, Dataset, FeatureSet, Grid, TrainSpec};
+use crate::registry::{self, Registry};
+use crate::render::batch::load_classes;
+use crate::train::{self, TrainOptions};
+use clap::Args;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Where the labelled data come from.
+#[derive(Args, Debug)]
+#[group(required = true, multiple = false)]
+pub struct DataArgs {
+    /// Dataset manifest (features are extracted first).
+    #[arg(long)]
+    manifest: Option<PathBuf>,
+    /// Feature table written by `reflectance features --out`.
+    #[arg(long)]
+    table: Option<PathBuf>,
+}
+
+impl DataArgs {
+    /// The feature table and a label for provenance.
+    fn load(&self, limits: &LimitArgs) -> Result<(FeatureTable, String), String> {
+        if let Some(table) = &self.table {
+            let t = FeatureTable::read(table).map_err(|e| e.to_string())?;
+            return Ok((t, table.display().to_string()));
+        }
+        let path = self.manifest.as_ref().ok_or("give --manifest or --table")?;
+        let manifest = dataset::read_manifest(path).map_err(|e| e.to_string())?;
+        manifest.require_labels().map_err(|e| e.to_string())?;
+        let extractor = Extractor::new(FeatureConfig::default()).map_err(|e| e.to_string())?;
+        let options = DecodeOptions {
+            encoding: None,
+            limits: limits.limits(),
+        };
+        let table = dataset::extract_manifest(&extractor, &manifest, &options)
+            .map_err(|e| e.to_string())?;
+        Ok((table, path.display().to_string()))
+    }
+}
+
+/// What to fit.
+#[derive(Args, Debug)]
+pub struct SpecArgs {
+    /// hand6, hand2, mean1, all, auto<N>, pca<N>, or a comma-separated list of names.
+    #[arg(long)]
+    features: String,
+    /// svm, nn (1-NN), knn5 or chance.
+    #[arg(long, default_value = "svm")]
+    classifier: String,
+    /// SVM C.
+    #[arg(long, default_value_t = 100.0)]
+    c: f64,
+    /// SVM γ (default 1 / number of classifier inputs).
+    #[arg(long)]
+    gamma: Option<f64>,
+    /// Choose C and γ by inner leave-one-illumination-out CV over a default grid.
+    #[arg(long)]
+    grid: bool,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+impl SpecArgs {
+    fn spec(&self, names: &[String]) -> Result<TrainSpec, String> {
+        let features = FeatureSet::parse_with(&self.features, names).map_err(|e| e.to_string())?;
+        let classifier: ClassifierKind = self
+            .classifier
+            .parse()
+            .map_err(|e: crate::learn::LearnError| e.to_string())?;
+        if !(self.c.is_finite() && self.c > 0.0)
+            || self.gamma.is_some_and(|g| !(g.is_finite() && g > 0.0))
+        {
+            return Err("C and γ must be finite and positive".into());
+        }
+        Ok(TrainSpec {
+            features,
+            classifier,
+            c: self.c,
+            gamma: self.gamma,
+            grid: self.grid.then(Grid::default),
+        })
+    }
+}
+
+#[derive(Args, Debug)]
+pub struct CvArgs {
+    #[command(flatten)]
+    data: DataArgs,
+    #[command(flatten)]
+    spec: SpecArgs,
+    /// Print the full report as JSON.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    limits: LimitArgs,
+}
+
+pub fn cv(args: CvArgs) -> CliResult {
+    let (table, _) = args.data.load(&args.limits)?;
+    let spec = args.spec.spec(&table.names)?;
+    let ds = Dataset::from_table(&table).map_err(|e| e.to_string())?;
+    let report =
+        crate::learn::cross_validate(&ds, &spec, args.spec.seed).map_err(|e| e.to_string())?;
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?
+        );
+    } else {
+        print!("{}", human_report(&report, ds.group_names.len()));
+    }
+    Ok(())
+}
+
+/// The report as a terminal table.
+pub fn human_report(r: &CvReport, illuminations: usize) -> String {
+    let mut out = String::new();
+    let pct = |x: f64| format!("{:.1} %", 100.0 * x);
+    let _ = writeln!(
+        out,
+        "leave-one-illumination-out: {} · {} — {} images, {} illuminations, {} classes",
+        r.features,
+        r.classifier,
+        r.n,
+        illuminations,
+        r.classes.len()
+    );
+    let _ = writeln!(
+        out,
+        "accuracy {} ({}/{})   chance {}   log-loss {:.3}   ECE {:.3}\n",
+        pct(r.accuracy),
+        r.correct,
+        r.n,
+        pct(r.random_guess_accuracy),
+        r.log_loss,
+        r.ece
+    );
+    let width = r.classes.iter().map(String::len).max().unwrap_or(5).max(5);
+    let _ = writeln!(out, "{:width$}  accuracy", "class");
+    for c in &r.per_class {
+        let _ = writeln!(
+            out,
+            "{:width$}  {:>7} ({}/{})",
+            c.class,
+            pct(c.accuracy),
+            c.correct,
+            c.n
+        );
+    }
+    let _ = writeln!(
+        out,
+        "\nconfusion (rows = truth, columns = predicted, same order):"
+    );
+    for (name, row) in r.classes.iter().zip(&r.confusion) {
+        let cells: Vec<String> = row.iter().map(|n| format!("{n:>4}")).collect();
+        let _ = writeln!(out, "{name:width$}  {}", cells.join(""));
+    }
+    let wrong: Vec<_> = r.predictions.iter().filter(|p| !p.correct).collect();
+    if !wrong.is_empty() {
+        let _ = writeln!(out, "\nmisclassified (with the nearest training image):");
+        for p in wrong {
+            let nearest = p.nearest.as_ref().map_or(String::new(), |n| {
+                format!(
+                    "; nearest {} ({}, {}, d = {:.2})",
+                    n.path, n.class, n.illumination, n.distance
+                )
+            });
+            let _ = writeln!(
+                out,
+                "  {} [{}]: {} → {}{}",
+                p.path, p.illumination, p.truth, p.predicted, nearest
+            );
+        }
+    }
+    out
+}
+
+#[derive(Args, Debug)]
+pub struct TrainArgs {
+    #[command(flatten)]
+    data: DataArgs,
+    #[command(flatten)]
+    spec: SpecArgs,
+    /// Model registry folder.
+    #[arg(long)]
+    models: PathBuf,
+    /// Model name (a-z, 0-9, '_', '-').
+    #[arg(long)]
+    name: String,
+    /// Class file with the classes' Ward parameters (recorded in the model).
+    #[arg(long)]
+    classes: Option<PathBuf>,
+    /// Skip the cross-validation report stored with the model.
+    #[arg(long)]
+    no_cv: bool,
+    #[command(flatten)]
+    limits: LimitArgs,
+}
+
+pub fn train(args: TrainArgs) -> CliResult {
+    if !registry::valid_name(&args.name) {
+        return Err(format!(
+            "invalid model name {:?} (use 1–64 of a-z, 0-9, '_' and '-')",
+            args.name
+        ));
+    }
+    let classes = args
+        .classes
+        .as_deref()
+        .map(load_classes)
+        .transpose()
+        .map_err(|e| e.to_string())?;
+    let (table, label) = args.data.load(&args.limits)?;
+    let options = TrainOptions {
+        name: args.name.clone(),
+        spec: args.spec.spec(&table.names)?,
+        seed: args.spec.seed,
+        cross_validate: !args.no_cv,
+        classes,
+    };
+    let mut trained = train::train(&table, &label, &options).map_err(|e| e.to_string())?;
+    let report = trained
+        .report
+        .as_ref()
+        .map(serde_json::to_vec_pretty)
+        .transpose()
+        .map_err(|e| e.to_string())?;
+    let extra: Vec<(&str, &[u8])> = report
+        .iter()
+        .map(|r| ("report.json", r.as_slice()))
+        .collect();
+    let (_, dir) = Registry::new(&args.models)
+        .publish(&mut trained.model, &extra)
+        .map_err(|e| e.to_string())?;
+    if let Some(r) = &trained.report {
+        eprintln!(
+            "cross-validated accuracy {:.1} % ({}/{})",
+            100.0 * r.accuracy,
+            r.correct,
+            r.n
+        );
+    }
+    println!("{}", dir.display());
+    Ok(())
+}
+
+#[derive(Args, Debug)]
+pub struct PredictArgs {
+    /// DIR/NAME (the active version) or DIR/NAME/VERSION.
+    #[arg(long)]
+    model: PathBuf,
+    #[arg(long)]
+    manifest: PathBuf,
+    /// Output CSV: path,label,p_<class>…
+    #[arg(long)]
+    out: PathBuf,
+    #[command(flatten)]
+    limits: LimitArgs,
+}
+
+pub fn predict(args: PredictArgs) -> CliResult {
+    let (registry, name, version) =
+        registry::parse_model_path(&args.model).map_err(|e| e.to_string())?;
+    let version = match version {
+        Some(v) => v,
+        None => registry.active(&name).map_err(|e| e.to_string())?,
+    };
+    let model = registry.load(&name, version).map_err(|e| e.to_string())?;
+    let extractor = Extractor::new(model.features.config).map_err(|e| e.to_string())?;
+    let manifest = dataset::read_manifest(&args.manifest).map_err(|e| e.to_string())?;
+    let options = DecodeOptions {
+        encoding: None,
+        limits: args.limits.limits(),
+    };
+    let table =
+        dataset::extract_manifest(&extractor, &manifest, &options).map_err(|e| e.to_string())?;
+    let classes = &model.classifier.classes;
+    let mut csv = String::from("path,label");
+    for c in classes {
+        let _ = write!(csv, ",p_{c}");
+    }
+    csv.push('\n');
+    let (mut labelled, mut correct) = (0usize, 0usize);
+    for (sample, entry) in table.samples.iter().zip(&manifest.entries) {
+        let out = model
+            .classifier
+            .classify(&sample.values)
+            .map_err(|e| e.to_string())?;
+        let label = &classes[out.class];
+        let _ = write!(csv, "{},{}", csv_field(&sample.path), csv_field(label));
+        for p in &out.probabilities {
+            let _ = write!(csv, ",{}", dataset::format_f64(*p));
+        }
+        csv.push('\n');
+        if let Some(truth) = &entry.class {
+            labelled += 1;
+            correct += usize::from(truth == label);
+        }
+    }
+    crate::fsutil::write_atomic(&args.out, csv.as_bytes())
+        .map_err(|e| format!("{}: {e}", args.out.display()))?;
+    if labelled > 0 {
+        println!(
+            "accuracy {:.1} % ({correct}/{labelled}) with {name} version {version}",
+            100.0 * correct as f64 / labelled as f64
+        );
+    }
+    Ok(())
+}
+
+/// Quote a CSV field when it needs it.
+fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}

@@ -1,0 +1,323 @@
+//! The model file (DESIGN.md §4): everything needed to classify — the feature-extraction
+//! configuration, the feature set, the fitted classifier and its calibration — with the
+//! classes, training provenance, a self-test vector and a SHA-256 of the content.
+//!
+//! The checksum covers the canonical JSON of the document without its `sha256` field
+//! (object keys sorted, numbers in shortest round-trip form), so it does not depend on
+//! formatting. Loading verifies schema, checksum, feature configuration and names, the
+//! classifier's shapes, and the self-test; a file failing any of these is refused.
+
+use crate::features::{ConfigError, FeatureConfig};
+use crate::learn::{Classifier, LearnError};
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use sha2::{Digest, Sha256};
+
+pub const SCHEMA: &str = "reflectance.model";
+pub const SCHEMA_VERSION: u32 = 1;
+/// The self-test must reproduce the stored probabilities to this precision.
+const SELF_TEST_TOLERANCE: f64 = 1e-9;
+
+/// Ward parameters of a class, when the class was rendered from them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Ward {
+    pub rho_d: f64,
+    pub rho_s: f64,
+    pub alpha: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ClassInfo {
+    pub name: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ward: Option<Ward>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FeatureSpec {
+    /// The extraction constants (unwrap grid, levels).
+    pub config: FeatureConfig,
+    /// The feature set as specified (`hand6`, `auto6`, `pca6`, a list…).
+    pub set: String,
+    /// The classifier's inputs.
+    pub selected: Vec<String>,
+}
+
+/// Cross-validation summary stored with a model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CvSummary {
+    pub accuracy: f64,
+    pub n: usize,
+    pub log_loss: f64,
+    pub ece: f64,
+    pub per_class: Vec<crate::learn::cv::ClassScore>,
+    pub confusion: Vec<Vec<usize>>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Provenance {
+    /// Where the training data came from (manifest or table path, as given).
+    pub dataset: String,
+    /// SHA-256 of the training feature table (CSV as written by `features --out`).
+    pub dataset_sha256: String,
+    pub images: usize,
+    pub illuminations: usize,
+    pub seed: u64,
+    /// Training options as given (classifier, C, γ, grid, augmentation handling).
+    pub options: Value,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cv: Option<CvSummary>,
+}
+
+/// A feature vector and the probabilities the model must give it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SelfTest {
+    pub features: Vec<f64>,
+    pub probabilities: Vec<f64>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModelFile {
+    pub schema: String,
+    pub schema_version: u32,
+    pub name: String,
+    pub version: u32,
+    /// RFC 3339, UTC.
+    pub created: String,
+    pub classes: Vec<ClassInfo>,
+    pub features: FeatureSpec,
+    pub classifier: Classifier,
+    pub training: Provenance,
+    pub self_test: SelfTest,
+    #[serde(default)]
+    pub sha256: String,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ModelError {
+    #[error("not a model file: {0}")]
+    Json(String),
+    #[error(
+        "unsupported model schema {found:?} version {version} (expected {SCHEMA:?} version {SCHEMA_VERSION})"
+    )]
+    Schema { found: String, version: u32 },
+    #[error(
+        "checksum mismatch: the file says {stored}, its content hashes to {actual} (corrupt or edited)"
+    )]
+    Checksum { stored: String, actual: String },
+    #[error("invalid feature configuration: {0}")]
+    Config(#[from] ConfigError),
+    #[error("inconsistent model: {0}")]
+    Inconsistent(String),
+    #[error("invalid classifier: {0}")]
+    Classifier(#[from] LearnError),
+    #[error("self-test failed: probabilities differ from the stored ones by {0:e}")]
+    SelfTest(f64),
+}
+
+/// Canonical JSON: object keys sorted, no whitespace, serde_json's number formatting.
+fn canonical(value: &Value, out: &mut Vec<u8>) {
+    match value {
+        Value::Object(map) => {
+            let mut keys: Vec<&String> = map.keys().collect();
+            keys.sort();
+            out.push(b'{');
+            for (i, key) in keys.into_iter().enumerate() {
+                if i > 0 {
+                    out.push(b',');
+                }
+                out.extend(serde_json::to_vec(key).unwrap_or_default());
+                out.push(b':');
+                canonical(&map[key], out);
+            }
+            out.push(b'}');
+        }
+        Value::Array(items) => {
+            out.push(b'[');
+            for (i, item) in items.iter().enumerate() {
+                if i > 0 {
+                    out.push(b',');
+                }
+                canonical(item, out);
+            }
+            out.push(b']');
+        }
+        scalar => out.extend(serde_json::to_vec(scalar).unwrap_or_default()),
+    }
+}
+
+/// SHA-256 (hex) of a document without its `sha256` field.
+fn checksum(mut document: Value) -> String {
+    if let Value::Object(map) = &mut document {
+        map.remove("sha256");
+    }
+    let mut bytes = Vec::new();
+    canonical(&document, &mut bytes);
+    hex(&Sha256::digest(&bytes))
+}
+
+pub fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// SHA-256 (hex) of arbitrary bytes.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    hex(&Sha256::digest(bytes))
+}
+
+impl ModelFile {
+    /// Serialize with a fresh checksum.
+    pub fn to_json(&mut self) -> Result<Vec<u8>, ModelError> {
+        self.sha256.clear();
+        let value = serde_json::to_value(&*self).map_err(|e| ModelError::Json(e.to_string()))?;
+        self.sha256 = checksum(value);
+        serde_json::to_vec_pretty(self).map_err(|e| ModelError::Json(e.to_string()))
+    }
+
+    /// Parse and verify a model file.
+    pub fn from_json(bytes: &[u8]) -> Result<ModelFile, ModelError> {
+        let value: Value =
+            serde_json::from_slice(bytes).map_err(|e| ModelError::Json(e.to_string()))?;
+        let schema = value
+            .get("schema")
+            .and_then(Value::as_str)
+            .unwrap_or_default()
+            .to_string();
+        let version = value
+            .get("schema_version")
+            .and_then(Value::as_u64)
+            .unwrap_or(0) as u32;
+        if schema != SCHEMA || version != SCHEMA_VERSION {
+            return Err(ModelError::Schema {
+                found: schema,
+                version,
+            });
+        }
+        let stored = value
+            .get("sha256")
+            .and_then(Value::as_str)
+            .unwrap_or_default()
+            .to_string();
+        let actual = checksum(value.clone());
+        if stored != actual {
+            return Err(ModelError::Checksum { stored, actual });
+        }
+        let model: ModelFile =
+            serde_json::from_value(value).map_err(|e| ModelError::Json(e.to_string()))?;
+        model.verify()?;
+        Ok(model)
+    }
+
+    /// Consistency of the parts, then the self-test.
+    pub fn verify(&self) -> Result<(), ModelError> {
+        self.features.config.validate()?;
+        let names = self.features.config.names();
+        let inconsistent = |what: String| Err(ModelError::Inconsistent(what));
+        if self.classifier.input_names != names {
+            return inconsistent(
+                "the classifier's inputs are not this configuration's features".into(),
+            );
+        }
+        if self.classifier.selected != self.features.selected
+            || self.classifier.feature_set != self.features.set
+        {
+            return inconsistent(
+                "the feature set differs between the header and the classifier".into(),
+            );
+        }
+        let class_names: Vec<&str> = self.classes.iter().map(|c| c.name.as_str()).collect();
+        if self
+            .classifier
+            .classes
+            .iter()
+            .map(String::as_str)
+            .ne(class_names)
+        {
+            return inconsistent(
+                "the class list differs between the header and the classifier".into(),
+            );
+        }
+        if self.name.is_empty() || self.version == 0 {
+            return inconsistent("a model needs a name and a version ≥ 1".into());
+        }
+        self.classifier.validate()?;
+        self.self_test()
+    }
+
+    /// Re-classify the stored feature vector and compare with the stored probabilities.
+    pub fn self_test(&self) -> Result<(), ModelError> {
+        let got = self.classifier.predict_proba(&self.self_test.features)?;
+        if got.len() != self.self_test.probabilities.len() {
+            return Err(ModelError::SelfTest(f64::INFINITY));
+        }
+        let worst = got
+            .iter()
+            .zip(&self.self_test.probabilities)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        if worst.is_nan() || worst > SELF_TEST_TOLERANCE {
+            return Err(ModelError::SelfTest(worst));
+        }
+        Ok(())
+    }
+}
+
+/// Current time as RFC 3339 UTC (`2026-11-21T12:00:00Z`).
+pub fn now_rfc3339() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    rfc3339(secs)
+}
+
+/// Seconds since the Unix epoch as RFC 3339 UTC (civil-from-days, H. Hinnant).
+pub fn rfc3339(secs: u64) -> String {
+    let days = (secs / 86_400) as i64;
+    let rem = secs % 86_400;
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem % 3600 / 60,
+        rem % 60
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rfc3339_known_dates() {
+        assert_eq!(rfc3339(0), "1970-01-01T00:00:00Z");
+        assert_eq!(rfc3339(951_782_400), "2000-02-29T00:00:00Z");
+        assert_eq!(rfc3339(1_795_262_400), "2026-11-21T12:00:00Z");
+    }
+
+    #[test]
+    fn canonical_json_sorts_keys_and_ignores_whitespace() {
+        let a: Value =
+            serde_json::from_str(r#"{"b": [1, 2.5, {"y": 1, "x": null}], "a": "t"}"#).unwrap();
+        let b: Value = serde_json::from_str(r#"{"a":"t","b":[1,2.5,{"x":null,"y":1}]}"#).unwrap();
+        let (mut ca, mut cb) = (Vec::new(), Vec::new());
+        canonical(&a, &mut ca);
+        canonical(&b, &mut cb);
+        assert_eq!(ca, cb);
+        assert_eq!(
+            String::from_utf8(ca).unwrap(),
+            r#"{"a":"t","b":[1,2.5,{"x":null,"y":1}]}"#
+        );
+        assert_eq!(
+            sha256_hex(b"abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+    }
+}

@@ -1,0 +1,322 @@
+//! The model registry: `<root>/<name>/<version>/model.json` (+ `report.json`, plots).
+//!
+//! Versions are positive integers and immutable: a new version is written into a hidden
+//! temporary directory, fsynced, then renamed into place, so a reader never sees a partial
+//! version. `<root>/<name>/ACTIVE` holds the active version (written atomically); without
+//! it the latest version is active.
+
+use crate::fsutil::{sync_dir, write_atomic};
+use crate::model::{ModelError, ModelFile};
+use std::fs;
+use std::path::{Path, PathBuf};
+
+pub const MODEL_FILE: &str = "model.json";
+const ACTIVE_FILE: &str = "ACTIVE";
+
+#[derive(Debug, thiserror::Error)]
+pub enum RegistryError {
+    #[error("invalid model name {0:?} (use 1–64 of a-z, 0-9, '_' and '-')")]
+    BadName(String),
+    #[error("unknown model {0:?}")]
+    UnknownModel(String),
+    #[error("model {name:?} has no version {version}")]
+    UnknownVersion { name: String, version: u32 },
+    #[error("version {version} of {name:?} is active; activate another version first")]
+    ActiveVersion { name: String, version: u32 },
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}: {source}")]
+    Model { path: String, source: ModelError },
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> RegistryError + '_ {
+    move |source| RegistryError::Io {
+        path: path.display().to_string(),
+        source,
+    }
+}
+
+/// Model names are path components: keep them to a safe alphabet.
+pub fn valid_name(name: &str) -> bool {
+    (1..=64).contains(&name.len())
+        && name
+            .bytes()
+            .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'_' || b == b'-')
+}
+
+#[derive(Clone, Debug)]
+pub struct Registry {
+    root: PathBuf,
+}
+
+impl Registry {
+    pub fn new(root: impl Into<PathBuf>) -> Registry {
+        Registry { root: root.into() }
+    }
+
+    pub fn root(&self) -> &Path {
+        &self.root
+    }
+
+    fn model_dir(&self, name: &str) -> Result<PathBuf, RegistryError> {
+        if !valid_name(name) {
+            return Err(RegistryError::BadName(name.to_string()));
+        }
+        Ok(self.root.join(name))
+    }
+
+    pub fn version_dir(&self, name: &str, version: u32) -> Result<PathBuf, RegistryError> {
+        Ok(self.model_dir(name)?.join(version.to_string()))
+    }
+
+    /// Names with at least one version, sorted.
+    pub fn names(&self) -> Result<Vec<String>, RegistryError> {
+        let entries = match fs::read_dir(&self.root) {
+            Ok(entries) => entries,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+            Err(e) => return Err(io(&self.root)(e)),
+        };
+        let mut names: Vec<String> = entries
+            .filter_map(|e| e.ok())
+            .filter_map(|e| e.file_name().into_string().ok())
+            .filter(|n| valid_name(n))
+            .filter(|n| self.versions(n).is_ok_and(|v| !v.is_empty()))
+            .collect();
+        names.sort();
+        Ok(names)
+    }
+
+    /// Complete versions of a model, ascending (hidden temporary directories are ignored).
+    pub fn versions(&self, name: &str) -> Result<Vec<u32>, RegistryError> {
+        let dir = self.model_dir(name)?;
+        let entries = match fs::read_dir(&dir) {
+            Ok(entries) => entries,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(RegistryError::UnknownModel(name.to_string()));
+            }
+            Err(e) => return Err(io(&dir)(e)),
+        };
+        let mut versions: Vec<u32> = entries
+            .filter_map(|e| e.ok())
+            .filter_map(|e| e.file_name().to_str().and_then(|n| n.parse::<u32>().ok()))
+            .filter(|&v| v > 0 && dir.join(v.to_string()).join(MODEL_FILE).is_file())
+            .collect();
+        versions.sort_unstable();
+        Ok(versions)
+    }
+
+    /// The active version: `ACTIVE` if it names an existing version, else the latest.
+    pub fn active(&self, name: &str) -> Result<u32, RegistryError> {
+        let versions = self.versions(name)?;
+        let pinned = fs::read_to_string(self.model_dir(name)?.join(ACTIVE_FILE))
+            .ok()
+            .and_then(|t| t.trim().parse::<u32>().ok())
+            .filter(|v| versions.contains(v));
+        pinned
+            .or(versions.last().copied())
+            .ok_or_else(|| RegistryError::UnknownModel(name.to_string()))
+    }
+
+    /// Record `version` as active (atomically).
+    pub fn set_active(&self, name: &str, version: u32) -> Result<(), RegistryError> {
+        self.require(name, version)?;
+        let path = self.model_dir(name)?.join(ACTIVE_FILE);
+        write_atomic(&path, format!("{version}\n").as_bytes()).map_err(io(&path))
+    }
+
+    fn require(&self, name: &str, version: u32) -> Result<(), RegistryError> {
+        if self.versions(name)?.contains(&version) {
+            Ok(())
+        } else {
+            Err(RegistryError::UnknownVersion {
+                name: name.to_string(),
+                version,
+            })
+        }
+    }
+
+    /// Read and verify a version's model file.
+    pub fn load(&self, name: &str, version: u32) -> Result<ModelFile, RegistryError> {
+        self.require(name, version)?;
+        let path = self.version_dir(name, version)?.join(MODEL_FILE);
+        let bytes = fs::read(&path).map_err(io(&path))?;
+        let model = ModelFile::from_json(&bytes).map_err(|source| RegistryError::Model {
+            path: path.display().to_string(),
+            source,
+        })?;
+        if model.name != name || model.version != version {
+            return Err(RegistryError::Model {
+                path: path.display().to_string(),
+                source: ModelError::Inconsistent(format!(
+                    "the file is {} version {}, stored as {name} version {version}",
+                    model.name, model.version
+                )),
+            });
+        }
+        Ok(model)
+    }
+
+    /// Write `model` (plus extra files, e.g. `report.json`) as the next version of its
+    /// name; returns the version and its directory. The version number is assigned here.
+    pub fn publish(
+        &self,
+        model: &mut ModelFile,
+        extra: &[(&str, &[u8])],
+    ) -> Result<(u32, PathBuf), RegistryError> {
+        let dir = self.model_dir(&model.name)?;
+        fs::create_dir_all(&dir).map_err(io(&dir))?;
+        loop {
+            let version = match self.versions(&model.name) {
+                Ok(v) => v.last().copied().unwrap_or(0) + 1,
+                Err(RegistryError::UnknownModel(_)) => 1,
+                Err(e) => return Err(e),
+            };
+            model.version = version;
+            let staging = crate::fsutil::temp_path(&dir.join(version.to_string()));
+            let written = self.stage(&staging, model, extra);
+            if let Err(e) = written {
+                let _ = fs::remove_dir_all(&staging);
+                return Err(e);
+            }
+            let target = dir.join(version.to_string());
+            match fs::rename(&staging, &target) {
+                Ok(()) => {
+                    sync_dir(&dir).map_err(io(&dir))?;
+                    return Ok((version, target));
+                }
+                // Another writer took this number first: try the next one.
+                Err(_) if target.exists() => {
+                    let _ = fs::remove_dir_all(&staging);
+                }
+                Err(e) => {
+                    let _ = fs::remove_dir_all(&staging);
+                    return Err(io(&target)(e));
+                }
+            }
+        }
+    }
+
+    fn stage(
+        &self,
+        staging: &Path,
+        model: &mut ModelFile,
+        extra: &[(&str, &[u8])],
+    ) -> Result<(), RegistryError> {
+        fs::create_dir_all(staging).map_err(io(staging))?;
+        let bytes = model.to_json().map_err(|source| RegistryError::Model {
+            path: staging.display().to_string(),
+            source,
+        })?;
+        let files = std::iter::once((MODEL_FILE, bytes.as_slice())).chain(extra.iter().copied());
+        for (file, content) in files {
+            let path = staging.join(file);
+            write_atomic(&path, content).map_err(io(&path))?;
+        }
+        sync_dir(staging).map_err(io(staging))
+    }
+
+    /// Remove an inactive version.
+    pub fn delete(&self, name: &str, version: u32) -> Result<(), RegistryError> {
+        self.require(name, version)?;
+        if self.active(name)? == version {
+            return Err(RegistryError::ActiveVersion {
+                name: name.to_string(),
+                version,
+            });
+        }
+        let dir = self.version_dir(name, version)?;
+        // Rename first so the version disappears atomically, then remove the files.
+        let doomed = crate::fsutil::temp_path(&dir);
+        fs::rename(&dir, &doomed).map_err(io(&dir))?;
+        fs::remove_dir_all(&doomed).map_err(io(&doomed))
+    }
+
+    /// Leftovers of interrupted writes (hidden temporary directories), removed at start-up.
+    pub fn clean_staging(&self) -> Result<usize, RegistryError> {
+        let mut removed = 0;
+        for name in self.names_including_empty()? {
+            let dir = self.root.join(&name);
+            for entry in fs::read_dir(&dir).map_err(io(&dir))?.filter_map(|e| e.ok()) {
+                let hidden = entry
+                    .file_name()
+                    .to_str()
+                    .is_some_and(|n| n.starts_with('.') && n.contains(".tmp-"));
+                if hidden && entry.path().is_dir() {
+                    fs::remove_dir_all(entry.path()).map_err(io(&entry.path()))?;
+                    removed += 1;
+                }
+            }
+        }
+        Ok(removed)
+    }
+
+    fn names_including_empty(&self) -> Result<Vec<String>, RegistryError> {
+        match fs::read_dir(&self.root) {
+            Ok(entries) => Ok(entries
+                .filter_map(|e| e.ok())
+                .filter(|e| e.path().is_dir())
+                .filter_map(|e| e.file_name().into_string().ok())
+                .filter(|n| valid_name(n))
+                .collect()),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Vec::new()),
+            Err(e) => Err(io(&self.root)(e)),
+        }
+    }
+}
+
+/// `DIR/NAME` or `DIR/NAME/VERSION` (as `predict --model` takes it): registry, name and
+/// the explicit version, if any.
+pub fn parse_model_path(path: &Path) -> Result<(Registry, String, Option<u32>), RegistryError> {
+    let last = path
+        .file_name()
+        .and_then(|n| n.to_str())
+        .unwrap_or_default();
+    let parent = path.parent().unwrap_or(Path::new("."));
+    if let Ok(version) = last.parse::<u32>() {
+        let name = parent
+            .file_name()
+            .and_then(|n| n.to_str())
+            .unwrap_or_default();
+        let root = parent.parent().unwrap_or(Path::new("."));
+        if valid_name(name) {
+            return Ok((Registry::new(root), name.to_string(), Some(version)));
+        }
+    }
+    if !valid_name(last) {
+        return Err(RegistryError::BadName(last.to_string()));
+    }
+    Ok((Registry::new(parent), last.to_string(), None))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_safe_path_components() {
+        for ok in ["ward6", "ward-11", "a_b"] {
+            assert!(valid_name(ok), "{ok}");
+        }
+        for bad in ["", "..", "a/b", "Ward6", "a b", ".hidden", &"x".repeat(65)] {
+            assert!(!valid_name(bad), "{bad}");
+        }
+    }
+
+    #[test]
+    fn model_paths() {
+        let (r, n, v) = parse_model_path(Path::new("models/ward6/3")).unwrap();
+        assert_eq!(
+            (r.root(), n.as_str(), v),
+            (Path::new("models"), "ward6", Some(3))
+        );
+        let (r, n, v) = parse_model_path(Path::new("/srv/models/ward11")).unwrap();
+        assert_eq!(
+            (r.root(), n.as_str(), v),
+            (Path::new("/srv/models"), "ward11", None)
+        );
+        assert!(parse_model_path(Path::new("models/../..")).is_err());
+    }
+}
