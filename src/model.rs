@@ -69,6 +69,15 @@ pub struct Provenance {
     pub cv: Option<CvSummary>,
 }
 
+/// A training image in the classifier's (standardized) input space, for explanations.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Exemplar {
+    pub path: String,
+    pub class: String,
+    pub illumination: String,
+    pub inputs: Vec<f64>,
+}
+
 /// A feature vector and the probabilities the model must give it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SelfTest {
@@ -89,6 +98,9 @@ pub struct ModelFile {
     pub classifier: Classifier,
     pub training: Provenance,
     pub self_test: SelfTest,
+    /// The original (non-augmented) training images, for `explain`.
+    #[serde(default)]
+    pub exemplars: Vec<Exemplar>,
     #[serde(default)]
     pub sha256: String,
 }
@@ -241,10 +253,45 @@ impl ModelFile {
             return inconsistent("a model needs a name and a version ≥ 1".into());
         }
         self.classifier.validate()?;
+        let dim = self.classifier.selected.len();
+        if let Some(bad) = self
+            .exemplars
+            .iter()
+            .find(|e| e.inputs.len() != dim || e.inputs.iter().any(|v| !v.is_finite()))
+        {
+            return inconsistent(format!(
+                "exemplar {} does not match the classifier's {dim} inputs",
+                bad.path
+            ));
+        }
         self.self_test()
     }
 
     /// Re-classify the stored feature vector and compare with the stored probabilities.
+    /// The `k` training images nearest to a full feature row (in the classifier's
+    /// standardized input space), nearest first.
+    pub fn nearest(&self, row: &[f64], k: usize) -> Result<Vec<(&Exemplar, f64)>, ModelError> {
+        let z = self.classifier.transform(row)?;
+        let mut scored: Vec<(&Exemplar, f64)> = self
+            .exemplars
+            .iter()
+            .map(|e| {
+                (
+                    e,
+                    e.inputs
+                        .iter()
+                        .zip(&z)
+                        .map(|(a, b)| (a - b) * (a - b))
+                        .sum::<f64>()
+                        .sqrt(),
+                )
+            })
+            .collect();
+        scored.sort_by(|a, b| a.1.total_cmp(&b.1));
+        scored.truncate(k);
+        Ok(scored)
+    }
+
     pub fn self_test(&self) -> Result<(), ModelError> {
         let got = self.classifier.predict_proba(&self.self_test.features)?;
         if got.len() != self.self_test.probabilities.len() {

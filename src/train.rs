@@ -5,7 +5,8 @@ use crate::dataset::FeatureTable;
 use crate::features::FeatureConfig;
 use crate::learn::{self, CvReport, Dataset, LearnError, TrainSpec};
 use crate::model::{
-    self, ClassInfo, CvSummary, FeatureSpec, ModelError, ModelFile, Provenance, SelfTest, Ward,
+    self, ClassInfo, CvSummary, Exemplar, FeatureSpec, ModelError, ModelFile, Provenance, SelfTest,
+    Ward,
 };
 use crate::render::ward::Material;
 use serde_json::json;
@@ -70,6 +71,20 @@ pub fn train(
                 alpha: m.alpha,
             })
     };
+    let mut exemplars = Vec::new();
+    for (i, sample) in table
+        .samples
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !ds.augmented[*i])
+    {
+        exemplars.push(Exemplar {
+            path: sample.path.clone(),
+            class: sample.class.clone(),
+            illumination: sample.illumination.clone(),
+            inputs: classifier.transform(&ds.x.row(i).to_vec())?,
+        });
+    }
     let spec = &options.spec;
     let model = ModelFile {
         schema: model::SCHEMA.into(),
@@ -117,6 +132,7 @@ pub fn train(
             features,
             probabilities,
         },
+        exemplars,
         sha256: String::new(),
     };
     model.verify()?;

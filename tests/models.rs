@@ -160,6 +160,14 @@ fn train_and_cross_validate_through_the_binary() {
     let model = Registry::new(&models).load("demo", 1).unwrap();
     let cv = model.training.cv.as_ref().unwrap();
     assert_eq!(cv.n, 432);
+    // Every training image is an exemplar; a training row's nearest exemplar is itself.
+    assert_eq!(model.exemplars.len(), 432);
+    let row = &reflectance::dataset::FeatureTable::read(&table)
+        .unwrap()
+        .samples[17];
+    let nearest = model.nearest(&row.values, 3).unwrap();
+    assert_eq!(nearest[0].0.path, row.path);
+    assert!(nearest[0].1 < 1e-9 && nearest[1].1 >= nearest[0].1);
 
     let cv_json = Command::new(bin)
         .args([
