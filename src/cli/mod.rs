@@ -3,6 +3,7 @@
 mod features;
 mod learn;
 mod render;
+mod report;
 
 use clap::{Args, Parser, Subcommand};
 use std::process::ExitCode;
@@ -30,6 +31,8 @@ enum Command {
     Train(learn::TrainArgs),
     /// Classify the images of a manifest with a trained model.
     Predict(learn::PredictArgs),
+    /// Reproduce the structure of the paper's Tables 1 and 2 (Markdown, JSON, plots).
+    Report(report::ReportArgs),
 }
 
 /// Decoding limits against decompression bombs.
@@ -67,6 +70,7 @@ pub fn main() -> ExitCode {
         Command::Cv(args) => learn::cv(args),
         Command::Train(args) => learn::train(args),
         Command::Predict(args) => learn::predict(args),
+        Command::Report(args) => report::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
