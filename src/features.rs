@@ -20,11 +20,20 @@ const BAND_NAMES: [&str; 3] = ["h", "v", "d"];
 /// The smallest subband height the 9-tap filters can reflect within.
 const MIN_BAND_ROWS: usize = 9;
 
+/// Floor of the white-normalized unwrapped values before the log of the log-domain features.
+pub const LOG_PIXEL_FLOOR: f64 = 1e-4;
+/// Prefix of the log-domain features' names.
+pub const LOG_PREFIX: &str = "log.";
+
 /// Everything that determines the feature values: stored in every model file.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FeatureConfig {
     pub unwrap: UnwrapConfig,
     pub levels: usize,
+    /// Also compute every feature on log10(max(U, 1e-4)) of the unwrapped, white-normalized
+    /// image U, named with the `log.` prefix (an extension of the paper; see README).
+    #[serde(default)]
+    pub log_domain: bool,
 }
 
 impl Default for FeatureConfig {
@@ -32,6 +41,7 @@ impl Default for FeatureConfig {
         FeatureConfig {
             unwrap: UnwrapConfig::default(),
             levels: 4,
+            log_domain: false,
         }
     }
 }
@@ -88,8 +98,28 @@ impl FeatureConfig {
         Ok(())
     }
 
+    /// The default configuration with the log-domain features.
+    pub fn with_log_domain() -> Self {
+        FeatureConfig {
+            log_domain: true,
+            ..FeatureConfig::default()
+        }
+    }
+
     /// Canonical feature names for this configuration.
     pub fn names(&self) -> Vec<String> {
+        let base = self.base_names();
+        if !self.log_domain {
+            return base;
+        }
+        let log = base
+            .iter()
+            .map(|n| format!("{LOG_PREFIX}{n}"))
+            .collect::<Vec<_>>();
+        base.into_iter().chain(log).collect()
+    }
+
+    fn base_names(&self) -> Vec<String> {
         let mut names: Vec<String> = STAT_NAMES.iter().map(|s| format!("pix.{s}")).collect();
         for k in 1..=self.levels {
             for band in BAND_NAMES {
@@ -125,10 +155,39 @@ pub fn named_set(name: &str) -> Option<&'static [&'static str]> {
     ];
     const HAND2: &[&str] = &["pix.p10", "wav.s2.v.var"];
     const MEAN1: &[&str] = &["pix.mean"];
+    // hand6 plus the log-domain pixel statistics and subband variances (see README).
+    const HAND6_LOG: &[&str] = &[
+        "pix.mean",
+        "pix.p10",
+        "wav.s1.v.var",
+        "wav.s2.v.var",
+        "ratio.v.s1_s2",
+        "wav.s2.v.kurt",
+        "log.pix.mean",
+        "log.pix.var",
+        "log.pix.skew",
+        "log.pix.kurt",
+        "log.pix.p10",
+        "log.pix.p50",
+        "log.pix.p90",
+        "log.wav.s1.h.var",
+        "log.wav.s1.v.var",
+        "log.wav.s1.d.var",
+        "log.wav.s2.h.var",
+        "log.wav.s2.v.var",
+        "log.wav.s2.d.var",
+        "log.wav.s3.h.var",
+        "log.wav.s3.v.var",
+        "log.wav.s3.d.var",
+        "log.wav.s4.h.var",
+        "log.wav.s4.v.var",
+        "log.wav.s4.d.var",
+    ];
     match name {
         "hand6" => Some(HAND6),
         "hand2" => Some(HAND2),
         "mean1" => Some(MEAN1),
+        "hand6+log" => Some(HAND6_LOG),
         _ => None,
     }
 }
@@ -186,7 +245,13 @@ impl Extractor {
     /// Feature values (canonical order, transformed) of a sphere in a luminance image.
     /// The circle must already be validated against the image.
     pub fn extract(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Vec<f64> {
-        self.features_of(&self.stages(luminance, circle, white))
+        let stages = self.stages(luminance, circle, white);
+        let mut values = self.features_of(&stages);
+        if self.config.log_domain {
+            let log = stages.unwrapped.mapv(|v| v.max(LOG_PIXEL_FLOOR).log10());
+            values.extend(self.features_of(&self.stages_of_unwrapped(log)));
+        }
+        values
     }
 
     pub fn stages(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Stages {
@@ -271,6 +336,41 @@ mod tests {
                 assert!(names.iter().any(|m| m == n), "{n}");
             }
         }
+        let extended = FeatureConfig::with_log_domain().names();
+        assert_eq!(extended.len(), 2 * FEATURE_COUNT);
+        assert_eq!(extended[FEATURE_COUNT], "log.pix.mean");
+        for n in named_set("hand6+log").unwrap() {
+            assert!(extended.iter().any(|m| m == n), "{n}");
+        }
+    }
+
+    #[test]
+    fn log_domain_features_are_the_features_of_the_log_image() {
+        let img = ndarray::Array2::from_shape_fn((120, 130), |(y, x)| {
+            let d = ((x as f64 - 64.0).powi(2) + (y as f64 - 59.5).powi(2)).sqrt();
+            if d < 55.0 {
+                0.2 + 0.5 * ((x as f64) * 0.3).sin().abs() + 0.001 * (y % 7) as f64
+            } else {
+                0.0
+            }
+        });
+        let circle = Circle {
+            cx: 64.0,
+            cy: 59.5,
+            r: 55.0,
+        };
+        let plain = Extractor::new(FeatureConfig::default()).unwrap();
+        let extended = Extractor::new(FeatureConfig::with_log_domain()).unwrap();
+        let values = extended.extract(img.view(), &circle, 0.8);
+        assert_eq!(
+            &values[..FEATURE_COUNT],
+            plain.extract(img.view(), &circle, 0.8).as_slice()
+        );
+        let log = plain
+            .unwrap(img.view(), &circle, 0.8)
+            .mapv(|v| v.max(LOG_PIXEL_FLOOR).log10());
+        let expected = plain.features_of(&plain.stages_of_unwrapped(log));
+        assert_eq!(&values[FEATURE_COUNT..], expected.as_slice());
     }
 
     #[test]

@@ -44,7 +44,16 @@ pub fn train(
     dataset: &str,
     options: &TrainOptions,
 ) -> Result<Trained, TrainError> {
-    let config = FeatureConfig::default();
+    // The table decides: 117 columns, or 234 with the log-domain features.
+    let config = if table
+        .names
+        .iter()
+        .any(|n| n.starts_with(crate::features::LOG_PREFIX))
+    {
+        FeatureConfig::with_log_domain()
+    } else {
+        FeatureConfig::default()
+    };
     if table.names != config.names() {
         return Err(TrainError::Columns);
     }

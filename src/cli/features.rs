@@ -45,6 +45,9 @@ pub struct FeaturesArgs {
     /// Output CSV for --manifest.
     #[arg(long, requires = "manifest")]
     out: Option<PathBuf>,
+    /// Also compute the log-domain features (`log.*`, 117 more; an extension of the paper).
+    #[arg(long)]
+    log_features: bool,
     #[command(flatten)]
     limits: LimitArgs,
 }
@@ -59,7 +62,12 @@ struct Output<'a> {
 }
 
 pub fn run(args: FeaturesArgs) -> CliResult {
-    let extractor = Extractor::new(FeatureConfig::default()).map_err(|e| e.to_string())?;
+    let config = if args.log_features {
+        FeatureConfig::with_log_domain()
+    } else {
+        FeatureConfig::default()
+    };
+    let extractor = Extractor::new(config).map_err(|e| e.to_string())?;
     let encoding = args
         .encoding
         .as_deref()

@@ -25,8 +25,9 @@ pub struct DataArgs {
 }
 
 impl DataArgs {
-    /// The feature table and a label for provenance.
-    fn load(&self, limits: &LimitArgs) -> Result<(FeatureTable, String), String> {
+    /// The feature table and a label for provenance; manifests are extracted with the
+    /// log-domain features when `log_domain`.
+    fn load(&self, limits: &LimitArgs, log_domain: bool) -> Result<(FeatureTable, String), String> {
         if let Some(table) = &self.table {
             let t = FeatureTable::read(table).map_err(|e| e.to_string())?;
             return Ok((t, table.display().to_string()));
@@ -34,7 +35,12 @@ impl DataArgs {
         let path = self.manifest.as_ref().ok_or("give --manifest or --table")?;
         let manifest = dataset::read_manifest(path).map_err(|e| e.to_string())?;
         manifest.require_labels().map_err(|e| e.to_string())?;
-        let extractor = Extractor::new(FeatureConfig::default()).map_err(|e| e.to_string())?;
+        let config = if log_domain {
+            FeatureConfig::with_log_domain()
+        } else {
+            FeatureConfig::default()
+        };
+        let extractor = Extractor::new(config).map_err(|e| e.to_string())?;
         let options = DecodeOptions {
             encoding: None,
             limits: limits.limits(),
@@ -48,9 +54,14 @@ impl DataArgs {
 /// What to fit.
 #[derive(Args, Debug)]
 pub struct SpecArgs {
-    /// hand6, hand2, mean1, all, auto<N>, pca<N>, or a comma-separated list of names.
+    /// hand6, hand2, mean1, hand6+log, all, auto<N>, pca<N>, or a comma-separated list of
+    /// names. `all`, `auto<N>` and `pca<N>` range over the table's columns.
     #[arg(long)]
     features: String,
+    /// With --manifest: also extract the log-domain features (implied by sets that name
+    /// them, such as hand6+log).
+    #[arg(long)]
+    log_features: bool,
     /// svm, nn (1-NN), knn5 or chance.
     #[arg(long, default_value = "svm")]
     classifier: String,
@@ -68,6 +79,14 @@ pub struct SpecArgs {
 }
 
 impl SpecArgs {
+    /// Whether extraction from a manifest needs the log-domain features.
+    fn log_domain(&self) -> bool {
+        self.log_features
+            || self.features.split(',').any(|n| {
+                n.trim().starts_with(crate::features::LOG_PREFIX) || n.trim() == "hand6+log"
+            })
+    }
+
     fn spec(&self, names: &[String]) -> Result<TrainSpec, String> {
         let features = FeatureSet::parse_with(&self.features, names).map_err(|e| e.to_string())?;
         let classifier: ClassifierKind = self
@@ -103,7 +122,7 @@ pub struct CvArgs {
 }
 
 pub fn cv(args: CvArgs) -> CliResult {
-    let (table, _) = args.data.load(&args.limits)?;
+    let (table, _) = args.data.load(&args.limits, args.spec.log_domain())?;
     let spec = args.spec.spec(&table.names)?;
     let ds = Dataset::from_table(&table).map_err(|e| e.to_string())?;
     let report =
@@ -217,7 +236,7 @@ pub fn train(args: TrainArgs) -> CliResult {
         .map(load_classes)
         .transpose()
         .map_err(|e| e.to_string())?;
-    let (table, label) = args.data.load(&args.limits)?;
+    let (table, label) = args.data.load(&args.limits, args.spec.log_domain())?;
     let options = TrainOptions {
         name: args.name.clone(),
         spec: args.spec.spec(&table.names)?,
