@@ -34,6 +34,11 @@ pub struct FeatureConfig {
     /// image U, named with the `log.` prefix (an extension of the paper; see README).
     #[serde(default)]
     pub log_domain: bool,
+    /// Spheres larger than this radius (px) are first area-downsampled to it, so a model
+    /// sees the same effective resolution as in training (see `resample`). None: no
+    /// resampling (the DESIGN.md definition).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub working_radius: Option<f64>,
 }
 
 impl Default for FeatureConfig {
@@ -42,6 +47,7 @@ impl Default for FeatureConfig {
             unwrap: UnwrapConfig::default(),
             levels: 4,
             log_domain: false,
+            working_radius: None,
         }
     }
 }
@@ -63,6 +69,8 @@ pub enum ConfigError {
     BadAnnulus { inner: f64, outer: f64, r0: f64 },
     #[error("levels must be between 2 and 8, not {0}")]
     BadLevels(usize),
+    #[error("working radius {0} must be a finite number of pixels ≥ 32")]
+    BadWorkingRadius(f64),
 }
 
 impl FeatureConfig {
@@ -70,6 +78,12 @@ impl FeatureConfig {
         let u = &self.unwrap;
         if !(2..=8).contains(&self.levels) {
             return Err(ConfigError::BadLevels(self.levels));
+        }
+        if let Some(r) = self
+            .working_radius
+            .filter(|r| !(r.is_finite() && *r >= crate::geometry::MIN_RADIUS))
+        {
+            return Err(ConfigError::BadWorkingRadius(r));
         }
         if !(0.0 <= u.inner && u.inner < u.outer && u.outer <= 1.0 && u.r0 > 0.0) {
             return Err(ConfigError::BadAnnulus {
@@ -96,6 +110,15 @@ impl FeatureConfig {
             }
         }
         Ok(())
+    }
+
+    /// The default configuration with the given extensions.
+    pub fn extended(log_domain: bool, working_radius: Option<f64>) -> Self {
+        FeatureConfig {
+            log_domain,
+            working_radius,
+            ..FeatureConfig::default()
+        }
     }
 
     /// The default configuration with the log-domain features.
@@ -234,8 +257,17 @@ impl Extractor {
         }
     }
 
-    /// The unwrapped, white-normalized annulus.
+    /// The unwrapped, white-normalized annulus (after reduction to the working radius, if
+    /// the configuration has one and the sphere is larger).
     pub fn unwrap(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Array2<f64> {
+        let reduced = self
+            .config
+            .working_radius
+            .and_then(|target| crate::resample::to_radius(luminance, circle, target));
+        let (luminance, circle) = match &reduced {
+            Some((image, moved)) => (image.view(), moved),
+            None => (luminance, circle),
+        };
         let s = self.config.unwrap.supersampling(circle.r);
         let mut grid = unwrap(luminance, circle, &self.config.unwrap, &self.angles(s));
         grid.mapv_inplace(|v| v / white);

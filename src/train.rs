@@ -31,6 +31,9 @@ pub struct TrainOptions {
     pub cross_validate: bool,
     /// Ward parameters of the classes, when known.
     pub classes: Option<Vec<Material>>,
+    /// The radius the training spheres were extracted at, recorded so that serving
+    /// reduces larger spheres to it (the table must have been extracted with it).
+    pub working_radius: Option<f64>,
 }
 
 pub struct Trained {

@@ -3,7 +3,7 @@
 use super::{CliResult, LimitArgs};
 use crate::analysis::{self, Locate, WhiteInput};
 use crate::dataset::{self, Manifest};
-use crate::features::{Extractor, FeatureConfig};
+use crate::features::Extractor;
 use crate::geometry::Circle;
 use crate::image_io::{self, DecodeOptions, Encoding};
 use clap::Args;
@@ -45,9 +45,8 @@ pub struct FeaturesArgs {
     /// Output CSV for --manifest.
     #[arg(long, requires = "manifest")]
     out: Option<PathBuf>,
-    /// Also compute the log-domain features (`log.*`, 117 more; an extension of the paper).
-    #[arg(long)]
-    log_features: bool,
+    #[command(flatten)]
+    extensions: super::ExtensionArgs,
     #[command(flatten)]
     limits: LimitArgs,
 }
@@ -62,12 +61,7 @@ struct Output<'a> {
 }
 
 pub fn run(args: FeaturesArgs) -> CliResult {
-    let config = if args.log_features {
-        FeatureConfig::with_log_domain()
-    } else {
-        FeatureConfig::default()
-    };
-    let extractor = Extractor::new(config).map_err(|e| e.to_string())?;
+    let extractor = Extractor::new(args.extensions.config(false)).map_err(|e| e.to_string())?;
     let encoding = args
         .encoding
         .as_deref()
