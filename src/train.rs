@@ -48,15 +48,11 @@ pub fn train(
     options: &TrainOptions,
 ) -> Result<Trained, TrainError> {
     // The table decides: 117 columns, or 234 with the log-domain features.
-    let config = if table
+    let log_domain = table
         .names
         .iter()
-        .any(|n| n.starts_with(crate::features::LOG_PREFIX))
-    {
-        FeatureConfig::with_log_domain()
-    } else {
-        FeatureConfig::default()
-    };
+        .any(|n| n.starts_with(crate::features::LOG_PREFIX));
+    let config = FeatureConfig::extended(log_domain, options.working_radius);
     if table.names != config.names() {
         return Err(TrainError::Columns);
     }

@@ -282,8 +282,27 @@ fn predict_rendered_spheres_with_a_trained_model() {
         classes.to_str().unwrap(),
     ]);
     let model = Registry::new(&models).load("tiny", 1).unwrap();
+    assert_eq!(model.features.config.working_radius, None);
     assert_eq!(model.classes[1].name, "dark");
     assert_eq!(model.classes[1].ward.as_ref().unwrap().rho_d, 0.1);
+    // A working radius given to train is recorded in the model's feature configuration.
+    run(&[
+        "train",
+        "--manifest",
+        manifest.to_str().unwrap(),
+        "--features",
+        "mean1",
+        "--classifier",
+        "nn",
+        "--models",
+        models.to_str().unwrap(),
+        "--name",
+        "tiny-wr",
+        "--working-radius",
+        "40",
+    ]);
+    let wr = Registry::new(&models).load("tiny-wr", 1).unwrap();
+    assert_eq!(wr.features.config.working_radius, Some(40.0));
     let predictions = dir.join("p.csv");
     let printed = run(&[
         "predict",
