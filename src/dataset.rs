@@ -306,6 +306,38 @@ impl FeatureTable {
         Ok(FeatureTable { names, samples })
     }
 
+    /// The table restricted to the given columns (which must exist), in that order.
+    pub fn with_columns(&self, names: &[String]) -> Result<FeatureTable, String> {
+        let idx = self
+            .columns(names)
+            .map_err(|missing| format!("no column {missing}"))?;
+        let samples = self
+            .samples
+            .iter()
+            .map(|s| Sample {
+                values: idx.iter().map(|&i| s.values[i]).collect(),
+                ..s.clone()
+            })
+            .collect();
+        Ok(FeatureTable {
+            names: names.to_vec(),
+            samples,
+        })
+    }
+
+    /// The rows of original renders only (illuminations without an `@` view suffix).
+    pub fn originals(&self) -> FeatureTable {
+        FeatureTable {
+            names: self.names.clone(),
+            samples: self
+                .samples
+                .iter()
+                .filter(|s| !s.illumination.contains('@'))
+                .cloned()
+                .collect(),
+        }
+    }
+
     /// Column index of every name, or the first unknown name.
     pub fn columns(&self, wanted: &[String]) -> Result<Vec<usize>, String> {
         let index: HashMap<&str, usize> = self

@@ -100,7 +100,12 @@ fn report_writes_both_tables_json_and_plots() {
     );
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(report_dir.join("report.json")).unwrap()).unwrap();
-    assert_eq!(json["cells"].as_array().unwrap().len(), 4 * (6 + 4));
+    // Per data set: 6 Table 1 rows, 4 more Table 2 cells, 2 augmented-protocol rows.
+    assert_eq!(json["cells"].as_array().unwrap().len(), 4 * (6 + 4 + 2));
+    assert!(
+        md.contains("| **hand6+log, augmented training views** |"),
+        "{md}"
+    );
     for cell in json["cells"].as_array().unwrap() {
         let acc = cell["accuracy"].as_f64().unwrap();
         assert!((0.0..=1.0).contains(&acc));
@@ -108,7 +113,8 @@ fn report_writes_both_tables_json_and_plots() {
     }
     if Path::new("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf").exists() {
         for plot in [
-            "confusion_all_11_hand6_svm.png",
+            "confusion_all_11_hand6_paper.png",
+            "confusion_paper9_6_hand6_log_augmented.png",
             "fig7_paper9_6.png",
             "fig7_all_6.png",
         ] {

@@ -3,8 +3,12 @@
 //! beside ours; Markdown, JSON and PNG plots.
 //!
 //! `--data DIR` holds four rendered data sets, each a folder with `manifest.csv`:
-//! `paper9_6`, `paper9_11`, `all_6`, `all_11` (probe set × class set). Features are cached
-//! as `features.csv` next to each manifest.
+//! `paper9_6`, `paper9_11`, `all_6`, `all_11` (probe set × class set). Features (with the
+//! log-domain ones) are cached as `features.csv` next to each manifest.
+//!
+//! Two protocols: the paper's (original renders only, the 117 features) for every cell of
+//! Tables 1 and 2, and ours (augmented training views, when the data sets have them) for
+//! hand6 and hand6+log.
 
 mod plots;
 
@@ -45,6 +49,8 @@ pub const DATASETS: [(&str, &str); 4] = [
 
 /// Table 1 rows after `chance`: feature sets for the SVM.
 pub const TABLE1_ROWS: [&str; 6] = ["mean1", "hand2", "hand6", "auto6", "pca6", "all"];
+/// Our protocol: augmented training views, these feature sets (SVM).
+pub const AUGMENTED_ROWS: [&str; 2] = ["hand6", "hand6+log"];
 /// Table 2: classifiers × feature sets.
 pub const TABLE2_CLASSIFIERS: [&str; 3] = ["svm", "nn", "knn5"];
 pub const TABLE2_SETS: [&str; 2] = ["hand6", "all"];
@@ -67,6 +73,8 @@ fn paper_figure(dataset: &str, features: &str, classifier: &str) -> Option<f64> 
 #[derive(Clone, Debug, Serialize)]
 pub struct Cell {
     pub dataset: String,
+    /// `paper` (original renders, 117 features) or `augmented` (training views added).
+    pub protocol: String,
     pub features: String,
     pub classifier: String,
     pub accuracy: f64,
@@ -109,8 +117,8 @@ fn features_of(dir: &Path, options: &DecodeOptions) -> Result<FeatureTable, Repo
     if modified(&cache).is_some_and(|c| modified(&manifest).is_some_and(|m| c >= m)) {
         return Ok(FeatureTable::read(&cache)?);
     }
-    let extractor =
-        Extractor::new(FeatureConfig::default()).map_err(|e| ReportError::Plot(e.to_string()))?;
+    let extractor = Extractor::new(FeatureConfig::with_log_domain())
+        .map_err(|e| ReportError::Plot(e.to_string()))?;
     let manifest = dataset::read_manifest(&manifest)?;
     manifest.require_labels()?;
     let table = dataset::extract_manifest(&extractor, &manifest, options)?;
@@ -118,9 +126,10 @@ fn features_of(dir: &Path, options: &DecodeOptions) -> Result<FeatureTable, Repo
     Ok(table)
 }
 
-fn cell(dataset: &str, report: &CvReport) -> Cell {
+fn cell(dataset: &str, protocol: &str, report: &CvReport) -> Cell {
     Cell {
         dataset: dataset.to_string(),
+        protocol: protocol.to_string(),
         features: report.features.clone(),
         classifier: report.classifier.clone(),
         accuracy: report.accuracy,
@@ -128,7 +137,8 @@ fn cell(dataset: &str, report: &CvReport) -> Cell {
         n: report.n,
         log_loss: report.log_loss,
         ece: report.ece,
-        paper: paper_figure(dataset, &report.features, &report.classifier),
+        paper: paper_figure(dataset, &report.features, &report.classifier)
+            .filter(|_| protocol == "paper"),
         per_class: report.per_class.clone(),
         confusion: report.confusion.clone(),
         classes: report.classes.clone(),
@@ -147,54 +157,65 @@ pub fn run(
         path: out.display().to_string(),
         source,
     })?;
-    let mut runs: Vec<(&str, &str, &str)> = Vec::new();
+    // (data set, protocol, feature set, classifier)
+    let mut runs: Vec<(&str, &str, &str, &str)> = Vec::new();
     for (name, _) in DATASETS {
         for set in TABLE1_ROWS {
-            runs.push((name, set, "svm"));
+            runs.push((name, "paper", set, "svm"));
         }
         for classifier in TABLE2_CLASSIFIERS.iter().filter(|c| **c != "svm") {
             for set in TABLE2_SETS {
-                runs.push((name, set, classifier));
+                runs.push((name, "paper", set, classifier));
             }
+        }
+        for set in AUGMENTED_ROWS {
+            runs.push((name, "augmented", set, "svm"));
         }
     }
     let bar = crate::progress::bar(runs.len() as u64, "report");
+    let base_names = FeatureConfig::default().names();
     let mut tables = Vec::new();
     let mut datasets = Vec::new();
     for (name, _) in DATASETS {
-        let table = features_of(&data.join(name), options)?;
-        let ds = Dataset::from_table(&table)?;
+        let full = features_of(&data.join(name), options)?;
+        let paper = full
+            .originals()
+            .with_columns(&base_names)
+            .map_err(ReportError::Plot)?;
+        let (paper_ds, full_ds) = (Dataset::from_table(&paper)?, Dataset::from_table(&full)?);
         datasets.push(DatasetSummary {
             name: name.to_string(),
-            rows: ds.n_rows(),
-            evaluated: ds.augmented.iter().filter(|a| !**a).count(),
-            illuminations: ds.group_names.len(),
-            classes: ds.n_classes(),
+            rows: full_ds.n_rows(),
+            evaluated: paper_ds.n_rows(),
+            illuminations: paper_ds.group_names.len(),
+            classes: paper_ds.n_classes(),
         });
-        tables.push((name, table, ds));
+        tables.push((name, [(paper, paper_ds), (full, full_ds)]));
     }
     let mut cells = Vec::new();
-    for (name, set, classifier) in runs {
-        let (_, table, ds) = tables
+    for (name, protocol, set, classifier) in runs {
+        let (_, variants) = tables
             .iter()
-            .find(|(n, _, _)| *n == name)
+            .find(|(n, _)| *n == name)
             .expect("loaded above");
+        let (table, ds) = &variants[usize::from(protocol == "augmented")];
         let spec = TrainSpec::new(
             FeatureSet::parse_with(set, &table.names)?,
             classifier.parse::<ClassifierKind>()?,
         );
         let report = learn::cross_validate(ds, &spec, seed)?;
-        if set == "hand6" && classifier == "svm" {
-            plots::confusion(
-                &report,
-                &out.join(format!("confusion_{name}_hand6_svm.png")),
-            )?;
+        let plotted =
+            classifier == "svm" && ((set, protocol) == ("hand6", "paper") || set == "hand6+log");
+        if plotted {
+            let file = format!("confusion_{name}_{}_{protocol}.png", set.replace('+', "_"));
+            plots::confusion(&report, &out.join(file))?;
         }
-        cells.push(cell(name, &report));
+        cells.push(cell(name, protocol, &report));
         bar.inc(1);
     }
     bar.finish_and_clear();
-    for (name, table, ds) in tables.iter().filter(|(n, _, _)| n.ends_with("_6")) {
+    for (name, variants) in tables.iter().filter(|(n, _)| n.ends_with("_6")) {
+        let (table, ds) = &variants[0];
         plots::fig7(table, ds, seed, &out.join(format!("fig7_{name}.png")))?;
     }
     let report = Report {
@@ -219,23 +240,33 @@ fn write(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
 fn find<'a>(
     report: &'a Report,
     dataset: &str,
+    protocol: &str,
     features: &str,
     classifier: &str,
 ) -> Option<&'a Cell> {
-    report
-        .cells
-        .iter()
-        .find(|c| c.dataset == dataset && c.features == features && c.classifier == classifier)
+    report.cells.iter().find(|c| {
+        c.dataset == dataset
+            && c.protocol == protocol
+            && c.features == features
+            && c.classifier == classifier
+    })
 }
 
-fn format_cell(cell: Option<&Cell>) -> String {
-    match cell {
-        Some(c) => match c.paper {
-            Some(p) => format!("{:.1} ({p:.1})", 100.0 * c.accuracy),
-            None => format!("{:.1} (—)", 100.0 * c.accuracy),
-        },
-        None => "—".into(),
+/// "ours (paper)" for a cell, with the paper's figure `paper` when given.
+fn format_cell(cell: Option<&Cell>, paper: Option<f64>) -> String {
+    match (cell, paper) {
+        (Some(c), Some(p)) => format!("{:.1} ({p:.1})", 100.0 * c.accuracy),
+        (Some(c), None) => format!("{:.1} (—)", 100.0 * c.accuracy),
+        (None, _) => "—".into(),
     }
+}
+
+fn header(md: &mut String, first: &str) {
+    md.push_str(first);
+    for (_, title) in DATASETS {
+        let _ = write!(md, " {title} |");
+    }
+    md.push('\n');
 }
 
 /// Tables 1 and 2 as Markdown: our accuracy (%) with the paper's figure in parentheses.
@@ -248,9 +279,7 @@ pub fn markdown(report: &Report) -> String {
          (— where the paper's figure is not available to us). Seed {}.\n",
         report.seed
     );
-    md.push_str(
-        "| data set | images | evaluated | illuminations | classes |\n|---|---|---|---|---|\n",
-    );
+    md.push_str("| data set | images (with views) | evaluated | illuminations | classes |\n|---|---|---|---|---|\n");
     for d in &report.datasets {
         let _ = writeln!(
             md,
@@ -258,13 +287,9 @@ pub fn markdown(report: &Report) -> String {
             d.name, d.rows, d.evaluated, d.illuminations, d.classes
         );
     }
-    md.push_str(
-        "\n## Table 1 — SVM (RBF, C = 100, γ = 1/n), feature sets × data sets\n\n| features |",
-    );
-    for (_, title) in DATASETS {
-        let _ = write!(md, " {title} |");
-    }
-    md.push_str("\n|---|---|---|---|---|\n| chance |");
+    md.push_str("\n## Table 1 — SVM (RBF, C = 100, γ = 1/n), feature sets × data sets\n\n");
+    header(&mut md, "| features |");
+    md.push_str("|---|---|---|---|---|\n| chance |");
     for c in &report.chance {
         let _ = write!(md, " {:.1} |", 100.0 * c);
     }
@@ -272,31 +297,48 @@ pub fn markdown(report: &Report) -> String {
     for set in TABLE1_ROWS {
         let _ = write!(md, "| {set} |");
         for (name, _) in DATASETS {
-            let _ = write!(md, " {} |", format_cell(find(report, name, set, "svm")));
+            let cell = find(report, name, "paper", set, "svm");
+            let _ = write!(md, " {} |", format_cell(cell, cell.and_then(|c| c.paper)));
         }
         md.push('\n');
     }
-    md.push_str("\n## Table 2 — classifiers × feature sets\n\n| classifier | features |");
-    for (_, title) in DATASETS {
-        let _ = write!(md, " {title} |");
+    for set in AUGMENTED_ROWS {
+        let _ = write!(md, "| **{set}, augmented training views** |");
+        for (name, _) in DATASETS {
+            let cell = find(report, name, "augmented", set, "svm");
+            let _ = write!(
+                md,
+                " {} |",
+                format_cell(cell, paper_figure(name, "hand6", "svm"))
+            );
+        }
+        md.push('\n');
     }
-    md.push_str("\n|---|---|---|---|---|---|\n");
+    md.push_str(
+        "\nThe rows above the bold ones follow the paper's protocol: the original renders only and \
+         the 117 features. The bold rows train on every rendered view of the other illuminations \
+         (turns about the vertical axis and other viewer elevations; the held-out illumination's \
+         views are excluded) and are evaluated on the same original renders; hand6+log adds the \
+         log-domain pixel statistics and subband variances. Beside them: the paper's hand6 figure.\n",
+    );
+    md.push_str("\n## Table 2 — classifiers × feature sets (paper protocol)\n\n");
+    header(&mut md, "| classifier | features |");
+    md.push_str("|---|---|---|---|---|---|\n");
     for classifier in TABLE2_CLASSIFIERS {
         for set in TABLE2_SETS {
             let _ = write!(md, "| {classifier} | {set} |");
             for (name, _) in DATASETS {
-                let _ = write!(
-                    md,
-                    " {} |",
-                    format_cell(find(report, name, set, classifier))
-                );
+                let cell = find(report, name, "paper", set, classifier);
+                let _ = write!(md, " {} |", format_cell(cell, cell.and_then(|c| c.paper)));
             }
             md.push('\n');
         }
     }
-    md.push_str("\nLog-loss and expected calibration error of every run are in `report.json`; \
-                 confusion matrices of hand6 (SVM) in `confusion_*.png`; the Fig. 7 scatter with the \
-                 SVM's decision regions in `fig7_*.png`.\n");
+    md.push_str(
+        "\nLog-loss and expected calibration error of every run are in `report.json`; confusion \
+         matrices of hand6 (paper protocol) and hand6+log (augmented) SVMs in `confusion_*.png`; \
+         the Fig. 7 scatter with the SVM's decision regions in `fig7_*.png`.\n",
+    );
     md
 }
 
