@@ -52,7 +52,7 @@ fn table() -> FeatureTable {
     let w_view: Vec<Vec<f64>> = (0..m).map(|_| gauss(3, 0.5)).collect();
     let offset = gauss(m, 2.0);
     for n in named_set("hand6").unwrap_or_default() {
-        if let Some(j) = names.iter().position(|x| x == n) {
+        if let Some(j) = names.iter().position(|x| *x == n) {
             w_class[j].iter_mut().for_each(|w| *w *= 2.5);
         }
     }

@@ -123,10 +123,7 @@ impl FeatureConfig {
 
     /// The default configuration with the log-domain features.
     pub fn with_log_domain() -> Self {
-        FeatureConfig {
-            log_domain: true,
-            ..FeatureConfig::default()
-        }
+        FeatureConfig::extended(true, None)
     }
 
     /// Canonical feature names for this configuration.
@@ -166,9 +163,10 @@ pub fn default_names() -> &'static [String] {
     NAMES.get_or_init(|| FeatureConfig::default().names())
 }
 
-/// The paper's hand-picked sets (§6.3, Fig. 7) and the trivial ones.
-pub fn named_set(name: &str) -> Option<&'static [&'static str]> {
-    const HAND6: &[&str] = &[
+/// The paper's hand-picked sets (§6.3, Fig. 7), the trivial one, and hand6 extended with
+/// the log-domain pixel statistics and subband variances (`hand6+log`, see README).
+pub fn named_set(name: &str) -> Option<Vec<String>> {
+    const HAND6: [&str; 6] = [
         "pix.mean",
         "pix.p10",
         "wav.s1.v.var",
@@ -176,41 +174,26 @@ pub fn named_set(name: &str) -> Option<&'static [&'static str]> {
         "ratio.v.s1_s2",
         "wav.s2.v.kurt",
     ];
-    const HAND2: &[&str] = &["pix.p10", "wav.s2.v.var"];
-    const MEAN1: &[&str] = &["pix.mean"];
-    // hand6 plus the log-domain pixel statistics and subband variances (see README).
-    const HAND6_LOG: &[&str] = &[
-        "pix.mean",
-        "pix.p10",
-        "wav.s1.v.var",
-        "wav.s2.v.var",
-        "ratio.v.s1_s2",
-        "wav.s2.v.kurt",
-        "log.pix.mean",
-        "log.pix.var",
-        "log.pix.skew",
-        "log.pix.kurt",
-        "log.pix.p10",
-        "log.pix.p50",
-        "log.pix.p90",
-        "log.wav.s1.h.var",
-        "log.wav.s1.v.var",
-        "log.wav.s1.d.var",
-        "log.wav.s2.h.var",
-        "log.wav.s2.v.var",
-        "log.wav.s2.d.var",
-        "log.wav.s3.h.var",
-        "log.wav.s3.v.var",
-        "log.wav.s3.d.var",
-        "log.wav.s4.h.var",
-        "log.wav.s4.v.var",
-        "log.wav.s4.d.var",
-    ];
+    let strings = |names: &[&str]| names.iter().map(|n| n.to_string()).collect::<Vec<_>>();
     match name {
-        "hand6" => Some(HAND6),
-        "hand2" => Some(HAND2),
-        "mean1" => Some(MEAN1),
-        "hand6+log" => Some(HAND6_LOG),
+        "hand6" => Some(strings(&HAND6)),
+        "hand2" => Some(strings(&["pix.p10", "wav.s2.v.var"])),
+        "mean1" => Some(strings(&["pix.mean"])),
+        "hand6+log" => {
+            let pixels = STAT_NAMES.iter().map(|s| format!("{LOG_PREFIX}pix.{s}"));
+            let bands = (1..=4).flat_map(|k| {
+                BAND_NAMES
+                    .iter()
+                    .map(move |b| format!("{LOG_PREFIX}wav.s{k}.{b}.var"))
+            });
+            Some(
+                strings(&HAND6)
+                    .into_iter()
+                    .chain(pixels)
+                    .chain(bands)
+                    .collect(),
+            )
+        }
         _ => None,
     }
 }
@@ -365,14 +348,14 @@ mod tests {
         assert_eq!(names[116], "fft.lo.pow");
         for set in ["hand6", "hand2", "mean1"] {
             for n in named_set(set).unwrap() {
-                assert!(names.iter().any(|m| m == n), "{n}");
+                assert!(names.contains(&n), "{n}");
             }
         }
         let extended = FeatureConfig::with_log_domain().names();
         assert_eq!(extended.len(), 2 * FEATURE_COUNT);
         assert_eq!(extended[FEATURE_COUNT], "log.pix.mean");
         for n in named_set("hand6+log").unwrap() {
-            assert!(extended.iter().any(|m| m == n), "{n}");
+            assert!(extended.contains(&n), "{n}");
         }
     }
 

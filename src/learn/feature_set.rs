@@ -83,13 +83,7 @@ impl FeatureSet {
     /// The names of a fixed set (`None` for the fitted `auto<N>` and `pca<N>`), `all` being
     /// every column of `names`.
     pub fn fixed_names(&self, names: &[String]) -> Option<Vec<String>> {
-        let named = |set: &str| {
-            named_set(set)
-                .unwrap_or_default()
-                .iter()
-                .map(|s| s.to_string())
-                .collect()
-        };
+        let named = |set: &str| named_set(set).unwrap_or_default();
         match self {
             FeatureSet::Hand6 => Some(named("hand6")),
             FeatureSet::Hand6Log => Some(named("hand6+log")),
