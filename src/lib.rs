@@ -17,6 +17,7 @@ pub mod pyramid;
 pub mod registry;
 pub mod render;
 pub mod rng;
+pub mod server;
 pub mod spectrum;
 pub mod stats;
 pub mod train;

@@ -3,6 +3,7 @@
 mod features;
 mod learn;
 mod render;
+mod serve;
 
 use clap::{Args, Parser, Subcommand};
 use std::process::ExitCode;
@@ -30,6 +31,10 @@ enum Command {
     Train(learn::TrainArgs),
     /// Classify the images of a manifest with a trained model.
     Predict(learn::PredictArgs),
+    /// Run the classification service (data plane, and the admin plane when a token is set).
+    Serve(crate::server::config::ServeArgs),
+    /// Exit 0 when a server answers GET /health/ready with 200 (for container health checks).
+    Healthcheck(serve::HealthcheckArgs),
 }
 
 /// Decoding limits against decompression bombs.
@@ -67,6 +72,8 @@ pub fn main() -> ExitCode {
         Command::Cv(args) => learn::cv(args),
         Command::Train(args) => learn::train(args),
         Command::Predict(args) => learn::predict(args),
+        Command::Serve(args) => serve::run(args),
+        Command::Healthcheck(args) => serve::healthcheck(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
