@@ -172,7 +172,7 @@ impl Kind {
             Kind::InvalidJob => ("invalid-job", "Invalid job", S::UNPROCESSABLE_ENTITY),
             Kind::InvalidPath => (
                 "invalid-path",
-                "Path outside the data directory",
+                "Path missing or outside the data directory",
                 S::UNPROCESSABLE_ENTITY,
             ),
             Kind::JobQueueFull => ("job-queue-full", "Job queue full", S::TOO_MANY_REQUESTS),

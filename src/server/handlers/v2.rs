@@ -201,7 +201,7 @@ fn invalid(detail: String) -> ApiError {
     ApiError::new(Kind::InvalidField, detail)
 }
 
-fn single<'a>(input: &'a InferInput) -> Result<&'a Value, ApiError> {
+fn single(input: &InferInput) -> Result<&Value, ApiError> {
     let count: i64 = input.shape.iter().product();
     if input.data.len() != 1 || count != 1 {
         return Err(invalid(format!(

@@ -21,11 +21,11 @@ use crate::image_io::Limits;
 use crate::progress::Observer;
 use paths::DataDir;
 use serde::{Deserialize, Serialize};
+use std::collections::VecDeque;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 use utoipa::ToSchema;
 
@@ -191,7 +191,8 @@ impl JobState {
 }
 
 /// How far a job is: `done` of `total` units (images or folds) of its current stage
-/// (`queued`, `features`, `fit`, `cross_validate`, `publish`, `activate`, `render`, `done`).
+/// (`queued`, `starting`, `features`, `fit`, `cross_validate`, `publish`, `activate`,
+/// `render`, `done`).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct JobProgress {
     pub stage: String,
@@ -222,6 +223,14 @@ pub struct JobRecord {
     pub error: Option<String>,
 }
 
+/// Jobs waiting for a worker, first in first out; a job cancelled while waiting leaves it
+/// at once.
+struct Queue {
+    waiting: VecDeque<String>,
+    capacity: usize,
+    open: bool,
+}
+
 /// The job system: records, queue and workers.
 pub struct JobManager {
     dir: PathBuf,
@@ -230,8 +239,8 @@ pub struct JobManager {
     models: Arc<ModelStore>,
     records: Mutex<BTreeMap<String, JobRecord>>,
     cancel: Mutex<HashMap<String, Arc<AtomicBool>>>,
-    queue: Mutex<Option<SyncSender<String>>>,
-    queued: AtomicUsize,
+    queue: Mutex<Queue>,
+    wake: Condvar,
     workers: Mutex<Vec<std::thread::JoinHandle<()>>>,
 }
 
@@ -250,7 +259,6 @@ impl JobManager {
             .map_err(|e| format!("jobs directory {}: {e}", jobs_dir.display()))?;
         let data = DataDir::new(data_dir)?;
         let records = load_records(jobs_dir)?;
-        let (tx, rx) = std::sync::mpsc::sync_channel::<String>(capacity);
         let manager = Arc::new(JobManager {
             dir: jobs_dir.to_path_buf(),
             data,
@@ -258,19 +266,21 @@ impl JobManager {
             models,
             records: Mutex::new(records),
             cancel: Mutex::new(HashMap::new()),
-            queue: Mutex::new(Some(tx)),
-            queued: AtomicUsize::new(0),
+            queue: Mutex::new(Queue {
+                waiting: VecDeque::new(),
+                capacity,
+                open: true,
+            }),
+            wake: Condvar::new(),
             workers: Mutex::new(Vec::new()),
         });
         manager.recover();
-        let rx = Arc::new(Mutex::new(rx));
         let mut handles = Vec::new();
         for i in 0..workers {
             let weak = Arc::downgrade(&manager);
-            let rx = rx.clone();
             let handle = std::thread::Builder::new()
                 .name(format!("reflectance-job-{i}"))
-                .spawn(move || worker(weak, rx))
+                .spawn(move || worker(weak))
                 .map_err(|e| format!("cannot start a job worker: {e}"))?;
             handles.push(handle);
         }
@@ -324,35 +334,28 @@ impl JobManager {
             result: None,
             error: None,
         };
-        self.lock_records().insert(id.clone(), record.clone());
-        self.lock_cancel()
-            .insert(id.clone(), Arc::new(AtomicBool::new(false)));
-        self.queued.fetch_add(1, Ordering::SeqCst);
-        let sent = match self
-            .queue
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .as_ref()
         {
-            Some(tx) => tx.try_send(id.clone()),
-            None => Err(TrySendError::Disconnected(id.clone())),
-        };
-        if let Err(e) = sent {
-            self.queued.fetch_sub(1, Ordering::SeqCst);
-            self.lock_records().remove(&id);
-            self.lock_cancel().remove(&id);
-            return Err(match e {
-                TrySendError::Full(_) => ApiError::new(
+            let mut queue = self.lock_queue();
+            if !queue.open {
+                return Err(
+                    ApiError::new(Kind::NotReady, "the job system is shutting down").retry_after(5),
+                );
+            }
+            if queue.waiting.len() >= queue.capacity {
+                return Err(ApiError::new(
                     Kind::JobQueueFull,
                     "the job queue is full; retry when running jobs have finished",
                 )
-                .retry_after(10),
-                TrySendError::Disconnected(_) => {
-                    ApiError::new(Kind::NotReady, "the job system is shutting down").retry_after(5)
-                }
-            });
+                .retry_after(10));
+            }
+            self.lock_records().insert(id.clone(), record.clone());
+            self.lock_cancel()
+                .insert(id.clone(), Arc::new(AtomicBool::new(false)));
+            // Persisted before a worker can see it, so a record never goes back in time.
+            self.persist(&record);
+            queue.waiting.push_back(id.clone());
         }
-        self.persist(&record);
+        self.wake.notify_one();
         self.publish_metrics();
         tracing::info!(job = %id, kind = record.request.kind(), "job queued");
         Ok(record)
@@ -393,6 +396,7 @@ impl JobManager {
             }
             record.cancel_requested = true;
             if record.state == JobState::Queued {
+                self.lock_queue().waiting.retain(|q| q != id);
                 record.state = JobState::Cancelled;
                 record.finished = Some(crate::model::now_rfc3339());
                 record.error = Some("cancelled before it started".into());
@@ -410,7 +414,8 @@ impl JobManager {
 
     /// Stop taking jobs; running jobs are asked to stop. Idempotent.
     pub fn shutdown(&self) {
-        self.queue.lock().unwrap_or_else(|e| e.into_inner()).take();
+        self.lock_queue().open = false;
+        self.wake.notify_all();
         for flag in self.lock_cancel().values() {
             flag.store(true, Ordering::SeqCst);
         }
@@ -436,7 +441,25 @@ impl JobManager {
     }
 
     pub fn queue_depth(&self) -> usize {
-        self.queued.load(Ordering::SeqCst)
+        self.lock_queue().waiting.len()
+    }
+
+    fn lock_queue(&self) -> std::sync::MutexGuard<'_, Queue> {
+        self.queue.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// The next job, waiting for one; `None` once shut down.
+    fn next_job(&self) -> Option<String> {
+        let mut queue = self.lock_queue();
+        loop {
+            if !queue.open {
+                return None;
+            }
+            if let Some(id) = queue.waiting.pop_front() {
+                return Some(id);
+            }
+            queue = self.wake.wait(queue).unwrap_or_else(|e| e.into_inner());
+        }
     }
 
     fn lock_records(&self) -> std::sync::MutexGuard<'_, BTreeMap<String, JobRecord>> {
@@ -490,7 +513,6 @@ impl JobManager {
 
     /// Run one job from the queue.
     fn execute(self: &Arc<Self>, id: String) {
-        self.queued.fetch_sub(1, Ordering::SeqCst);
         let flag = self.lock_cancel().get(&id).cloned();
         let Some(flag) = flag else { return };
         let request = {
@@ -507,6 +529,7 @@ impl JobManager {
             }
             record.state = JobState::Running;
             record.started = Some(crate::model::now_rfc3339());
+            record.progress.stage = "starting".into();
             record.request.clone()
         };
         self.update(&id, true, |_| {});
@@ -552,13 +575,12 @@ impl JobManager {
     }
 }
 
-fn worker(manager: std::sync::Weak<JobManager>, rx: Arc<Mutex<Receiver<String>>>) {
+fn worker(manager: std::sync::Weak<JobManager>) {
     loop {
-        let next = rx.lock().unwrap_or_else(|e| e.into_inner()).recv();
-        let Ok(id) = next else { return };
         let Some(manager) = manager.upgrade() else {
             return;
         };
+        let Some(id) = manager.next_job() else { return };
         manager.execute(id);
     }
 }

@@ -351,7 +351,7 @@ pub fn execute(
                 .iter()
                 .map(|r| ("report.json", r.as_slice()))
                 .collect();
-            let (served, version) = {
+            let version = {
                 let _serial = models.lock_registry();
                 let registry = models.registry();
                 // Pin the version being served, so that publishing does not make the new
@@ -360,15 +360,15 @@ pub fn execute(
                     .active(name)
                     .map(|m| m.version())
                     .or_else(|| registry.active(name).ok());
-                if let Some(v) = served {
-                    if let Err(e) = registry.set_active(name, v) {
-                        tracing::warn!(model = %name, error = %e, "could not pin the active version");
-                    }
+                if let Some(v) = served
+                    && let Err(e) = registry.set_active(name, v)
+                {
+                    tracing::warn!(model = %name, error = %e, "could not pin the active version");
                 }
                 let (version, _) = registry
                     .publish(&mut trained.model, &extra)
                     .map_err(|e| Failure::Error(e.to_string()))?;
-                (served, version)
+                version
             };
             let new_accuracy = trained.model.training.cv.as_ref().map(|c| c.accuracy);
             let mut result = JobResult {
@@ -407,7 +407,6 @@ pub fn execute(
                     }
                 }
             };
-            let _ = served;
             match decision {
                 Ok(reason) => {
                     observer.stage("activate");
