@@ -29,32 +29,32 @@ pub struct ClassifyForm {
     #[schema(value_type = String, format = Binary)]
     image: Vec<u8>,
     /// Linear luminance of an ideal white surface at the sphere (finite, > 0).
-    #[schema(value_type = Option<f64>)]
+    #[schema(value_type = f64, required = false)]
     white: Option<f64>,
     /// A crop of a white card (its median luminance is the white reference); not with `white`.
-    #[schema(value_type = Option<String>, format = Binary)]
+    #[schema(value_type = String, format = Binary, required = false)]
     white_image: Option<Vec<u8>>,
     /// Reflectance of the white card in (0, 1] (default 1); only with `white_image`.
-    #[schema(value_type = Option<f64>)]
+    #[schema(value_type = f64, required = false)]
     white_reflectance: Option<f64>,
     /// Sphere centre x (column) in pixels; give cx, cy and r together.
-    #[schema(value_type = Option<f64>)]
+    #[schema(value_type = f64, required = false)]
     cx: Option<f64>,
     /// Sphere centre y (row) in pixels.
-    #[schema(value_type = Option<f64>)]
+    #[schema(value_type = f64, required = false)]
     cy: Option<f64>,
     /// Sphere radius in pixels (≥ 32).
-    #[schema(value_type = Option<f64>)]
+    #[schema(value_type = f64, required = false)]
     r: Option<f64>,
     /// A mask image of the sphere (same size; alpha, or luminance ≥ 0.5); not with cx/cy/r.
-    #[schema(value_type = Option<String>, format = Binary)]
+    #[schema(value_type = String, format = Binary, required = false)]
     mask: Option<Vec<u8>>,
     /// How integer samples are linearized: `srgb` (default), `linear` or `gamma:<g>`.
-    #[schema(value_type = Option<String>, example = "srgb")]
+    #[schema(value_type = String, required = false, example = "srgb")]
     encoding: Option<String>,
     /// Extra output: `features` (all extracted features) and/or `explain` (nearest training
     /// images); comma-separated or repeated.
-    #[schema(value_type = Option<String>, example = "features,explain")]
+    #[schema(value_type = String, required = false, example = "features,explain")]
     include: Option<String>,
 }
 

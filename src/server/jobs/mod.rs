@@ -135,7 +135,7 @@ pub enum JobRequest {
         out: String,
         /// Image size in pixels (16…4096).
         #[serde(default = "default_size")]
-        #[schema(default = 256)]
+        #[schema(default = 256, minimum = 16, maximum = 4096)]
         size: usize,
         #[serde(default = "default_seed")]
         #[schema(default = 1)]
