@@ -113,7 +113,24 @@ async fn includes_all_features_and_explanations_and_other_locators() {
     assert_eq!(all["names"].as_array().unwrap().len(), 117);
     assert_eq!(all["values"].as_array().unwrap().len(), 117);
     assert_eq!(all["names"][0], "pix.mean");
-    assert_eq!(all["values"][0], doc["features"]["values"][0]);
+    // The selected features (extracted alone by default) equal the full extraction's.
+    let plain = send(
+        &server.data,
+        post_multipart("/v1/classify", &classify_fields(image, &white)),
+    )
+    .await
+    .json();
+    let names = all["names"].as_array().unwrap();
+    for (name, value) in plain["features"]["names"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(plain["features"]["values"].as_array().unwrap())
+    {
+        let i = names.iter().position(|n| n == name).unwrap();
+        assert_eq!(&all["values"][i], value, "{name}");
+    }
+    assert_eq!(plain["probabilities"], doc["probabilities"]);
     let explain = doc["explain"].as_array().unwrap();
     assert_eq!(explain.len(), 3);
     let d: Vec<f64> = explain

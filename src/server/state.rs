@@ -44,6 +44,9 @@ pub struct LoadedModel {
     pub extractor: Extractor,
     /// The canonical feature names of the model's extraction configuration.
     pub feature_names: Vec<String>,
+    /// The features the classifier reads (`None`: all of them, e.g. for PCA): a request
+    /// that does not ask for every feature extracts only these.
+    pub needed: Option<Vec<usize>>,
 }
 
 impl LoadedModel {
@@ -52,10 +55,15 @@ impl LoadedModel {
         let extractor = Extractor::new(file.features.config)
             .map_err(|e| ApiError::new(Kind::InvalidModel, e.to_string()))?;
         let feature_names = file.features.config.names();
+        let classifier = &file.classifier;
+        let needed = (classifier.pca.is_none()
+            && classifier.selected_indices.len() < feature_names.len())
+        .then(|| classifier.selected_indices.clone());
         Ok(LoadedModel {
             file,
             extractor,
             feature_names,
+            needed,
         })
     }
 

@@ -234,7 +234,12 @@ pub fn classify_blocking(
     };
     let decode_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let analysis = analysis::analyze(&model.extractor, &image, &locate, &white)?;
+    // Unless every feature is asked for, extract only those the classifier reads.
+    let wanted = match &model.needed {
+        Some(needed) if !input.include_features => Some(needed.as_slice()),
+        _ => None,
+    };
+    let analysis = analysis::analyze_subset(&model.extractor, &image, &locate, &white, wanted)?;
     drop(image);
     let features_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
