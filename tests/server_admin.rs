@@ -644,6 +644,19 @@ fn a_job_interrupted_by_a_restart_is_failed_and_sigterm_stops_cleanly() {
     assert_eq!(doc["state"], "failed", "{doc}");
     assert_eq!(doc["error"], "interrupted");
 
+    // The container health check: 0 when ready, non-zero when nothing answers.
+    let bin = env!("CARGO_BIN_EXE_reflectance");
+    let check = |addr: String| {
+        std::process::Command::new(bin)
+            .args(["healthcheck", "--addr", &addr])
+            .output()
+            .unwrap()
+            .status
+            .success()
+    };
+    assert!(check(format!("127.0.0.1:{port}")));
+    assert!(!check(format!("127.0.0.1:{}", free_port())));
+
     // SIGTERM: readiness goes away, the process exits 0.
     let mut second = second;
     let pid = second.0.id().to_string();

@@ -226,7 +226,7 @@ pub struct VersionList {
     operation_id = "list_versions", path = "/admin/v1/models/{name}/versions",
     tag = "admin",
     security(("bearer" = [])),
-    params(("name" = String, Path, description = "Model name")),
+    params(("name" = String, Path, description = "Model name", example = "ward6")),
     responses(
         (status = 200, description = "Versions, ascending", body = VersionList),
         (status = 401, description = "Missing or wrong token (`unauthorized`)", body = Problem, content_type = "application/problem+json"),
@@ -293,7 +293,7 @@ pub struct Activation {
     operation_id = "activate_version", path = "/admin/v1/models/{name}/versions/{version}/activate",
     tag = "admin",
     security(("bearer" = [])),
-    params(("name" = String, Path, description = "Model name"), ("version" = u32, Path, description = "Version", minimum = 1)),
+    params(("name" = String, Path, description = "Model name", example = "ward6"), ("version" = u32, Path, description = "Version", minimum = 1)),
     responses(
         (status = 200, description = "Activated; requests already running finish on the previous version", body = Activation),
         (status = 401, description = "Missing or wrong token (`unauthorized`)", body = Problem, content_type = "application/problem+json"),
@@ -327,7 +327,7 @@ pub async fn activate(
     path = "/admin/v1/models/{name}/versions/{version}",
     tag = "admin",
     security(("bearer" = [])),
-    params(("name" = String, Path, description = "Model name"), ("version" = u32, Path, description = "Version", minimum = 1)),
+    params(("name" = String, Path, description = "Model name", example = "ward6"), ("version" = u32, Path, description = "Version", minimum = 1)),
     responses(
         (status = 204, description = "Deleted"),
         (status = 401, description = "Missing or wrong token (`unauthorized`)", body = Problem, content_type = "application/problem+json"),

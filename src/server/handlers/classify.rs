@@ -21,8 +21,9 @@ use std::sync::Arc;
 use std::time::Instant;
 use utoipa::{IntoParams, ToSchema};
 
-/// The multipart form of a classification request.
-#[derive(ToSchema)]
+/// The multipart form of a classification request (no other fields are accepted).
+#[derive(Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
 #[allow(dead_code)]
 pub struct ClassifyForm {
     /// The photograph or rendering (PNG, JPEG, TIFF, PNM, Radiance HDR, PFM or OpenEXR).
@@ -644,7 +645,7 @@ pub async fn classify_default(
     post,
     operation_id = "classify_with_model", path = "/v1/models/{name}/classify",
     tag = "classification",
-    params(("name" = String, Path, description = "Model name"), VersionQuery),
+    params(("name" = String, Path, description = "Model name", example = "ward6"), VersionQuery),
     request_body(content = ClassifyForm, content_type = "multipart/form-data"),
     responses(
         (status = 200, description = "Classification", body = ClassifyResponse,

@@ -77,7 +77,7 @@ pub async fn metrics(State(state): State<SharedState>) -> Response {
     get,
     operation_id = "openapi", path = "/openapi.yaml",
     tag = "health",
-    responses((status = 200, description = "The OpenAPI 3.1 document", body = String, content_type = "application/yaml"))
+    responses((status = 200, description = "The OpenAPI 3.1 document", body = Object, content_type = "application/yaml"))
 )]
 pub async fn openapi() -> Response {
     let mut response = crate::server::openapi::yaml().into_response();

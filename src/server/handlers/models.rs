@@ -200,7 +200,7 @@ pub async fn list(State(state): State<SharedState>) -> Json<ModelList> {
     get,
     operation_id = "get_model", path = "/v1/models/{name}",
     tag = "models",
-    params(("name" = String, Path, description = "Model name")),
+    params(("name" = String, Path, description = "Model name", example = "ward6")),
     responses(
         (status = 200, description = "The model's active version", body = ModelDetail),
         (status = 404, description = "Unknown model (`model-not-found`)", body = Problem, content_type = "application/problem+json"),

@@ -143,7 +143,7 @@ fn unknown(name: &str) -> ApiError {
 
 /// Model metadata.
 #[utoipa::path(get, operation_id = "v2_model_metadata", path = "/v2/models/{name}", tag = "kserve-v2",
-    params(("name" = String, Path, description = "Model name")),
+    params(("name" = String, Path, description = "Model name", example = "ward6")),
     responses(
         (status = 200, description = "Model metadata", body = ModelMetadata),
         (status = 404, description = "Unknown model (`model-not-found`)", body = Problem, content_type = "application/problem+json")))]
@@ -180,7 +180,7 @@ pub async fn model_metadata(
 
 /// Model readiness.
 #[utoipa::path(get, operation_id = "v2_model_ready", path = "/v2/models/{name}/ready", tag = "kserve-v2",
-    params(("name" = String, Path, description = "Model name")),
+    params(("name" = String, Path, description = "Model name", example = "ward6")),
     responses(
         (status = 200, description = "Ready", body = ModelReady),
         (status = 404, description = "Unknown model (`model-not-found`)", body = Problem, content_type = "application/problem+json")))]
@@ -285,7 +285,7 @@ fn raw_input(request: &InferRequest) -> Result<RawInput, ApiError> {
 
 /// Classify one image.
 #[utoipa::path(post, operation_id = "v2_infer", path = "/v2/models/{name}/infer", tag = "kserve-v2",
-    params(("name" = String, Path, description = "Model name")),
+    params(("name" = String, Path, description = "Model name", example = "ward6")),
     request_body(content = InferRequest, content_type = "application/json"),
     responses(
         (status = 200, description = "Inference result", body = InferResponse,
