@@ -16,6 +16,7 @@ pub mod progress;
 pub mod pyramid;
 pub mod registry;
 pub mod render;
+pub mod report;
 pub mod rng;
 pub mod server;
 pub mod spectrum;

@@ -3,6 +3,7 @@
 mod features;
 mod learn;
 mod render;
+mod report;
 mod serve;
 
 use clap::{Args, Parser, Subcommand};
@@ -31,6 +32,8 @@ enum Command {
     Train(learn::TrainArgs),
     /// Classify the images of a manifest with a trained model.
     Predict(learn::PredictArgs),
+    /// Reproduce the structure of the paper's Tables 1 and 2 (Markdown, JSON, plots).
+    Report(report::ReportArgs),
     /// Run the classification service (data plane, and the admin plane when a token is set).
     Serve(crate::server::config::ServeArgs),
     /// Exit 0 when a server answers GET /health/ready with 200 (for container health checks).
@@ -72,6 +75,7 @@ pub fn main() -> ExitCode {
         Command::Cv(args) => learn::cv(args),
         Command::Train(args) => learn::train(args),
         Command::Predict(args) => learn::predict(args),
+        Command::Report(args) => report::run(args),
         Command::Serve(args) => serve::run(args),
         Command::Healthcheck(args) => serve::healthcheck(args),
     };

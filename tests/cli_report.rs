@@ -1,0 +1,121 @@
+//! `reflectance report`: Tables 1 and 2, JSON and plots, on tiny rendered data sets.
+
+use reflectance::image_io::rgbe;
+use reflectance::render::envmap::EnvMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("reflectance-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Four probes × three classes at 80 px: small enough for every table cell.
+fn render(dir: &Path) -> PathBuf {
+    let probes = dir.join("probes");
+    std::fs::create_dir_all(&probes).unwrap();
+    for k in 0..4 {
+        let f = k as f64;
+        let map = EnvMap::from_fn(64, 32, move |d| {
+            0.3 + (d.y + 0.2 * f).max(0.0) + 0.2 * ((5.0 + f) * d.x).sin()
+        });
+        std::fs::write(
+            probes.join(format!("p{k}.hdr")),
+            rgbe::write_flat(64, 32, &map.luminance),
+        )
+        .unwrap();
+    }
+    let classes = dir.join("classes.json");
+    std::fs::write(
+        &classes,
+        r#"{"classes": [{"name": "matte", "rho_d": 0.8, "rho_s": 0.0, "alpha": 0.0},
+                        {"name": "chrome", "rho_d": 0.0, "rho_s": 0.75, "alpha": 0.0},
+                        {"name": "dark", "rho_d": 0.1, "rho_s": 0.0, "alpha": 0.0}]}"#,
+    )
+    .unwrap();
+    let out = dir.join("render");
+    let status = Command::new(env!("CARGO_BIN_EXE_reflectance"))
+        .args([
+            "render",
+            "--probes",
+            probes.to_str().unwrap(),
+            "--classes",
+            classes.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--size",
+            "80",
+        ])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    out
+}
+
+#[test]
+fn report_writes_both_tables_json_and_plots() {
+    let dir = temp_dir("report");
+    let rendered = render(&dir);
+    let data = dir.join("data");
+    for name in ["paper9_6", "paper9_11", "all_6", "all_11"] {
+        let target = data.join(name);
+        std::fs::create_dir_all(&target).unwrap();
+        for entry in std::fs::read_dir(&rendered).unwrap() {
+            let entry = entry.unwrap();
+            std::fs::copy(entry.path(), target.join(entry.file_name())).unwrap();
+        }
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_reflectance"))
+        .args(["report", "--data", data.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let md = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        md.contains("## Table 1") && md.contains("## Table 2"),
+        "{md}"
+    );
+    for row in [
+        "| chance | 33.3 | 33.3 | 33.3 | 33.3 |",
+        "| mean1 |",
+        "| hand6 |",
+        "| auto6 |",
+        "| pca6 |",
+        "| knn5 | all |",
+    ] {
+        assert!(md.contains(row), "{row}\n{md}");
+    }
+    // The paper's hand6 figures appear beside ours.
+    assert!(md.contains("(98.1)") && md.contains("(98.5)"), "{md}");
+    let report_dir = data.join("report");
+    assert_eq!(
+        std::fs::read_to_string(report_dir.join("report.md")).unwrap(),
+        md
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(report_dir.join("report.json")).unwrap()).unwrap();
+    assert_eq!(json["cells"].as_array().unwrap().len(), 4 * (6 + 4));
+    for cell in json["cells"].as_array().unwrap() {
+        let acc = cell["accuracy"].as_f64().unwrap();
+        assert!((0.0..=1.0).contains(&acc));
+        assert_eq!(cell["n"], 12);
+    }
+    if Path::new("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf").exists() {
+        for plot in [
+            "confusion_all_11_hand6_svm.png",
+            "fig7_paper9_6.png",
+            "fig7_all_6.png",
+        ] {
+            let img = image::open(report_dir.join(plot)).unwrap();
+            assert!(img.width() > 200 && img.height() > 200, "{plot}");
+        }
+    }
+    // Cached features are reused on a second run.
+    assert!(data.join("all_6/features.csv").is_file());
+}
