@@ -274,12 +274,12 @@ impl Extractor {
         // Which subbands need their variance (for ratios) or statistics.
         let mut deepest = None;
         let mut band_var = vec![[false; 3]; levels];
-        for level in 0..levels {
-            for band in 0..3 {
+        for (level, bands) in band_var.iter_mut().enumerate() {
+            for (band, slot) in bands.iter_mut().enumerate() {
                 let base = band_base(level, band);
                 let ratio = (level + 1 < levels && ratio_needed(band, level))
                     || (level > 0 && ratio_needed(band, level - 1));
-                band_var[level][band] = ratio;
+                *slot = ratio;
                 if ratio || need[base..base + stats].iter().any(|&b| b) {
                     deepest = Some(level);
                 }

@@ -488,3 +488,88 @@ pub async fn normalize(response: Response, request_id: &str) -> Response {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kinds_have_distinct_slugs_and_error_statuses() {
+        let mut slugs: Vec<&str> = Kind::ALL.iter().map(|k| k.describe().0).collect();
+        slugs.sort_unstable();
+        slugs.dedup();
+        assert_eq!(slugs.len(), Kind::ALL.len());
+        for kind in Kind::ALL {
+            let status = kind.status();
+            assert!(
+                status.is_client_error() || status.is_server_error(),
+                "{kind:?}"
+            );
+            // Only our own failures are 5xx.
+            if status.is_server_error() {
+                assert!(matches!(kind, Kind::Internal | Kind::NotReady), "{kind:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn library_errors_map_to_client_errors() {
+        let decode = [
+            (DecodeError::UnsupportedFormat, 415),
+            (DecodeError::corrupt(crate::image_io::Format::Png, "x"), 422),
+            (
+                DecodeError::TooLarge {
+                    width: 1,
+                    height: 1,
+                    limits: Default::default(),
+                },
+                413,
+            ),
+            (DecodeError::LimitExceeded("x".into()), 413),
+            (
+                DecodeError::Empty {
+                    width: 0,
+                    height: 1,
+                },
+                422,
+            ),
+            (DecodeError::NonFinite { count: 1 }, 422),
+            (DecodeError::BadEncoding("x".into()), 422),
+        ];
+        for (e, status) in decode {
+            assert_eq!(ApiError::from(e).kind.status().as_u16(), status);
+        }
+        assert_eq!(
+            ApiError::from(GeometryError::Incomplete).kind,
+            Kind::BadGeometry
+        );
+        assert_eq!(
+            ApiError::from(WhiteError::NotPositive(0.0)).kind,
+            Kind::BadWhite
+        );
+        assert_eq!(
+            ApiError::from(RegistryError::UnknownModel("x".into())).kind,
+            Kind::ModelNotFound
+        );
+        assert_eq!(
+            ApiError::from(RegistryError::UnknownVersion {
+                name: "x".into(),
+                version: 2
+            })
+            .kind,
+            Kind::VersionNotFound
+        );
+        assert_eq!(
+            ApiError::from(RegistryError::ActiveVersion {
+                name: "x".into(),
+                version: 2
+            })
+            .kind,
+            Kind::VersionActive
+        );
+        assert_eq!(
+            ApiError::from(ModelError::SelfTest(1.0)).kind,
+            Kind::InvalidModel
+        );
+    }
+}

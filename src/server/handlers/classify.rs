@@ -598,6 +598,7 @@ async fn handle(
     multipart: Result<Multipart, MultipartRejection>,
 ) -> Result<Response, ApiError> {
     let started = Instant::now();
+    super::health::serving(&state)?;
     if !state.models.is_served(name) {
         return Err(ApiError::new(
             Kind::ModelNotFound,
@@ -630,6 +631,7 @@ async fn handle(
         (status = 422, description = "Missing image (`missing-field`), unknown or invalid field (`unknown-field`, `invalid-field`), corrupt or unusable image (`corrupt-image`, `invalid-image`), bad circle or mask (`bad-geometry`), bad white reference (`bad-white`)", body = Problem, content_type = "application/problem+json"),
         (status = 429, description = "Saturated (`overloaded`); see Retry-After", body = Problem, content_type = "application/problem+json",
          headers(("retry-after" = u32, description = "Seconds"))),
+        (status = 503, description = "Models still loading (`not-ready`); see Retry-After", body = Problem, content_type = "application/problem+json"),
     )
 )]
 pub async fn classify_default(
@@ -661,6 +663,7 @@ pub async fn classify_default(
         (status = 422, description = "Missing image (`missing-field`), unknown or invalid field or query parameter (`unknown-field`, `invalid-field`), corrupt or unusable image (`corrupt-image`, `invalid-image`), bad circle or mask (`bad-geometry`), bad white reference (`bad-white`), refused model file (`invalid-model`)", body = Problem, content_type = "application/problem+json"),
         (status = 429, description = "Saturated (`overloaded`); see Retry-After", body = Problem, content_type = "application/problem+json",
          headers(("retry-after" = u32, description = "Seconds"))),
+        (status = 503, description = "Models still loading (`not-ready`); see Retry-After", body = Problem, content_type = "application/problem+json"),
     )
 )]
 pub async fn classify_named(

@@ -37,6 +37,15 @@ pub fn readiness(state: &SharedState) -> Result<(), ApiError> {
     }
 }
 
+/// Classification is possible once the models are loaded (while draining, requests that
+/// still arrive are served).
+pub fn serving(state: &SharedState) -> Result<(), ApiError> {
+    match state.readiness.get() {
+        Phase::Loading => Err(ApiError::new(Kind::NotReady, "loading models").retry_after(1)),
+        Phase::Ready | Phase::Draining => Ok(()),
+    }
+}
+
 /// Ready for traffic.
 #[utoipa::path(
     get,

@@ -298,12 +298,14 @@ fn raw_input(request: &InferRequest) -> Result<RawInput, ApiError> {
         (status = 422, description = "Missing image, unknown or invalid inputs, corrupt or unusable image, bad circle or white (`missing-field`, `unknown-field`, `invalid-field`, `corrupt-image`, `invalid-image`, `bad-geometry`, `bad-white`)", body = Problem, content_type = "application/problem+json"),
         (status = 429, description = "Saturated (`overloaded`); see Retry-After", body = Problem, content_type = "application/problem+json",
          headers(("retry-after" = u32, description = "Seconds"))),
+        (status = 503, description = "Models still loading (`not-ready`); see Retry-After", body = Problem, content_type = "application/problem+json"),
     ))]
 pub async fn infer(
     State(state): State<SharedState>,
     Path(name): Path<String>,
     body: Result<Json<InferRequest>, JsonRejection>,
 ) -> Result<Response, ApiError> {
+    super::health::serving(&state)?;
     if !state.models.is_served(&name) {
         return Err(unknown(&name));
     }
