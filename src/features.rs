@@ -20,11 +20,25 @@ const BAND_NAMES: [&str; 3] = ["h", "v", "d"];
 /// The smallest subband height the 9-tap filters can reflect within.
 const MIN_BAND_ROWS: usize = 9;
 
+/// Floor of the white-normalized unwrapped values before the log of the log-domain features.
+pub const LOG_PIXEL_FLOOR: f64 = 1e-4;
+/// Prefix of the log-domain features' names.
+pub const LOG_PREFIX: &str = "log.";
+
 /// Everything that determines the feature values: stored in every model file.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FeatureConfig {
     pub unwrap: UnwrapConfig,
     pub levels: usize,
+    /// Also compute every feature on log10(max(U, 1e-4)) of the unwrapped, white-normalized
+    /// image U, named with the `log.` prefix (an extension of the paper; see README).
+    #[serde(default)]
+    pub log_domain: bool,
+    /// Spheres larger than this radius (px) are first area-downsampled to it, so a model
+    /// sees the same effective resolution as in training (see `resample`). None: no
+    /// resampling (the DESIGN.md definition).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub working_radius: Option<f64>,
 }
 
 impl Default for FeatureConfig {
@@ -32,6 +46,8 @@ impl Default for FeatureConfig {
         FeatureConfig {
             unwrap: UnwrapConfig::default(),
             levels: 4,
+            log_domain: false,
+            working_radius: None,
         }
     }
 }
@@ -53,6 +69,8 @@ pub enum ConfigError {
     BadAnnulus { inner: f64, outer: f64, r0: f64 },
     #[error("levels must be between 2 and 8, not {0}")]
     BadLevels(usize),
+    #[error("working radius {0} must be a finite number of pixels ≥ 32")]
+    BadWorkingRadius(f64),
 }
 
 impl FeatureConfig {
@@ -60,6 +78,12 @@ impl FeatureConfig {
         let u = &self.unwrap;
         if !(2..=8).contains(&self.levels) {
             return Err(ConfigError::BadLevels(self.levels));
+        }
+        if let Some(r) = self
+            .working_radius
+            .filter(|r| !(r.is_finite() && *r >= crate::geometry::MIN_RADIUS))
+        {
+            return Err(ConfigError::BadWorkingRadius(r));
         }
         if !(0.0 <= u.inner && u.inner < u.outer && u.outer <= 1.0 && u.r0 > 0.0) {
             return Err(ConfigError::BadAnnulus {
@@ -88,8 +112,37 @@ impl FeatureConfig {
         Ok(())
     }
 
+    /// The default configuration with the given extensions.
+    pub fn extended(log_domain: bool, working_radius: Option<f64>) -> Self {
+        FeatureConfig {
+            log_domain,
+            working_radius,
+            ..FeatureConfig::default()
+        }
+    }
+
+    /// The default configuration with the log-domain features.
+    pub fn with_log_domain() -> Self {
+        FeatureConfig {
+            log_domain: true,
+            ..FeatureConfig::default()
+        }
+    }
+
     /// Canonical feature names for this configuration.
     pub fn names(&self) -> Vec<String> {
+        let base = self.base_names();
+        if !self.log_domain {
+            return base;
+        }
+        let log = base
+            .iter()
+            .map(|n| format!("{LOG_PREFIX}{n}"))
+            .collect::<Vec<_>>();
+        base.into_iter().chain(log).collect()
+    }
+
+    fn base_names(&self) -> Vec<String> {
         let mut names: Vec<String> = STAT_NAMES.iter().map(|s| format!("pix.{s}")).collect();
         for k in 1..=self.levels {
             for band in BAND_NAMES {
@@ -125,10 +178,39 @@ pub fn named_set(name: &str) -> Option<&'static [&'static str]> {
     ];
     const HAND2: &[&str] = &["pix.p10", "wav.s2.v.var"];
     const MEAN1: &[&str] = &["pix.mean"];
+    // hand6 plus the log-domain pixel statistics and subband variances (see README).
+    const HAND6_LOG: &[&str] = &[
+        "pix.mean",
+        "pix.p10",
+        "wav.s1.v.var",
+        "wav.s2.v.var",
+        "ratio.v.s1_s2",
+        "wav.s2.v.kurt",
+        "log.pix.mean",
+        "log.pix.var",
+        "log.pix.skew",
+        "log.pix.kurt",
+        "log.pix.p10",
+        "log.pix.p50",
+        "log.pix.p90",
+        "log.wav.s1.h.var",
+        "log.wav.s1.v.var",
+        "log.wav.s1.d.var",
+        "log.wav.s2.h.var",
+        "log.wav.s2.v.var",
+        "log.wav.s2.d.var",
+        "log.wav.s3.h.var",
+        "log.wav.s3.v.var",
+        "log.wav.s3.d.var",
+        "log.wav.s4.h.var",
+        "log.wav.s4.v.var",
+        "log.wav.s4.d.var",
+    ];
     match name {
         "hand6" => Some(HAND6),
         "hand2" => Some(HAND2),
         "mean1" => Some(MEAN1),
+        "hand6+log" => Some(HAND6_LOG),
         _ => None,
     }
 }
@@ -175,8 +257,17 @@ impl Extractor {
         }
     }
 
-    /// The unwrapped, white-normalized annulus.
+    /// The unwrapped, white-normalized annulus (after reduction to the working radius, if
+    /// the configuration has one and the sphere is larger).
     pub fn unwrap(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Array2<f64> {
+        let reduced = self
+            .config
+            .working_radius
+            .and_then(|target| crate::resample::to_radius(luminance, circle, target));
+        let (luminance, circle) = match &reduced {
+            Some((image, moved)) => (image.view(), moved),
+            None => (luminance, circle),
+        };
         let s = self.config.unwrap.supersampling(circle.r);
         let mut grid = unwrap(luminance, circle, &self.config.unwrap, &self.angles(s));
         grid.mapv_inplace(|v| v / white);
@@ -186,7 +277,13 @@ impl Extractor {
     /// Feature values (canonical order, transformed) of a sphere in a luminance image.
     /// The circle must already be validated against the image.
     pub fn extract(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Vec<f64> {
-        self.features_of(&self.stages(luminance, circle, white))
+        let stages = self.stages(luminance, circle, white);
+        let mut values = self.features_of(&stages);
+        if self.config.log_domain {
+            let log = stages.unwrapped.mapv(|v| v.max(LOG_PIXEL_FLOOR).log10());
+            values.extend(self.features_of(&self.stages_of_unwrapped(log)));
+        }
+        values
     }
 
     pub fn stages(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Stages {
@@ -238,6 +335,12 @@ impl Extractor {
 impl Extractor {
     /// Number of features of this configuration (117 with the default one).
     pub fn feature_count(&self) -> usize {
+        let blocks = if self.config.log_domain { 2 } else { 1 };
+        blocks * self.block_len()
+    }
+
+    /// Features of one image (the unwrapped annulus or its log10).
+    fn block_len(&self) -> usize {
         let levels = self.config.levels;
         STAT_NAMES.len() * (1 + 3 * levels) + 3 * (levels - 1) + 4 * ORIENTATIONS.len() + 1
     }
@@ -256,7 +359,6 @@ impl Extractor {
         wanted: &[usize],
     ) -> Vec<f64> {
         let n = self.feature_count();
-        let levels = self.config.levels;
         let mut need = vec![false; n];
         for &i in wanted {
             if let Some(slot) = need.get_mut(i) {
@@ -264,7 +366,20 @@ impl Extractor {
             }
         }
         let mut out = vec![f64::NAN; n];
+        let block = self.block_len();
         let unwrapped = self.unwrap(luminance, circle, white);
+        self.subset_of(&unwrapped, &need[..block], &mut out[..block]);
+        if self.config.log_domain && need[block..].iter().any(|&b| b) {
+            let log = unwrapped.mapv(|v| v.max(LOG_PIXEL_FLOOR).log10());
+            self.subset_of(&log, &need[block..], &mut out[block..]);
+        }
+        out
+    }
+
+    /// The needed features of one block ([`Extractor::features_of`]'s layout) of an
+    /// unwrapped image into `out`.
+    fn subset_of(&self, unwrapped: &Array2<f64>, need: &[bool], out: &mut [f64]) {
+        let levels = self.config.levels;
         let stats = STAT_NAMES.len();
         // Layout: pix, then subbands [level][h, v, d], ratios [band][pair], band powers.
         let band_base = |level: usize, band: usize| stats * (1 + 3 * level + band);
@@ -285,7 +400,7 @@ impl Extractor {
                 }
             }
         }
-        let fill = |values: &[f64], base: usize, force_moments: bool, out: &mut Vec<f64>| -> f64 {
+        let fill = |values: &[f64], base: usize, force_moments: bool, out: &mut [f64]| -> f64 {
             let mut var = f64::NAN;
             if force_moments || need[base..base + 4].iter().any(|&b| b) {
                 let m = moments(values);
@@ -313,7 +428,7 @@ impl Extractor {
                 None => a.iter().copied().collect::<Vec<f64>>().into(),
             }
         }
-        fill(&slice(&unwrapped), 0, false, &mut out);
+        fill(&slice(unwrapped), 0, false, out);
         if let Some(deepest) = deepest {
             let pyramid = pyramid::build(unwrapped.view(), deepest + 1, Edge::Periodic);
             let mut variances = vec![[f64::NAN; 3]; levels];
@@ -324,7 +439,7 @@ impl Extractor {
                         band_var[level][band] || need[base..base + stats].iter().any(|&b| b);
                     if needed {
                         variances[level][band] =
-                            fill(&slice(values), base, band_var[level][band], &mut out);
+                            fill(&slice(values), base, band_var[level][band], out);
                     }
                 }
             }
@@ -349,7 +464,6 @@ impl Extractor {
                 .collect();
             out[fft_base..].copy_from_slice(&values);
         }
-        out
     }
 }
 
@@ -389,6 +503,41 @@ mod tests {
                 assert!(names.iter().any(|m| m == n), "{n}");
             }
         }
+        let extended = FeatureConfig::with_log_domain().names();
+        assert_eq!(extended.len(), 2 * FEATURE_COUNT);
+        assert_eq!(extended[FEATURE_COUNT], "log.pix.mean");
+        for n in named_set("hand6+log").unwrap() {
+            assert!(extended.iter().any(|m| m == n), "{n}");
+        }
+    }
+
+    #[test]
+    fn log_domain_features_are_the_features_of_the_log_image() {
+        let img = ndarray::Array2::from_shape_fn((120, 130), |(y, x)| {
+            let d = ((x as f64 - 64.0).powi(2) + (y as f64 - 59.5).powi(2)).sqrt();
+            if d < 55.0 {
+                0.2 + 0.5 * ((x as f64) * 0.3).sin().abs() + 0.001 * (y % 7) as f64
+            } else {
+                0.0
+            }
+        });
+        let circle = Circle {
+            cx: 64.0,
+            cy: 59.5,
+            r: 55.0,
+        };
+        let plain = Extractor::new(FeatureConfig::default()).unwrap();
+        let extended = Extractor::new(FeatureConfig::with_log_domain()).unwrap();
+        let values = extended.extract(img.view(), &circle, 0.8);
+        assert_eq!(
+            &values[..FEATURE_COUNT],
+            plain.extract(img.view(), &circle, 0.8).as_slice()
+        );
+        let log = plain
+            .unwrap(img.view(), &circle, 0.8)
+            .mapv(|v| v.max(LOG_PIXEL_FLOOR).log10());
+        let expected = plain.features_of(&plain.stages_of_unwrapped(log));
+        assert_eq!(&values[FEATURE_COUNT..], expected.as_slice());
     }
 
     #[test]
@@ -431,6 +580,25 @@ mod tests {
             (0..FEATURE_COUNT).collect(),
             vec![],
         ];
+        let log_domain = Extractor::new(FeatureConfig::extended(true, Some(60.0))).unwrap();
+        let log_full = log_domain.extract(luminance.view(), &circle, 0.9);
+        assert_eq!(log_domain.feature_count(), 2 * FEATURE_COUNT);
+        let log_subsets = [
+            vec![
+                3,
+                FEATURE_COUNT + 1,
+                FEATURE_COUNT + 99,
+                2 * FEATURE_COUNT - 1,
+            ],
+            (0..2 * FEATURE_COUNT).collect::<Vec<_>>(),
+        ];
+        for wanted in log_subsets {
+            let part = log_domain.extract_subset(luminance.view(), &circle, 0.9, &wanted);
+            assert_eq!(part.len(), 2 * FEATURE_COUNT);
+            for &i in &wanted {
+                assert_eq!(part[i].to_bits(), log_full[i].to_bits(), "log-domain {i}");
+            }
+        }
         for wanted in subsets {
             let part = extractor.extract_subset(luminance.view(), &circle, 0.9, &wanted);
             assert_eq!(part.len(), FEATURE_COUNT);

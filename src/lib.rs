@@ -17,6 +17,7 @@ pub mod pyramid;
 pub mod registry;
 pub mod render;
 pub mod report;
+pub mod resample;
 pub mod rng;
 pub mod server;
 pub mod spectrum;

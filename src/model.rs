@@ -309,11 +309,17 @@ impl ModelFile {
     }
 }
 
-/// Current time as RFC 3339 UTC (`2026-11-21T12:00:00Z`).
+/// Current time as RFC 3339 UTC (`2026-11-21T12:00:00Z`), or `SOURCE_DATE_EPOCH` when set
+/// (reproducible builds: models rebuilt from the same data are then byte-identical).
 pub fn now_rfc3339() -> String {
-    let secs = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs());
+    let pinned = std::env::var("SOURCE_DATE_EPOCH")
+        .ok()
+        .and_then(|s| s.trim().parse::<u64>().ok());
+    let secs = pinned.unwrap_or_else(|| {
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs())
+    });
     rfc3339(secs)
 }
 

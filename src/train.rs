@@ -32,6 +32,9 @@ pub struct TrainOptions {
     pub cross_validate: bool,
     /// Ward parameters of the classes, when known.
     pub classes: Option<Vec<Material>>,
+    /// The radius the training spheres were extracted at, recorded so that serving
+    /// reduces larger spheres to it (the table must have been extracted with it).
+    pub working_radius: Option<f64>,
 }
 
 pub struct Trained {
@@ -56,7 +59,16 @@ pub fn train_with(
     options: &TrainOptions,
     observer: &dyn Observer,
 ) -> Result<Trained, TrainError> {
-    let config = FeatureConfig::default();
+    // The table decides: 117 columns, or 234 with the log-domain features.
+    let config = if table
+        .names
+        .iter()
+        .any(|n| n.starts_with(crate::features::LOG_PREFIX))
+    {
+        FeatureConfig::with_log_domain()
+    } else {
+        FeatureConfig::default()
+    };
     if table.names != config.names() {
         return Err(TrainError::Columns);
     }

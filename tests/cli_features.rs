@@ -215,3 +215,39 @@ fn a_bad_manifest_row_names_its_line() {
         "cx is not a number",
     );
 }
+
+#[test]
+fn log_features_extend_the_canonical_ones() {
+    let img = image("sphere_rgb8.png");
+    let circle = [
+        "--cx", "96.5", "--cy", "94.25", "--r", "85", "--white", "0.8",
+    ];
+    let plain = run(&[&["features", img.as_str()][..], &circle[..]].concat());
+    let extended = run(&[
+        &["features", img.as_str(), "--log-features"][..],
+        &circle[..],
+    ]
+    .concat());
+    let (plain, extended): (Value, Value) = (
+        serde_json::from_slice(&plain.stdout).unwrap(),
+        serde_json::from_slice(&extended.stdout).unwrap(),
+    );
+    let (names, values) = (
+        extended["names"].as_array().unwrap(),
+        extended["values"].as_array().unwrap(),
+    );
+    assert_eq!((names.len(), values.len()), (234, 234));
+    assert_eq!(names[117], "log.pix.mean");
+    assert_eq!(
+        &values[..117],
+        plain["values"].as_array().unwrap().as_slice()
+    );
+    // log10 is monotone: log.pix.p50 is log10 of the median, up to the interpolation between
+    // the two middle values of an even count.
+    let p50 = values[5].as_f64().unwrap();
+    let log_p50 = values[117 + 5].as_f64().unwrap();
+    assert!(
+        (log_p50 - p50.max(1e-4).log10()).abs() < 1e-6,
+        "{log_p50} vs log10 {p50}"
+    );
+}

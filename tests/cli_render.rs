@@ -153,6 +153,8 @@ fn augmentation_adds_views_with_suffixed_illuminations() {
         "4",
         "--elevations",
         "40,50",
+        "--contrasts",
+        "0.7",
     ]);
     assert!(
         result.status.success(),
@@ -176,7 +178,11 @@ fn augmentation_adds_views_with_suffixed_illuminations() {
     for e in expected {
         assert!(illuminations.contains(e), "{illuminations:?}");
     }
-    assert_eq!(manifest.lines().count(), 1 + 2 * 6 * 3);
+    assert_eq!(manifest.lines().count(), 1 + 2 * 7 * 3);
+    // A flatter dynamic range renders a different image of the same scene.
+    let original = std::fs::read(out.join("probe0__shiny.pfm")).unwrap();
+    let flatter = std::fs::read(out.join("probe0@c0.7__shiny.pfm")).unwrap();
+    assert_ne!(original, flatter);
 }
 
 #[test]

@@ -30,6 +30,7 @@ fn trained(name: &str) -> ModelFile {
         seed: 1,
         cross_validate: false,
         classes: None,
+        working_radius: None,
     };
     train(&table(), "fixture", &options).unwrap().model
 }

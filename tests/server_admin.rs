@@ -291,11 +291,26 @@ async fn render_train_activate_roll_back_and_delete() {
     assert_eq!(done["result"]["cv"]["classifier"], "nn");
     assert!(done["result"].get("model").is_none());
 
+    // Extraction extensions: log-domain features named by the set, a working radius.
+    let log = submit(
+        &server,
+        json!({"type": "cross_validate", "dataset": "renders/r96/manifest.csv",
+               "features": "hand6+log", "working_radius": 40}),
+    )
+    .await;
+    let done = wait_for(&server, log["id"].as_str().unwrap(), TERMINAL).await;
+    assert_eq!(done["state"], "succeeded", "{done}");
+    assert_eq!(done["result"]["cv"]["features"], "hand6+log");
+    let bad = json!({"type": "cross_validate", "dataset": "renders/r96/manifest.csv", "working_radius": 3});
+    send(&server.admin, authed(post_json("/admin/v1/jobs", &bad)))
+        .await
+        .problem(422, "invalid-job");
+
     let list = send(&server.admin, authed(get("/admin/v1/jobs?state=succeeded")))
         .await
         .json();
-    assert_eq!(list["jobs"].as_array().unwrap().len(), 4);
-    assert_eq!(list["jobs"][0]["id"], cv["id"], "newest first");
+    assert_eq!(list["jobs"].as_array().unwrap().len(), 5);
+    assert_eq!(list["jobs"][0]["id"], log["id"], "newest first");
     let list = send(&server.admin, authed(get("/admin/v1/jobs?state=failed")))
         .await
         .json();

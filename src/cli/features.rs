@@ -3,7 +3,7 @@
 use super::{CliResult, LimitArgs};
 use crate::analysis::{self, Locate, WhiteInput};
 use crate::dataset::{self, Manifest};
-use crate::features::{Extractor, FeatureConfig};
+use crate::features::Extractor;
 use crate::geometry::Circle;
 use crate::image_io::{self, DecodeOptions, Encoding};
 use clap::Args;
@@ -46,6 +46,8 @@ pub struct FeaturesArgs {
     #[arg(long, requires = "manifest")]
     out: Option<PathBuf>,
     #[command(flatten)]
+    extensions: super::ExtensionArgs,
+    #[command(flatten)]
     limits: LimitArgs,
 }
 
@@ -59,7 +61,7 @@ struct Output<'a> {
 }
 
 pub fn run(args: FeaturesArgs) -> CliResult {
-    let extractor = Extractor::new(FeatureConfig::default()).map_err(|e| e.to_string())?;
+    let extractor = Extractor::new(args.extensions.config(false)).map_err(|e| e.to_string())?;
     let encoding = args
         .encoding
         .as_deref()

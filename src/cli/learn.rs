@@ -25,8 +25,12 @@ pub struct DataArgs {
 }
 
 impl DataArgs {
-    /// The feature table and a label for provenance.
-    fn load(&self, limits: &LimitArgs) -> Result<(FeatureTable, String), String> {
+    /// The feature table and a label for provenance; manifests are extracted with `config`.
+    fn load(
+        &self,
+        limits: &LimitArgs,
+        config: FeatureConfig,
+    ) -> Result<(FeatureTable, String), String> {
         if let Some(table) = &self.table {
             let t = FeatureTable::read(table).map_err(|e| e.to_string())?;
             return Ok((t, table.display().to_string()));
@@ -34,7 +38,7 @@ impl DataArgs {
         let path = self.manifest.as_ref().ok_or("give --manifest or --table")?;
         let manifest = dataset::read_manifest(path).map_err(|e| e.to_string())?;
         manifest.require_labels().map_err(|e| e.to_string())?;
-        let extractor = Extractor::new(FeatureConfig::default()).map_err(|e| e.to_string())?;
+        let extractor = Extractor::new(config).map_err(|e| e.to_string())?;
         let options = DecodeOptions {
             encoding: None,
             limits: limits.limits(),
@@ -48,9 +52,14 @@ impl DataArgs {
 /// What to fit.
 #[derive(Args, Debug)]
 pub struct SpecArgs {
-    /// hand6, hand2, mean1, all, auto<N>, pca<N>, or a comma-separated list of names.
+    /// hand6, hand2, mean1, hand6+log, all, auto<N>, pca<N>, or a comma-separated list of
+    /// names. `all`, `auto<N>` and `pca<N>` range over the table's columns.
     #[arg(long)]
     features: String,
+    /// With --manifest: extensions of the extracted features (the log-domain ones are
+    /// implied by sets that name them, such as hand6+log).
+    #[command(flatten)]
+    extensions: super::ExtensionArgs,
     /// svm, nn (1-NN), knn5 or chance.
     #[arg(long, default_value = "svm")]
     classifier: String,
@@ -68,6 +77,15 @@ pub struct SpecArgs {
 }
 
 impl SpecArgs {
+    /// The extraction configuration for manifests.
+    fn config(&self) -> FeatureConfig {
+        let named_log = self.features.split(',').any(|n| {
+            let n = n.trim();
+            n.starts_with(crate::features::LOG_PREFIX) || n == "hand6+log"
+        });
+        self.extensions.config(named_log)
+    }
+
     fn spec(&self, names: &[String]) -> Result<TrainSpec, String> {
         let features = FeatureSet::parse_with(&self.features, names).map_err(|e| e.to_string())?;
         let classifier: ClassifierKind = self
@@ -103,7 +121,7 @@ pub struct CvArgs {
 }
 
 pub fn cv(args: CvArgs) -> CliResult {
-    let (table, _) = args.data.load(&args.limits)?;
+    let (table, _) = args.data.load(&args.limits, args.spec.config())?;
     let spec = args.spec.spec(&table.names)?;
     let ds = Dataset::from_table(&table).map_err(|e| e.to_string())?;
     let report =
@@ -217,13 +235,14 @@ pub fn train(args: TrainArgs) -> CliResult {
         .map(load_classes)
         .transpose()
         .map_err(|e| e.to_string())?;
-    let (table, label) = args.data.load(&args.limits)?;
+    let (table, label) = args.data.load(&args.limits, args.spec.config())?;
     let options = TrainOptions {
         name: args.name.clone(),
         spec: args.spec.spec(&table.names)?,
         seed: args.spec.seed,
         cross_validate: !args.no_cv,
         classes,
+        working_radius: args.spec.extensions.config(false).working_radius,
     };
     let mut trained = train::train(&table, &label, &options).map_err(|e| e.to_string())?;
     let report = trained

@@ -64,6 +64,28 @@ impl LimitArgs {
     }
 }
 
+/// Extensions of the feature bank beyond DESIGN.md's 117 features.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct ExtensionArgs {
+    /// Also compute the log-domain features (`log.*`, 117 more).
+    #[arg(long)]
+    log_features: bool,
+    /// Reduce spheres larger than this radius (px) to it before extraction (area
+    /// averaging), as models trained at that radius expect.
+    #[arg(long)]
+    working_radius: Option<f64>,
+}
+
+impl ExtensionArgs {
+    /// The configuration; `log_domain` forces the log-domain features on.
+    pub fn config(&self, log_domain: bool) -> crate::features::FeatureConfig {
+        crate::features::FeatureConfig::extended(
+            self.log_features || log_domain,
+            self.working_radius,
+        )
+    }
+}
+
 /// A command's failure: one line for stderr.
 pub type CliResult = Result<(), String>;
 

@@ -28,6 +28,10 @@ pub struct RenderArgs {
     /// Augmentation: extra viewer elevations in degrees (comma-separated), besides 45.
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     elevations: Vec<f64>,
+    /// Augmentation: extra dynamic ranges of each probe (comma-separated exponents k of
+    /// luminance^k, e.g. 0.7,1.4).
+    #[arg(long, value_delimiter = ',')]
+    contrasts: Vec<f64>,
     /// Sub-pixel samples per side.
     #[arg(long, default_value_t = Quality::default().pixel_samples)]
     pixel_samples: usize,
@@ -54,6 +58,7 @@ pub fn run(args: RenderArgs) -> CliResult {
         augment: Augment {
             rotations: args.rotations,
             elevations: args.elevations,
+            contrasts: args.contrasts,
         },
     };
     let start = std::time::Instant::now();

@@ -3,13 +3,15 @@
 //! fitted on training rows only (inside every cross-validation fold).
 
 use super::error::LearnError;
-use crate::features::{default_names, named_set};
+use crate::features::named_set;
 use std::fmt;
 use std::str::FromStr;
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum FeatureSet {
     Hand6,
+    /// hand6 plus the log-domain pixel statistics and subband variances.
+    Hand6Log,
     Hand2,
     Mean1,
     All,
@@ -41,6 +43,7 @@ impl FeatureSet {
         let spec = spec.trim();
         match spec {
             "hand6" => return Ok(FeatureSet::Hand6),
+            "hand6+log" => return Ok(FeatureSet::Hand6Log),
             "hand2" => return Ok(FeatureSet::Hand2),
             "mean1" => return Ok(FeatureSet::Mean1),
             "all" => return Ok(FeatureSet::All),
@@ -89,6 +92,7 @@ impl FeatureSet {
         };
         match self {
             FeatureSet::Hand6 => Some(named("hand6")),
+            FeatureSet::Hand6Log => Some(named("hand6+log")),
             FeatureSet::Hand2 => Some(named("hand2")),
             FeatureSet::Mean1 => Some(named("mean1")),
             FeatureSet::All => Some(names.to_vec()),
@@ -121,9 +125,12 @@ impl FeatureSet {
 impl FromStr for FeatureSet {
     type Err = LearnError;
 
-    /// Parses against the default configuration's 117 names.
+    /// Parses against the default configuration's names (with the log-domain features).
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        FeatureSet::parse_with(s, default_names())
+        FeatureSet::parse_with(
+            s,
+            &crate::features::FeatureConfig::with_log_domain().names(),
+        )
     }
 }
 
@@ -131,6 +138,7 @@ impl fmt::Display for FeatureSet {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             FeatureSet::Hand6 => f.write_str("hand6"),
+            FeatureSet::Hand6Log => f.write_str("hand6+log"),
             FeatureSet::Hand2 => f.write_str("hand2"),
             FeatureSet::Mean1 => f.write_str("mean1"),
             FeatureSet::All => f.write_str("all"),
@@ -201,12 +209,21 @@ mod tests {
 
     #[test]
     fn resolves_columns() {
-        let names = default_names();
+        let names = crate::features::default_names();
         let idx = FeatureSet::Hand6.resolve(names).unwrap().unwrap();
         assert_eq!(idx[0], 0);
         assert_eq!(names[idx[2]], "wav.s1.v.var");
         assert_eq!(FeatureSet::All.resolve(names).unwrap().unwrap().len(), 117);
         assert_eq!(FeatureSet::Auto(3).resolve(names).unwrap(), None);
+        // hand6+log needs the log-domain columns.
+        assert!(FeatureSet::Hand6Log.resolve(names).is_err());
+        let extended = crate::features::FeatureConfig::with_log_domain().names();
+        let idx = FeatureSet::Hand6Log.resolve(&extended).unwrap().unwrap();
+        assert_eq!((idx.len(), extended[idx[6]].as_str()), (25, "log.pix.mean"));
+        assert_eq!(
+            "hand6+log".parse::<FeatureSet>().unwrap().to_string(),
+            "hand6+log"
+        );
         let short = vec!["pix.mean".to_string()];
         assert!(matches!(
             FeatureSet::Hand2.resolve(&short),

@@ -123,6 +123,9 @@ pub struct Augment {
     pub rotations: usize,
     /// Additional viewer elevations in degrees (the default 45° view is always rendered).
     pub elevations: Vec<f64>,
+    /// Additional dynamic ranges of each probe: luminance L^k (rescaled to the same mean),
+    /// k < 1 flattening and k > 1 sharpening the contrast between sources and surroundings.
+    pub contrasts: Vec<f64>,
 }
 
 /// One view of a probe: the illumination label suffix and the camera.
@@ -130,12 +133,24 @@ pub struct Augment {
 struct Variant {
     suffix: String,
     view: View,
+    /// Index into the probe's lightings: 0 = the map as it is, k = `contrasts[k − 1]`.
+    lighting: usize,
+}
+
+/// A number as a short label: `40`, `0.8`.
+fn label(v: f64) -> String {
+    if v.fract() == 0.0 {
+        format!("{v:.0}")
+    } else {
+        format_f64(v)
+    }
 }
 
 fn variants(augment: &Augment, map_width: usize) -> Vec<Variant> {
     let mut out = vec![Variant {
         suffix: String::new(),
         view: View::default(),
+        lighting: 0,
     }];
     let turns = augment.rotations.max(1);
     for t in 1..turns {
@@ -147,22 +162,24 @@ fn variants(augment: &Augment, map_width: usize) -> Vec<Variant> {
                 azimuth_deg: degrees,
                 ..View::default()
             },
+            lighting: 0,
         });
     }
     for &e in &augment.elevations {
         out.push(Variant {
-            suffix: format!(
-                "@el{}",
-                if e.fract() == 0.0 {
-                    format!("{e:.0}")
-                } else {
-                    format_f64(e)
-                }
-            ),
+            suffix: format!("@el{}", label(e)),
             view: View {
                 elevation_deg: e,
                 ..View::default()
             },
+            lighting: 0,
+        });
+    }
+    for (k, &c) in augment.contrasts.iter().enumerate() {
+        out.push(Variant {
+            suffix: format!("@c{}", label(c)),
+            view: View::default(),
+            lighting: k + 1,
         });
     }
     out
@@ -192,7 +209,8 @@ struct Probe {
     path: PathBuf,
     stem: String,
     map: OnceLock<Result<EnvMap, String>>,
-    lighting: OnceLock<Lighting>,
+    /// One lighting per dynamic range (see [`Variant::lighting`]).
+    lightings: Vec<OnceLock<Lighting>>,
 }
 
 impl Probe {
@@ -237,15 +255,12 @@ fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
             "pixel and lobe sub-pixel samples per side must be 1…16, lobe points 1…1024".into(),
         ));
     }
-    if spec.augment.rotations > 360
-        || spec
-            .augment
-            .elevations
-            .iter()
-            .any(|e| !(5.0..=85.0).contains(e))
-    {
+    let a = &spec.augment;
+    let bad_elevation = a.elevations.iter().any(|e| !(5.0..=85.0).contains(e));
+    let bad_contrast = a.contrasts.iter().any(|c| !(0.1..=4.0).contains(c));
+    if a.rotations > 360 || bad_elevation || bad_contrast {
         return Err(RenderError::Options(
-            "rotations must be ≤ 360 and elevations within 5°…85°".into(),
+            "rotations must be ≤ 360, elevations within 5°…85° and contrasts within 0.1…4".into(),
         ));
     }
     Ok(())
@@ -275,7 +290,9 @@ pub fn render_dataset_with(
                 .map_or_else(String::new, |s| s.to_string_lossy().into_owned()),
             path: path.clone(),
             map: OnceLock::new(),
-            lighting: OnceLock::new(),
+            lightings: (0..=spec.augment.contrasts.len())
+                .map(|_| OnceLock::new())
+                .collect(),
         })
         .collect();
     // Jobs in manifest order: probe, view, class.
@@ -314,7 +331,13 @@ pub fn render_dataset_with(
             } else {
                 let probe = &probes[job.probe];
                 let map = probe.map()?;
-                let lighting = probe.lighting.get_or_init(|| Lighting::new(map.clone()));
+                let k = job.variant.lighting;
+                let lighting = probe.lightings[k].get_or_init(|| {
+                    Lighting::new(match k {
+                        0 => map.clone(),
+                        _ => map.with_contrast(spec.augment.contrasts[k - 1]),
+                    })
+                });
                 let mut rng = Rng::fork(spec.seed, stable_hash(&job.name));
                 let image = render(
                     lighting,

@@ -124,6 +124,26 @@ impl EnvMap {
         (1.0 - fy) * top + fy * bottom
     }
 
+    /// The map with its luminance raised to the power `k`, rescaled to the same
+    /// solid-angle-weighted mean: a different dynamic range of the same scene.
+    pub fn with_contrast(&self, k: f64) -> EnvMap {
+        let mean = |l: &[f64]| -> f64 {
+            (0..self.height)
+                .map(|i| {
+                    self.solid_angle(i)
+                        * l[i * self.width..(i + 1) * self.width].iter().sum::<f64>()
+                })
+                .sum()
+        };
+        let powered: Vec<f64> = self.luminance.iter().map(|v| v.powf(k)).collect();
+        let scale = mean(&self.luminance) / mean(&powered).max(f64::MIN_POSITIVE);
+        EnvMap {
+            width: self.width,
+            height: self.height,
+            luminance: powered.into_iter().map(|v| v * scale).collect(),
+        }
+    }
+
     /// The map with its columns rolled right by `k` (a rotation about +Y by 2πk/W).
     pub fn rolled(&self, k: usize) -> EnvMap {
         let mut luminance = self.luminance.clone();
@@ -192,6 +212,25 @@ mod tests {
         let seam = map.direction(1.5, 8.0);
         let expected = 0.5 * (map.luminance[8 + 7] + map.luminance[8]);
         assert!((map.lookup(seam) - expected).abs() < 1e-6);
+    }
+
+    #[test]
+    fn contrast_keeps_the_mean_and_changes_the_range() {
+        let map = EnvMap::from_fn(64, 32, |d| 0.5 + 2.0 * d.y.max(0.0).powi(8) + 0.1 * d.x);
+        let total = |m: &EnvMap| -> f64 {
+            (0..32)
+                .map(|i| m.solid_angle(i) * m.luminance[i * 64..(i + 1) * 64].iter().sum::<f64>())
+                .sum()
+        };
+        let range = |m: &EnvMap| {
+            m.luminance.iter().fold(0.0f64, |a, &b| a.max(b))
+                / m.luminance.iter().fold(f64::INFINITY, |a, &b| a.min(b))
+        };
+        for k in [0.7, 1.5] {
+            let c = map.with_contrast(k);
+            assert!((total(&c) - total(&map)).abs() < 1e-12 * total(&map));
+            assert!((range(&c).ln() - k * range(&map).ln()).abs() < 1e-9, "{k}");
+        }
     }
 
     #[test]

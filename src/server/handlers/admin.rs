@@ -38,6 +38,8 @@ const LEARN: &[&str] = &[
     "gamma",
     "grid",
     "seed",
+    "log_features",
+    "working_radius",
 ];
 
 /// Refuse unknown keys (a typo must not silently fall back to a default).

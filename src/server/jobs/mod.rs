@@ -77,6 +77,14 @@ pub struct LearnParams {
     #[serde(default = "default_seed")]
     #[schema(default = 1)]
     pub seed: u64,
+    /// With `dataset`: also extract the log-domain features (`log.*`; implied by feature
+    /// sets that name them, such as `hand6+log`).
+    #[serde(default)]
+    pub log_features: bool,
+    /// With `dataset`: reduce spheres larger than this radius (px, ≥ 32) before extraction;
+    /// recorded in the model so that serving does the same.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub working_radius: Option<f64>,
 }
 
 fn default_features() -> String {

@@ -4,7 +4,7 @@
 use super::paths::DataDir;
 use super::{Activate, JobRequest, LearnParams};
 use crate::dataset::{self, DatasetError, FeatureTable};
-use crate::features::{Extractor, FeatureConfig, default_names};
+use crate::features::{Extractor, FeatureConfig};
 use crate::image_io::{DecodeOptions, Limits};
 use crate::learn::{
     self, ClassifierKind, CvReport, Dataset, FeatureSet, Grid, LearnError, TrainSpec,
@@ -189,11 +189,23 @@ fn path_error(detail: String) -> ApiError {
     ApiError::new(Kind::InvalidPath, detail)
 }
 
-/// The training specification of learning parameters (feature set names are the default
-/// configuration's, which training uses).
+/// The extraction configuration of a learning job (as `reflectance train` chooses it).
+fn config_of(p: &LearnParams) -> Result<FeatureConfig, ApiError> {
+    let named_log = p.features.split(',').any(|n| {
+        let n = n.trim();
+        n.starts_with(crate::features::LOG_PREFIX) || n == "hand6+log"
+    });
+    let config = FeatureConfig::extended(p.log_features || named_log, p.working_radius);
+    config.validate().map_err(|e| invalid(e.to_string()))?;
+    Ok(config)
+}
+
+/// The training specification of learning parameters (feature names are those of the
+/// job's extraction configuration).
 fn spec_of(p: &LearnParams) -> Result<TrainSpec, ApiError> {
+    let names = config_of(p)?.names();
     let features =
-        FeatureSet::parse_with(&p.features, default_names()).map_err(|e| invalid(e.to_string()))?;
+        FeatureSet::parse_with(&p.features, &names).map_err(|e| invalid(e.to_string()))?;
     let classifier: ClassifierKind = p
         .classifier
         .parse()
@@ -293,8 +305,8 @@ fn load_table(
         data.check_resolved(&format!("manifest line {} image", entry.line), &entry.file)
             .map_err(Failure::Error)?;
     }
-    let extractor =
-        Extractor::new(FeatureConfig::default()).map_err(|e| Failure::Error(e.to_string()))?;
+    let config = config_of(p).map_err(|e| Failure::Error(e.detail))?;
+    let extractor = Extractor::new(config).map_err(|e| Failure::Error(e.to_string()))?;
     let options = DecodeOptions {
         encoding: None,
         limits: *limits,
@@ -335,6 +347,11 @@ pub fn execute(
                 seed: p.seed,
                 cross_validate: *cross_validate,
                 classes,
+                // Recorded only when this job extracted the features itself.
+                working_radius: config_of(p)
+                    .map_err(|e| Failure::Error(e.detail))?
+                    .working_radius
+                    .filter(|_| p.dataset.is_some()),
             };
             let mut trained = train::train_with(&table, &label, &options, observer)?;
             if observer.cancelled() {

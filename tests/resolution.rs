@@ -1,0 +1,106 @@
+//! Resolution independence: the same sphere rendered at r = 100, 200 and 400 px.
+//!
+//! Measured (README, "Resolution"): hand6's pixel statistics (mean, p10) agree within 0.005
+//! at any size, but the finest-scale features drift (up to 1.4 in log10 variance for a
+//! chrome sphere between r = 100 and 200; p90 of highlights by 3 %) because the canonical
+//! grid is finer than the pixels of small spheres. With a working radius, larger spheres are
+//! reduced first: scale-2 features then agree within 0.05, every hand6 feature within 0.15.
+
+use ndarray::Array2;
+use reflectance::features::{Extractor, FeatureConfig, default_names, named_set};
+use reflectance::render::envmap::EnvMap;
+use reflectance::render::ward::Material;
+use reflectance::render::{Lighting, Quality, View, render};
+use reflectance::rng::Rng;
+
+/// The shared ict_grace probe (true), or a synthetic stand-in (false) when it is absent:
+/// texture and a small bright source.
+fn lighting() -> (Lighting, bool) {
+    let probe = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/probes/ict_grace.hdr");
+    if let Ok(map) = EnvMap::load(&probe) {
+        return (Lighting::new(map), true);
+    }
+    let mut map = EnvMap::from_fn(512, 256, |d| {
+        0.3 + 0.6 * d.y.max(0.0) + 0.2 * (12.0 * d.x).sin() * (9.0 * d.z).cos()
+    });
+    map.luminance[40 * 512 + 300] = 3000.0;
+    (Lighting::new(map), false)
+}
+
+fn hand6() -> Vec<usize> {
+    let names = default_names();
+    named_set("hand6")
+        .unwrap()
+        .iter()
+        .map(|n| names.iter().position(|m| m == n).unwrap())
+        .collect()
+}
+
+#[test]
+fn sizes_agree_within_the_measured_tolerances() {
+    let (lighting, real_probe) = lighting();
+    let white = lighting.white(&View::default());
+    let plain = Extractor::new(FeatureConfig::default()).unwrap();
+    let reduced = Extractor::new(FeatureConfig::extended(false, Some(100.0))).unwrap();
+    let names = default_names();
+    let set = hand6();
+    let at = |name: &str| names.iter().position(|n| n == name).unwrap();
+    for material in [
+        Material {
+            name: "chrome".into(),
+            rho_d: 0.0,
+            rho_s: 0.75,
+            alpha: 0.0,
+        },
+        Material {
+            name: "white_matte".into(),
+            rho_d: 0.9,
+            rho_s: 0.0,
+            alpha: 0.0,
+        },
+    ] {
+        let features = |radius: f64, extractor: &Extractor| {
+            let size = (radius * 2.2).round() as usize;
+            let img = render(
+                &lighting,
+                &material,
+                size,
+                &View::default(),
+                &Quality::default(),
+                &mut Rng::new(1),
+            );
+            let lum = Array2::from_shape_vec(
+                (size, size),
+                img.luminance.iter().map(|&v| f64::from(v)).collect(),
+            )
+            .unwrap();
+            extractor.extract(lum.view(), &img.circle, white)
+        };
+        let base = features(100.0, &plain);
+        for radius in [200.0, 400.0] {
+            let raw = features(radius, &plain);
+            let with_working_radius = features(radius, &reduced);
+            let delta = |v: &[f64], name: &str| (v[at(name)] - base[at(name)]).abs();
+            // hand6's pixel statistics do not depend on the size.
+            for name in ["pix.mean", "pix.p10"] {
+                assert!(
+                    delta(&raw, name) < 0.005,
+                    "{} r={radius} {name}",
+                    material.name
+                );
+            }
+            // With the working radius every hand6 feature agrees within 0.15 (scale 1 keeps
+            // ~0.1 of pixel-phase variation: at r = 100 the grid is at the pixel limit).
+            for &i in &set {
+                let d = (with_working_radius[i] - base[i]).abs();
+                assert!(d < 0.15, "{} r={radius} {}: Δ {d}", material.name, names[i]);
+            }
+            // Scale 2 drifts by > 0.2 for a mirror without reduction, < 0.05 with it.
+            if real_probe && material.name == "chrome" {
+                assert!(delta(&raw, "wav.s2.v.var") > 0.2);
+                assert!(delta(&with_working_radius, "wav.s2.v.var") < 0.05);
+            }
+        }
+    }
+}
