@@ -108,12 +108,28 @@ pub fn analyze(
     how: &Locate,
     white_input: &WhiteInput,
 ) -> Result<Analysis, AnalysisError> {
+    analyze_subset(extractor, image, how, white_input, None)
+}
+
+/// [`analyze`], extracting only the features at `wanted` (the others are NaN; see
+/// [`Extractor::extract_subset`]), or all of them for `None`.
+pub fn analyze_subset(
+    extractor: &Extractor,
+    image: &LinearImage,
+    how: &Locate,
+    white_input: &WhiteInput,
+    wanted: Option<&[usize]>,
+) -> Result<Analysis, AnalysisError> {
     let mut warnings = image.warnings.clone();
     let (white, white_warning) = resolve_white(white_input)?;
     let (geometry, geometry_warnings) = locate(image, how, extractor)?;
     warnings.extend(geometry_warnings);
     warnings.extend(white_warning);
-    let values = extractor.extract(image.luminance.view(), &geometry.circle(), white.value);
+    let (luminance, circle) = (image.luminance.view(), geometry.circle());
+    let values = match wanted {
+        Some(wanted) => extractor.extract_subset(luminance, &circle, white.value, wanted),
+        None => extractor.extract(luminance, &circle, white.value),
+    };
     Ok(Analysis {
         values,
         geometry,

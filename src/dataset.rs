@@ -36,6 +36,8 @@ pub enum DatasetError {
     },
     #[error("{path}: {detail}")]
     Table { path: String, detail: String },
+    #[error("cancelled")]
+    Cancelled,
 }
 
 /// One manifest row.
@@ -195,18 +197,38 @@ pub fn extract_manifest(
     manifest: &Manifest,
     options: &DecodeOptions,
 ) -> Result<FeatureTable, DatasetError> {
+    extract_manifest_with(extractor, manifest, options, &progress::Silent)
+}
+
+/// [`extract_manifest`] reporting each finished image to `observer`; a cancellation seen
+/// before an image starts ends the run with [`DatasetError::Cancelled`].
+pub fn extract_manifest_with(
+    extractor: &Extractor,
+    manifest: &Manifest,
+    options: &DecodeOptions,
+    observer: &dyn progress::Observer,
+) -> Result<FeatureTable, DatasetError> {
     let bar = progress::bar(manifest.entries.len() as u64, "features");
+    let counter = progress::Counter::new(observer, manifest.entries.len());
     let results: Vec<_> = manifest
         .entries
         .par_iter()
         .map(|entry| {
+            if counter.cancelled() {
+                return None;
+            }
             let result = extract_entry(extractor, entry, options);
             bar.inc(1);
-            result
+            counter.tick();
+            Some(result)
         })
         .collect();
     bar.finish_and_clear();
-    let mut samples = Vec::with_capacity(results.len());
+    if results.iter().any(Option::is_none) {
+        return Err(DatasetError::Cancelled);
+    }
+    let results = results.into_iter().flatten();
+    let mut samples = Vec::with_capacity(manifest.entries.len());
     for (entry, result) in manifest.entries.iter().zip(results) {
         let values = result.map_err(|source| DatasetError::Image {
             path: display(&manifest.source),

@@ -7,7 +7,7 @@
 use crate::geometry::Circle;
 use crate::pyramid::{self, Edge};
 use crate::spectrum::{BandPowers, ORIENTATIONS, SpectrumPlan};
-use crate::stats::{STAT_NAMES, Summary, summarize};
+use crate::stats::{STAT_NAMES, Summary, moments, percentiles, summarize};
 use crate::unwrap::{AngleTable, UnwrapConfig, angle_table, unwrap};
 use ndarray::{Array2, ArrayView2};
 use serde::{Deserialize, Serialize};
@@ -315,6 +315,141 @@ impl Extractor {
     }
 }
 
+impl Extractor {
+    /// Number of features of this configuration (117 with the default one).
+    pub fn feature_count(&self) -> usize {
+        let blocks = if self.config.log_domain { 2 } else { 1 };
+        blocks * self.block_len()
+    }
+
+    /// Features of one image (the unwrapped annulus or its log10).
+    fn block_len(&self) -> usize {
+        let levels = self.config.levels;
+        STAT_NAMES.len() * (1 + 3 * levels) + 3 * (levels - 1) + 4 * ORIENTATIONS.len() + 1
+    }
+
+    /// [`Extractor::extract`] computing only the features at the indices `wanted` (into the
+    /// canonical order); every other entry is NaN. The wanted values are bit-identical to
+    /// `extract`'s: the same stages and statistics run on the same data, and those nobody
+    /// reads are skipped (pyramid levels past the deepest one needed, unneeded moments and
+    /// percentiles, the band powers). A classifier that reads a handful of features (e.g.
+    /// `hand6`) needs a fraction of the work.
+    pub fn extract_subset(
+        &self,
+        luminance: ArrayView2<f64>,
+        circle: &Circle,
+        white: f64,
+        wanted: &[usize],
+    ) -> Vec<f64> {
+        let n = self.feature_count();
+        let mut need = vec![false; n];
+        for &i in wanted {
+            if let Some(slot) = need.get_mut(i) {
+                *slot = true;
+            }
+        }
+        let mut out = vec![f64::NAN; n];
+        let block = self.block_len();
+        let unwrapped = self.unwrap(luminance, circle, white);
+        self.subset_of(&unwrapped, &need[..block], &mut out[..block]);
+        if self.config.log_domain && need[block..].iter().any(|&b| b) {
+            let log = unwrapped.mapv(|v| v.max(LOG_PIXEL_FLOOR).log10());
+            self.subset_of(&log, &need[block..], &mut out[block..]);
+        }
+        out
+    }
+
+    /// The needed features of one block ([`Extractor::features_of`]'s layout) of an
+    /// unwrapped image into `out`.
+    fn subset_of(&self, unwrapped: &Array2<f64>, need: &[bool], out: &mut [f64]) {
+        let levels = self.config.levels;
+        let stats = STAT_NAMES.len();
+        // Layout: pix, then subbands [level][h, v, d], ratios [band][pair], band powers.
+        let band_base = |level: usize, band: usize| stats * (1 + 3 * level + band);
+        let ratio_base = stats * (1 + 3 * levels);
+        let fft_base = ratio_base + 3 * (levels - 1);
+        let ratio_needed = |band: usize, pair: usize| need[ratio_base + band * (levels - 1) + pair];
+        // Which subbands need their variance (for ratios) or statistics.
+        let mut deepest = None;
+        let mut band_var = vec![[false; 3]; levels];
+        for (level, bands) in band_var.iter_mut().enumerate() {
+            for (band, slot) in bands.iter_mut().enumerate() {
+                let base = band_base(level, band);
+                let ratio = (level + 1 < levels && ratio_needed(band, level))
+                    || (level > 0 && ratio_needed(band, level - 1));
+                *slot = ratio;
+                if ratio || need[base..base + stats].iter().any(|&b| b) {
+                    deepest = Some(level);
+                }
+            }
+        }
+        let fill = |values: &[f64], base: usize, force_moments: bool, out: &mut [f64]| -> f64 {
+            let mut var = f64::NAN;
+            if force_moments || need[base..base + 4].iter().any(|&b| b) {
+                let m = moments(values);
+                out[base] = m.mean;
+                out[base + 1] = log10_floor(m.var);
+                out[base + 2] = m.skew;
+                out[base + 3] = log10_floor(m.kurt);
+                var = m.var;
+            }
+            // Order statistics are exact, so one percentile alone (one selection) equals
+            // the same percentile computed with the others.
+            let wanted: Vec<usize> = (0..3).filter(|&k| need[base + 4 + k]).collect();
+            if let [k] = wanted[..] {
+                let [p] = percentiles(values, [[10.0, 50.0, 90.0][k]]);
+                out[base + 4 + k] = p;
+            } else if !wanted.is_empty() {
+                let [p10, p50, p90] = percentiles(values, [10.0, 50.0, 90.0]);
+                out[base + 4..base + 7].copy_from_slice(&[p10, p50, p90]);
+            }
+            var
+        };
+        fn slice(a: &Array2<f64>) -> std::borrow::Cow<'_, [f64]> {
+            match a.as_slice() {
+                Some(s) => s.into(),
+                None => a.iter().copied().collect::<Vec<f64>>().into(),
+            }
+        }
+        fill(&slice(unwrapped), 0, false, out);
+        if let Some(deepest) = deepest {
+            let pyramid = pyramid::build(unwrapped.view(), deepest + 1, Edge::Periodic);
+            let mut variances = vec![[f64::NAN; 3]; levels];
+            for (level, bands) in pyramid.levels.iter().enumerate() {
+                for (band, values) in [&bands.h, &bands.v, &bands.d].into_iter().enumerate() {
+                    let base = band_base(level, band);
+                    let needed =
+                        band_var[level][band] || need[base..base + stats].iter().any(|&b| b);
+                    if needed {
+                        variances[level][band] =
+                            fill(&slice(values), base, band_var[level][band], out);
+                    }
+                }
+            }
+            for band in 0..3 {
+                for pair in 0..levels - 1 {
+                    if ratio_needed(band, pair) {
+                        out[ratio_base + band * (levels - 1) + pair] =
+                            log10_floor(variances[pair][band])
+                                - log10_floor(variances[pair + 1][band]);
+                    }
+                }
+            }
+        }
+        if need[fft_base..].iter().any(|&b| b) {
+            let powers = self.spectrum.band_powers(unwrapped.view());
+            let values: Vec<f64> = powers
+                .oriented
+                .iter()
+                .flatten()
+                .map(|&p| log10_floor(p))
+                .chain(std::iter::once(log10_floor(powers.lo)))
+                .collect();
+            out[fft_base..].copy_from_slice(&values);
+        }
+    }
+}
+
 fn push_summary(out: &mut Vec<f64>, s: &Summary) {
     out.extend([
         s.mean,
@@ -386,6 +521,76 @@ mod tests {
             .mapv(|v| v.max(LOG_PIXEL_FLOOR).log10());
         let expected = plain.features_of(&plain.stages_of_unwrapped(log));
         assert_eq!(&values[FEATURE_COUNT..], expected.as_slice());
+    }
+
+    #[test]
+    fn subsets_are_bit_identical_to_the_full_extraction() {
+        let size = 200;
+        let luminance = Array2::from_shape_fn((size, size), |(y, x)| {
+            let (dx, dy) = (x as f64 - 99.5, y as f64 - 99.5);
+            let d2 = (dx * dx + dy * dy) / (90.0 * 90.0);
+            if d2 > 1.0 {
+                0.0
+            } else {
+                0.3 + 0.5 * (1.0 - d2).sqrt() + 0.1 * (dx / 5.0).sin() * (dy / 7.0).cos()
+            }
+        });
+        let circle = Circle {
+            cx: 99.5,
+            cy: 99.5,
+            r: 90.0,
+        };
+        let extractor = Extractor::new(FeatureConfig::default()).unwrap();
+        assert_eq!(extractor.feature_count(), FEATURE_COUNT);
+        let full = extractor.extract(luminance.view(), &circle, 0.9);
+        let names = default_names();
+        let index = |n: &str| names.iter().position(|m| m == n).unwrap();
+        let hand6: Vec<usize> = named_set("hand6")
+            .unwrap()
+            .iter()
+            .map(|n| index(n))
+            .collect();
+        let subsets: Vec<Vec<usize>> = vec![
+            hand6,
+            vec![index("ratio.d.s3_s4")],
+            vec![index("fft.b2.f45.pow"), index("wav.s4.h.p90")],
+            vec![index("pix.p50"), index("wav.s1.v.skew")],
+            vec![
+                index("pix.p90"),
+                index("wav.s2.d.p10"),
+                index("wav.s2.d.p50"),
+            ],
+            (0..FEATURE_COUNT).collect(),
+            vec![],
+        ];
+        let log_domain = Extractor::new(FeatureConfig::extended(true, Some(60.0))).unwrap();
+        let log_full = log_domain.extract(luminance.view(), &circle, 0.9);
+        assert_eq!(log_domain.feature_count(), 2 * FEATURE_COUNT);
+        let log_subsets = [
+            vec![
+                3,
+                FEATURE_COUNT + 1,
+                FEATURE_COUNT + 99,
+                2 * FEATURE_COUNT - 1,
+            ],
+            (0..2 * FEATURE_COUNT).collect::<Vec<_>>(),
+        ];
+        for wanted in log_subsets {
+            let part = log_domain.extract_subset(luminance.view(), &circle, 0.9, &wanted);
+            assert_eq!(part.len(), 2 * FEATURE_COUNT);
+            for &i in &wanted {
+                assert_eq!(part[i].to_bits(), log_full[i].to_bits(), "log-domain {i}");
+            }
+        }
+        for wanted in subsets {
+            let part = extractor.extract_subset(luminance.view(), &circle, 0.9, &wanted);
+            assert_eq!(part.len(), FEATURE_COUNT);
+            for (i, (a, b)) in part.iter().zip(&full).enumerate() {
+                if wanted.contains(&i) {
+                    assert_eq!(a.to_bits(), b.to_bits(), "{}", names[i]);
+                }
+            }
+        }
     }
 
     #[test]

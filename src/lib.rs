@@ -19,6 +19,7 @@ pub mod render;
 pub mod report;
 pub mod resample;
 pub mod rng;
+pub mod server;
 pub mod spectrum;
 pub mod stats;
 pub mod train;

@@ -8,6 +8,7 @@ use crate::model::{
     self, ClassInfo, CvSummary, Exemplar, FeatureSpec, ModelError, ModelFile, Provenance, SelfTest,
     Ward,
 };
+use crate::progress::{Observer, Silent};
 use crate::render::ward::Material;
 use serde_json::json;
 
@@ -47,6 +48,17 @@ pub fn train(
     dataset: &str,
     options: &TrainOptions,
 ) -> Result<Trained, TrainError> {
+    train_with(table, dataset, options, &Silent)
+}
+
+/// [`train`] with stages (`"fit"`, `"cross_validate"`), fold progress and cooperative
+/// cancellation (before the fit and between folds: [`LearnError::Cancelled`]).
+pub fn train_with(
+    table: &FeatureTable,
+    dataset: &str,
+    options: &TrainOptions,
+    observer: &dyn Observer,
+) -> Result<Trained, TrainError> {
     // The table decides: 117 columns, or 234 with the log-domain features.
     let log_domain = table
         .names
@@ -57,9 +69,21 @@ pub fn train(
         return Err(TrainError::Columns);
     }
     let ds = Dataset::from_table(table)?;
+    if observer.cancelled() {
+        return Err(LearnError::Cancelled.into());
+    }
+    observer.stage("fit");
+    observer.progress(0, 1);
     let classifier = learn::fit(&ds, &options.spec, options.seed)?;
+    observer.progress(1, 1);
     let report = if options.cross_validate {
-        Some(learn::cross_validate(&ds, &options.spec, options.seed)?)
+        observer.stage("cross_validate");
+        Some(learn::cross_validate_with(
+            &ds,
+            &options.spec,
+            options.seed,
+            observer,
+        )?)
     } else {
         None
     };

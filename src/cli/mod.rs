@@ -4,6 +4,7 @@ mod features;
 mod learn;
 mod render;
 mod report;
+mod serve;
 
 use clap::{Args, Parser, Subcommand};
 use std::process::ExitCode;
@@ -33,6 +34,10 @@ enum Command {
     Predict(learn::PredictArgs),
     /// Reproduce the structure of the paper's Tables 1 and 2 (Markdown, JSON, plots).
     Report(report::ReportArgs),
+    /// Run the classification service (data plane, and the admin plane when a token is set).
+    Serve(crate::server::config::ServeArgs),
+    /// Exit 0 when a server answers GET /health/ready with 200 (for container health checks).
+    Healthcheck(serve::HealthcheckArgs),
 }
 
 /// Decoding limits against decompression bombs.
@@ -93,6 +98,8 @@ pub fn main() -> ExitCode {
         Command::Train(args) => learn::train(args),
         Command::Predict(args) => learn::predict(args),
         Command::Report(args) => report::run(args),
+        Command::Serve(args) => serve::run(args),
+        Command::Healthcheck(args) => serve::healthcheck(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -12,6 +12,7 @@ use super::dataset::Dataset;
 use super::error::LearnError;
 use super::model::{Classifier, TrainSpec, fit_rows};
 use super::svm::squared_distance;
+use crate::progress::{Counter, Observer, Silent};
 use crate::rng::Rng;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -175,6 +176,17 @@ fn run_fold(
 
 /// Leave-one-illumination-out cross-validation of `spec` on `ds`.
 pub fn cross_validate(ds: &Dataset, spec: &TrainSpec, seed: u64) -> Result<CvReport, LearnError> {
+    cross_validate_with(ds, spec, seed, &Silent)
+}
+
+/// [`cross_validate`] reporting each completed fold to `observer`; a cancellation seen
+/// before a fold starts ends the run with [`LearnError::Cancelled`] (running folds finish).
+pub fn cross_validate_with(
+    ds: &Dataset,
+    spec: &TrainSpec,
+    seed: u64,
+    observer: &dyn Observer,
+) -> Result<CvReport, LearnError> {
     let mut evaluated = vec![false; ds.group_names.len()];
     for r in 0..ds.n_rows() {
         if !ds.augmented[r] {
@@ -187,9 +199,17 @@ pub fn cross_validate(ds: &Dataset, spec: &TrainSpec, seed: u64) -> Result<CvRep
     if groups.len() < 2 {
         return Err(LearnError::TooFewGroups(groups.len()));
     }
+    let counter = Counter::new(observer, groups.len());
     let results: Vec<FoldResult> = groups
         .par_iter()
-        .map(|&g| run_fold(ds, g, spec, seed))
+        .map(|&g| {
+            if counter.cancelled() {
+                return Err(LearnError::Cancelled);
+            }
+            let fold = run_fold(ds, g, spec, seed);
+            counter.tick();
+            fold
+        })
         .collect::<Result<_, _>>()?;
     let k = ds.n_classes();
     let mut folds = Vec::with_capacity(results.len());

@@ -44,4 +44,6 @@ pub enum LearnError {
     InvalidModel(String),
     #[error("numerical failure: {0}")]
     Numerical(String),
+    #[error("cancelled")]
+    Cancelled,
 }

@@ -19,7 +19,7 @@ pub mod scaler;
 pub mod select;
 pub mod svm;
 
-pub use cv::{CvReport, cross_validate};
+pub use cv::{CvReport, cross_validate, cross_validate_with};
 pub use dataset::Dataset;
 pub use error::LearnError;
 pub use feature_set::FeatureSet;

@@ -37,6 +37,8 @@ pub enum RenderError {
     MissingProbe { list: String, name: String },
     #[error("invalid rendering option: {0}")]
     Options(String),
+    #[error("cancelled")]
+    Cancelled,
 }
 
 fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> RenderError + '_ {
@@ -267,6 +269,16 @@ fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
 /// Render every probe × variant × class into `spec.out`; images already complete are
 /// skipped (resume). Writes `manifest.csv` last, atomically.
 pub fn render_dataset(spec: &BatchSpec) -> Result<BatchSummary, RenderError> {
+    render_dataset_with(spec, &progress::Silent)
+}
+
+/// [`render_dataset`] reporting each finished image to `observer`; a cancellation seen
+/// before an image starts ends the run with [`RenderError::Cancelled`] (the images already
+/// written stay, so a later run resumes; no manifest is written).
+pub fn render_dataset_with(
+    spec: &BatchSpec,
+    observer: &dyn progress::Observer,
+) -> Result<BatchSummary, RenderError> {
     validate(spec)?;
     std::fs::create_dir_all(&spec.out).map_err(io_error(&spec.out))?;
     let probes: Vec<Probe> = spec
@@ -307,9 +319,13 @@ pub fn render_dataset(spec: &BatchSpec) -> Result<BatchSummary, RenderError> {
             && spec.out.join(format!("{}.mask.png", job.name)).is_file()
     };
     let bar = progress::bar(jobs.len() as u64, "render");
+    let counter = progress::Counter::new(observer, jobs.len());
     let outcomes: Vec<Result<bool, RenderError>> = jobs
         .par_iter()
         .map(|job| {
+            if counter.cancelled() {
+                return Err(RenderError::Cancelled);
+            }
             let result = if complete(job) {
                 Ok(false)
             } else {
@@ -334,6 +350,7 @@ pub fn render_dataset(spec: &BatchSpec) -> Result<BatchSummary, RenderError> {
                 write_image(&spec.out, &job.name, &image).map(|()| true)
             };
             bar.inc(1);
+            counter.tick();
             result
         })
         .collect();

@@ -64,3 +64,5 @@ pub fn png_with_header_size(width: u32, height: u32) -> Vec<u8> {
     png[29..33].copy_from_slice(&crc.to_be_bytes());
     png
 }
+
+pub mod server;

@@ -1,0 +1,41 @@
+# syntax=docker/dockerfile:1
+# reflectance serve: multi-stage build with cargo-chef (dependencies cached in their own
+# layer), distroless runtime as a non-root user, the shipped models baked in.
+#
+#   docker build -t reflectance .
+#   docker run --rm -p 8080:8080 reflectance
+#
+# The admin plane stays off unless a token is given (REFLECTANCE_ADMIN_TOKEN or
+# --admin-token-file); to expose it, publish 8081 and set --admin-listen 0.0.0.0:8081.
+
+ARG RUST_VERSION=1.95
+FROM rust:${RUST_VERSION}-slim-bookworm AS chef
+RUN cargo install cargo-chef --locked
+WORKDIR /app
+
+FROM chef AS planner
+COPY . .
+RUN cargo chef prepare --recipe-path recipe.json
+
+FROM chef AS builder
+COPY --from=planner /app/recipe.json recipe.json
+RUN cargo chef cook --release --recipe-path recipe.json
+COPY . .
+RUN cargo build --release --locked --bin reflectance \
+ && strip target/release/reflectance
+
+FROM gcr.io/distroless/cc-debian12:nonroot AS runtime
+WORKDIR /srv
+COPY --from=builder /app/target/release/reflectance /usr/local/bin/reflectance
+COPY models /srv/models
+ENV REFLECTANCE_MODELS=/srv/models \
+    REFLECTANCE_DEFAULT_MODEL=ward6 \
+    REFLECTANCE_LISTEN=0.0.0.0:8080 \
+    REFLECTANCE_DATA_DIR=/srv/data \
+    REFLECTANCE_LOG_FORMAT=json
+USER nonroot:nonroot
+EXPOSE 8080
+HEALTHCHECK --interval=10s --timeout=3s --start-period=20s --retries=3 \
+  CMD ["/usr/local/bin/reflectance", "healthcheck", "--addr", "127.0.0.1:8080"]
+ENTRYPOINT ["/usr/local/bin/reflectance"]
+CMD ["serve"]

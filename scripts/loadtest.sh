@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# Load test of POST /v1/classify: a 256×256 PNG sphere (with white and circle), 32
+# connections, wrk. Prints requests/s, latency percentiles and the server's peak RSS.
+#
+#   scripts/loadtest.sh                 # 20 s, 32 connections, 2 wrk threads
+#   DURATION=60s CONNECTIONS=64 scripts/loadtest.sh
+#   MODELS=models scripts/loadtest.sh   # a registry with ward6 (default: train one from the fixture table)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+DURATION=${DURATION:-20s}
+CONNECTIONS=${CONNECTIONS:-32}
+THREADS=${THREADS:-2}
+PORT=${PORT:-18080}
+
+if ! command -v wrk >/dev/null; then
+  echo "== installing wrk" >&2
+  apt-get update -qq >/dev/null && apt-get install -y -qq wrk >/dev/null
+fi
+
+echo "== building (release)" >&2
+cargo build --release -q
+BIN=${CARGO_TARGET_DIR:-target}/release/reflectance
+
+WORK=$(mktemp -d)
+SERVER_PID=
+SAMPLER_PID=
+cleanup() {
+  [ -n "$SAMPLER_PID" ] && kill "$SAMPLER_PID" 2>/dev/null || true
+  [ -n "$SERVER_PID" ] && kill "$SERVER_PID" 2>/dev/null && wait "$SERVER_PID" 2>/dev/null || true
+  rm -rf "$WORK"
+}
+trap cleanup EXIT
+
+if [ -n "${MODELS:-}" ]; then
+  REGISTRY=$MODELS
+else
+  REGISTRY=$WORK/models
+  "$BIN" train --table tests/fixtures/learn/table.csv --features hand6 --classifier svm \
+    --models "$REGISTRY" --name ward6 --no-cv >/dev/null
+fi
+python3 scripts/loadtest/sphere_png.py "$WORK/sphere.png"
+
+"$BIN" serve --models "$REGISTRY" --default-model ward6 --listen "127.0.0.1:$PORT" \
+  --log-format json --log warn 2>"$WORK/server.log" &
+SERVER_PID=$!
+for _ in $(seq 1 100); do
+  "$BIN" healthcheck --addr "127.0.0.1:$PORT" 2>/dev/null && break
+  sleep 0.1
+done
+"$BIN" healthcheck --addr "127.0.0.1:$PORT"
+
+# One request first: the answer must be a classification.
+curl -fsS -F image=@"$WORK/sphere.png" -F white=0.9 -F cx=127.5 -F cy=127.5 -F r=116 \
+  "http://127.0.0.1:$PORT/v1/classify" | head -c 300 >&2 || true
+echo >&2
+
+# Peak resident memory of the server while under load.
+( peak=0
+  while kill -0 "$SERVER_PID" 2>/dev/null; do
+    rss=$(awk '/VmRSS/ {print $2}' "/proc/$SERVER_PID/status" 2>/dev/null || echo 0)
+    [ "${rss:-0}" -gt "$peak" ] && peak=$rss && echo "$peak" > "$WORK/rss"
+    sleep 0.2
+  done ) &
+SAMPLER_PID=$!
+
+echo "== wrk: $CONNECTIONS connections, $THREADS threads, $DURATION, 256×256 PNG → POST /v1/classify" >&2
+IMAGE="$WORK/sphere.png" wrk -t"$THREADS" -c"$CONNECTIONS" -d"$DURATION" --latency \
+  -s scripts/loadtest/classify.lua "http://127.0.0.1:$PORT/v1/classify"
+
+echo "server peak RSS: $(( $(cat "$WORK/rss" 2>/dev/null || echo 0) / 1024 )) MiB"

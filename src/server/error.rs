@@ -1,0 +1,575 @@
+//! The one place where failures become HTTP: every error of the service is an
+//! `application/problem+json` document (RFC 9457) with `type`, `title`, `status`, `detail`
+//! and `request_id`. Handlers return [`ApiError`]; [`normalize`] (run by the middleware for
+//! every response) turns whatever else produced an error status — axum's extractor
+//! rejections, unknown routes (404), wrong methods (405), the body limit (413), the
+//! timeout (408), a caught panic (500) — into the same shape.
+//!
+//! Mapping of the library's errors (see [`ApiError::from`] impls and `openapi.yaml`):
+//!
+//! | error | status | type |
+//! |---|---|---|
+//! | decode: unknown format, unsupported content | 415 | `unsupported-image-format` |
+//! | decode: corrupt or truncated file | 422 | `corrupt-image` |
+//! | decode: over the pixel limits | 413 | `image-too-large` |
+//! | decode: zero size, NaN/Inf or negative samples | 422 | `invalid-image` |
+//! | decode: bad `encoding` | 422 | `invalid-field` |
+//! | geometry (bad circle or mask, detection failed) | 422 | `bad-geometry` |
+//! | white reference | 422 | `bad-white` |
+//! | unknown model / version | 404 | `model-not-found` / `version-not-found` |
+//! | model file refused (schema, checksum, self-test) | 422 | `invalid-model` |
+//! | deleting the active version | 409 | `version-active` |
+
+use axum::http::{HeaderValue, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use serde::Serialize;
+use std::borrow::Cow;
+use utoipa::ToSchema;
+
+use crate::analysis::AnalysisError;
+use crate::geometry::GeometryError;
+use crate::image_io::DecodeError;
+use crate::learn::LearnError;
+use crate::model::ModelError;
+use crate::registry::RegistryError;
+use crate::white::WhiteError;
+
+pub const PROBLEM_JSON: &str = "application/problem+json";
+const TYPE_PREFIX: &str = "urn:reflectance:problem:";
+
+tokio::task_local! {
+    /// The current request's id, set by the middleware around every request.
+    pub static REQUEST_ID: String;
+}
+
+/// The current request's id (empty outside a request).
+pub fn current_request_id() -> String {
+    REQUEST_ID.try_with(Clone::clone).unwrap_or_default()
+}
+
+/// Every kind of failure the service reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    MalformedRequest,
+    UnsupportedMediaType,
+    MissingField,
+    UnknownField,
+    InvalidField,
+    UnsupportedImageFormat,
+    CorruptImage,
+    ImageTooLarge,
+    InvalidImage,
+    BadGeometry,
+    BadWhite,
+    ModelNotFound,
+    VersionNotFound,
+    InvalidModel,
+    VersionActive,
+    JobNotFound,
+    JobFinished,
+    InvalidJob,
+    InvalidPath,
+    JobQueueFull,
+    Unauthorized,
+    Overloaded,
+    NotFound,
+    MethodNotAllowed,
+    Timeout,
+    BodyTooLarge,
+    NotReady,
+    Internal,
+}
+
+impl Kind {
+    pub const ALL: [Kind; 28] = [
+        Kind::MalformedRequest,
+        Kind::UnsupportedMediaType,
+        Kind::MissingField,
+        Kind::UnknownField,
+        Kind::InvalidField,
+        Kind::UnsupportedImageFormat,
+        Kind::CorruptImage,
+        Kind::ImageTooLarge,
+        Kind::InvalidImage,
+        Kind::BadGeometry,
+        Kind::BadWhite,
+        Kind::ModelNotFound,
+        Kind::VersionNotFound,
+        Kind::InvalidModel,
+        Kind::VersionActive,
+        Kind::JobNotFound,
+        Kind::JobFinished,
+        Kind::InvalidJob,
+        Kind::InvalidPath,
+        Kind::JobQueueFull,
+        Kind::Unauthorized,
+        Kind::Overloaded,
+        Kind::NotFound,
+        Kind::MethodNotAllowed,
+        Kind::Timeout,
+        Kind::BodyTooLarge,
+        Kind::NotReady,
+        Kind::Internal,
+    ];
+
+    /// (slug, title, status)
+    pub fn describe(self) -> (&'static str, &'static str, StatusCode) {
+        use StatusCode as S;
+        match self {
+            Kind::MalformedRequest => ("malformed-request", "Malformed request", S::BAD_REQUEST),
+            Kind::UnsupportedMediaType => (
+                "unsupported-media-type",
+                "Unsupported request content type",
+                S::UNSUPPORTED_MEDIA_TYPE,
+            ),
+            Kind::MissingField => (
+                "missing-field",
+                "A required field is missing",
+                S::UNPROCESSABLE_ENTITY,
+            ),
+            Kind::UnknownField => ("unknown-field", "Unknown field", S::UNPROCESSABLE_ENTITY),
+            Kind::InvalidField => (
+                "invalid-field",
+                "Invalid field value",
+                S::UNPROCESSABLE_ENTITY,
+            ),
+            Kind::UnsupportedImageFormat => (
+                "unsupported-image-format",
+                "Unsupported image format",
+                S::UNSUPPORTED_MEDIA_TYPE,
+            ),
+            Kind::CorruptImage => (
+                "corrupt-image",
+                "Corrupt or truncated image",
+                S::UNPROCESSABLE_ENTITY,
+            ),
+            Kind::ImageTooLarge => (
+                "image-too-large",
+                "Image over the pixel limits",
+                S::PAYLOAD_TOO_LARGE,
+            ),
+            Kind::InvalidImage => ("invalid-image", "Unusable image", S::UNPROCESSABLE_ENTITY),
+            Kind::BadGeometry => (
+                "bad-geometry",
+                "Sphere circle or mask not usable",
+                S::UNPROCESSABLE_ENTITY,
+            ),
+            Kind::BadWhite => (
+                "bad-white",
+                "White reference not usable",
+                S::UNPROCESSABLE_ENTITY,
+            ),
+            Kind::ModelNotFound => ("model-not-found", "Unknown model", S::NOT_FOUND),
+            Kind::VersionNotFound => ("version-not-found", "Unknown model version", S::NOT_FOUND),
+            Kind::InvalidModel => (
+                "invalid-model",
+                "Model file refused",
+                S::UNPROCESSABLE_ENTITY,
+            ),
+            Kind::VersionActive => ("version-active", "Version is active", S::CONFLICT),
+            Kind::JobNotFound => ("job-not-found", "Unknown job", S::NOT_FOUND),
+            Kind::JobFinished => ("job-finished", "Job already finished", S::CONFLICT),
+            Kind::InvalidJob => ("invalid-job", "Invalid job", S::UNPROCESSABLE_ENTITY),
+            Kind::InvalidPath => (
+                "invalid-path",
+                "Path missing or outside the data directory",
+                S::UNPROCESSABLE_ENTITY,
+            ),
+            Kind::JobQueueFull => ("job-queue-full", "Job queue full", S::TOO_MANY_REQUESTS),
+            Kind::Unauthorized => ("unauthorized", "Unauthorized", S::UNAUTHORIZED),
+            Kind::Overloaded => ("overloaded", "Server busy", S::TOO_MANY_REQUESTS),
+            Kind::NotFound => ("not-found", "Not found", S::NOT_FOUND),
+            Kind::MethodNotAllowed => (
+                "method-not-allowed",
+                "Method not allowed",
+                S::METHOD_NOT_ALLOWED,
+            ),
+            Kind::Timeout => ("timeout", "Request timed out", S::REQUEST_TIMEOUT),
+            Kind::BodyTooLarge => (
+                "body-too-large",
+                "Request body too large",
+                S::PAYLOAD_TOO_LARGE,
+            ),
+            Kind::NotReady => ("not-ready", "Service not ready", S::SERVICE_UNAVAILABLE),
+            Kind::Internal => (
+                "internal",
+                "Internal server error",
+                S::INTERNAL_SERVER_ERROR,
+            ),
+        }
+    }
+
+    pub fn status(self) -> StatusCode {
+        self.describe().2
+    }
+
+    pub fn type_uri(self) -> String {
+        format!("{TYPE_PREFIX}{}", self.describe().0)
+    }
+}
+
+/// An RFC 9457 problem document.
+#[derive(Clone, Debug, Serialize, serde::Deserialize, ToSchema)]
+#[schema(example = json!({
+    "type": "urn:reflectance:problem:corrupt-image",
+    "title": "Corrupt or truncated image",
+    "status": 422,
+    "detail": "corrupt or truncated PNG file: unexpected end of data",
+    "request_id": "5f0c6a1e9b2d4c7a8e3f1a2b3c4d5e6f"
+}))]
+pub struct Problem {
+    /// A URI naming the kind of problem: `urn:reflectance:problem:<slug>`.
+    #[serde(rename = "type")]
+    pub type_: String,
+    pub title: String,
+    /// The HTTP status code.
+    pub status: u16,
+    /// What went wrong with this request, for a human.
+    pub detail: String,
+    /// The request's id (also in the `x-request-id` header).
+    pub request_id: String,
+}
+
+/// A failure, on its way to becoming a problem+json response.
+#[derive(Debug)]
+pub struct ApiError {
+    pub kind: Kind,
+    pub detail: String,
+    /// Seconds, for 429 and 503.
+    pub retry_after: Option<u64>,
+}
+
+impl ApiError {
+    pub fn new(kind: Kind, detail: impl Into<String>) -> ApiError {
+        ApiError {
+            kind,
+            detail: detail.into(),
+            retry_after: None,
+        }
+    }
+
+    pub fn retry_after(mut self, seconds: u64) -> ApiError {
+        self.retry_after = Some(seconds);
+        self
+    }
+
+    pub fn internal(detail: impl std::fmt::Display) -> ApiError {
+        tracing::error!(error = %detail, "internal error");
+        ApiError::new(
+            Kind::Internal,
+            "internal error; the request id identifies the log entry",
+        )
+    }
+
+    pub fn problem(&self, request_id: String) -> Problem {
+        let (_, title, status) = self.kind.describe();
+        Problem {
+            type_: self.kind.type_uri(),
+            title: title.to_string(),
+            status: status.as_u16(),
+            detail: self.detail.clone(),
+            request_id,
+        }
+    }
+}
+
+impl std::fmt::Display for ApiError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}", self.kind.describe().0, self.detail)
+    }
+}
+
+/// The problem+json response of a problem.
+pub fn problem_response(problem: &Problem, retry_after: Option<u64>) -> Response {
+    let body = serde_json::to_vec(problem).unwrap_or_default();
+    let status = StatusCode::from_u16(problem.status).unwrap_or(StatusCode::INTERNAL_SERVER_ERROR);
+    let mut response = (status, body).into_response();
+    let headers = response.headers_mut();
+    headers.insert(header::CONTENT_TYPE, HeaderValue::from_static(PROBLEM_JSON));
+    if let Some(seconds) = retry_after {
+        headers.insert(header::RETRY_AFTER, HeaderValue::from(seconds));
+    }
+    if status == StatusCode::UNAUTHORIZED {
+        headers.insert(header::WWW_AUTHENTICATE, HeaderValue::from_static("Bearer"));
+    }
+    response
+}
+
+impl IntoResponse for ApiError {
+    fn into_response(self) -> Response {
+        problem_response(&self.problem(current_request_id()), self.retry_after)
+    }
+}
+
+impl From<DecodeError> for ApiError {
+    fn from(e: DecodeError) -> ApiError {
+        let kind = match &e {
+            DecodeError::UnsupportedFormat | DecodeError::Unsupported { .. } => {
+                Kind::UnsupportedImageFormat
+            }
+            DecodeError::Corrupt { .. } => Kind::CorruptImage,
+            DecodeError::TooLarge { .. } | DecodeError::LimitExceeded(_) => Kind::ImageTooLarge,
+            DecodeError::Empty { .. }
+            | DecodeError::NonFinite { .. }
+            | DecodeError::Negative { .. } => Kind::InvalidImage,
+            DecodeError::BadEncoding(_) => Kind::InvalidField,
+            // In-memory decoding reads no files: an I/O error here is ours.
+            DecodeError::Io(_) => return ApiError::internal(e),
+        };
+        ApiError::new(kind, e.to_string())
+    }
+}
+
+impl From<GeometryError> for ApiError {
+    fn from(e: GeometryError) -> ApiError {
+        ApiError::new(Kind::BadGeometry, e.to_string())
+    }
+}
+
+impl From<WhiteError> for ApiError {
+    fn from(e: WhiteError) -> ApiError {
+        ApiError::new(Kind::BadWhite, e.to_string())
+    }
+}
+
+impl From<AnalysisError> for ApiError {
+    fn from(e: AnalysisError) -> ApiError {
+        match e {
+            AnalysisError::Decode(e) => e.into(),
+            AnalysisError::Geometry(e) => e.into(),
+            AnalysisError::White(e) => e.into(),
+        }
+    }
+}
+
+impl From<ModelError> for ApiError {
+    fn from(e: ModelError) -> ApiError {
+        ApiError::new(Kind::InvalidModel, e.to_string())
+    }
+}
+
+impl From<RegistryError> for ApiError {
+    fn from(e: RegistryError) -> ApiError {
+        let kind = match &e {
+            RegistryError::BadName(_) | RegistryError::UnknownModel(_) => Kind::ModelNotFound,
+            RegistryError::UnknownVersion { .. } => Kind::VersionNotFound,
+            RegistryError::ActiveVersion { .. } => Kind::VersionActive,
+            RegistryError::Model { .. } => Kind::InvalidModel,
+            RegistryError::Io { .. } => return ApiError::internal(e),
+        };
+        ApiError::new(kind, e.to_string())
+    }
+}
+
+impl From<LearnError> for ApiError {
+    fn from(e: LearnError) -> ApiError {
+        match e {
+            // Features of a pathological image (e.g. an absurd white value) overflowed.
+            LearnError::NonFiniteInput { .. } => ApiError::new(
+                Kind::InvalidImage,
+                format!("the image's features are not usable: {e}"),
+            ),
+            other => ApiError::internal(other),
+        }
+    }
+}
+
+impl From<axum::extract::multipart::MultipartRejection> for ApiError {
+    fn from(e: axum::extract::multipart::MultipartRejection) -> ApiError {
+        ApiError::new(
+            Kind::UnsupportedMediaType,
+            format!("expected a multipart/form-data body ({})", e.body_text()),
+        )
+    }
+}
+
+impl From<axum::extract::multipart::MultipartError> for ApiError {
+    fn from(e: axum::extract::multipart::MultipartError) -> ApiError {
+        let kind = if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
+            Kind::BodyTooLarge
+        } else {
+            Kind::MalformedRequest
+        };
+        ApiError::new(kind, e.body_text())
+    }
+}
+
+impl From<axum::extract::rejection::JsonRejection> for ApiError {
+    fn from(e: axum::extract::rejection::JsonRejection) -> ApiError {
+        use axum::extract::rejection::JsonRejection as J;
+        let kind = match &e {
+            J::MissingJsonContentType(_) => Kind::UnsupportedMediaType,
+            J::JsonDataError(_) => Kind::InvalidField,
+            J::JsonSyntaxError(_) => Kind::MalformedRequest,
+            _ if e.status() == StatusCode::PAYLOAD_TOO_LARGE => Kind::BodyTooLarge,
+            _ => Kind::MalformedRequest,
+        };
+        ApiError::new(kind, e.body_text())
+    }
+}
+
+/// A path segment that cannot be parsed (e.g. a version that is not a positive integer)
+/// names nothing that exists.
+impl From<axum::extract::rejection::PathRejection> for ApiError {
+    fn from(e: axum::extract::rejection::PathRejection) -> ApiError {
+        ApiError::new(Kind::VersionNotFound, e.body_text())
+    }
+}
+
+impl From<axum::extract::rejection::QueryRejection> for ApiError {
+    fn from(e: axum::extract::rejection::QueryRejection) -> ApiError {
+        ApiError::new(Kind::InvalidField, e.body_text())
+    }
+}
+
+/// The kind of an error status produced outside the handlers.
+fn kind_of_status(status: StatusCode) -> Kind {
+    match status {
+        StatusCode::NOT_FOUND => Kind::NotFound,
+        StatusCode::METHOD_NOT_ALLOWED => Kind::MethodNotAllowed,
+        StatusCode::PAYLOAD_TOO_LARGE => Kind::BodyTooLarge,
+        StatusCode::REQUEST_TIMEOUT => Kind::Timeout,
+        StatusCode::UNSUPPORTED_MEDIA_TYPE => Kind::UnsupportedMediaType,
+        StatusCode::UNPROCESSABLE_ENTITY => Kind::InvalidField,
+        StatusCode::UNAUTHORIZED => Kind::Unauthorized,
+        StatusCode::TOO_MANY_REQUESTS => Kind::Overloaded,
+        StatusCode::SERVICE_UNAVAILABLE => Kind::NotReady,
+        s if s.is_client_error() => Kind::MalformedRequest,
+        _ => Kind::Internal,
+    }
+}
+
+fn default_detail(kind: Kind) -> Cow<'static, str> {
+    match kind {
+        Kind::NotFound => "no such route".into(),
+        Kind::MethodNotAllowed => "this route does not accept that method".into(),
+        Kind::Timeout => "the request did not complete within the time limit".into(),
+        Kind::BodyTooLarge => "the request body is over the size limit".into(),
+        Kind::Internal => "internal error; the request id identifies the log entry".into(),
+        other => other.describe().1.into(),
+    }
+}
+
+/// Turn an error response that is not already problem+json into one (keeping a short
+/// plain-text body as the detail). Other responses pass through.
+pub async fn normalize(response: Response, request_id: &str) -> Response {
+    let status = response.status();
+    if !(status.is_client_error() || status.is_server_error()) {
+        return response;
+    }
+    let is_problem = response
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .is_some_and(|v| v.as_bytes().starts_with(PROBLEM_JSON.as_bytes()));
+    if is_problem {
+        return response;
+    }
+    let (parts, body) = response.into_parts();
+    let text = axum::body::to_bytes(body, 4096).await.unwrap_or_default();
+    let kind = kind_of_status(status);
+    let detail = match std::str::from_utf8(&text) {
+        Ok(t) if !t.trim().is_empty() && kind != Kind::Internal => t.trim().to_string(),
+        _ => default_detail(kind).into_owned(),
+    };
+    let (_, title, _) = kind.describe();
+    let problem = Problem {
+        type_: kind.type_uri(),
+        title: title.to_string(),
+        status: status.as_u16(),
+        detail,
+        request_id: request_id.to_string(),
+    };
+    let mut out = problem_response(&problem, None);
+    // Keep headers such as Allow (405) and Retry-After.
+    for (name, value) in parts.headers.iter() {
+        if name != header::CONTENT_TYPE && name != header::CONTENT_LENGTH {
+            out.headers_mut().insert(name.clone(), value.clone());
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kinds_have_distinct_slugs_and_error_statuses() {
+        let mut slugs: Vec<&str> = Kind::ALL.iter().map(|k| k.describe().0).collect();
+        slugs.sort_unstable();
+        slugs.dedup();
+        assert_eq!(slugs.len(), Kind::ALL.len());
+        for kind in Kind::ALL {
+            let status = kind.status();
+            assert!(
+                status.is_client_error() || status.is_server_error(),
+                "{kind:?}"
+            );
+            // Only our own failures are 5xx.
+            if status.is_server_error() {
+                assert!(matches!(kind, Kind::Internal | Kind::NotReady), "{kind:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn library_errors_map_to_client_errors() {
+        let decode = [
+            (DecodeError::UnsupportedFormat, 415),
+            (DecodeError::corrupt(crate::image_io::Format::Png, "x"), 422),
+            (
+                DecodeError::TooLarge {
+                    width: 1,
+                    height: 1,
+                    limits: Default::default(),
+                },
+                413,
+            ),
+            (DecodeError::LimitExceeded("x".into()), 413),
+            (
+                DecodeError::Empty {
+                    width: 0,
+                    height: 1,
+                },
+                422,
+            ),
+            (DecodeError::NonFinite { count: 1 }, 422),
+            (DecodeError::BadEncoding("x".into()), 422),
+        ];
+        for (e, status) in decode {
+            assert_eq!(ApiError::from(e).kind.status().as_u16(), status);
+        }
+        assert_eq!(
+            ApiError::from(GeometryError::Incomplete).kind,
+            Kind::BadGeometry
+        );
+        assert_eq!(
+            ApiError::from(WhiteError::NotPositive(0.0)).kind,
+            Kind::BadWhite
+        );
+        assert_eq!(
+            ApiError::from(RegistryError::UnknownModel("x".into())).kind,
+            Kind::ModelNotFound
+        );
+        assert_eq!(
+            ApiError::from(RegistryError::UnknownVersion {
+                name: "x".into(),
+                version: 2
+            })
+            .kind,
+            Kind::VersionNotFound
+        );
+        assert_eq!(
+            ApiError::from(RegistryError::ActiveVersion {
+                name: "x".into(),
+                version: 2
+            })
+            .kind,
+            Kind::VersionActive
+        );
+        assert_eq!(
+            ApiError::from(ModelError::SelfTest(1.0)).kind,
+            Kind::InvalidModel
+        );
+    }
+}

@@ -1,0 +1,683 @@
+//! `POST /v1/classify` and `POST /v1/models/{name}/classify`: multipart in, classification
+//! out. The CPU work (decode, locate, features, predict) runs on the CPU pool behind the
+//! admission semaphore (429 when saturated); the async side only moves bytes.
+
+use crate::analysis::{self, Locate, WhiteInput};
+use crate::geometry::{self, Method as GeometryMethod};
+use crate::image_io::{self, DecodeOptions, Encoding};
+use crate::server::error::{ApiError, Kind, Problem};
+use crate::server::metrics;
+use crate::server::state::{LoadedModel, SharedState};
+use crate::white::Method as WhiteMethod;
+use axum::Json;
+use axum::body::Bytes;
+use axum::extract::multipart::{Multipart, MultipartRejection};
+use axum::extract::rejection::QueryRejection;
+use axum::extract::{Path, Query, State};
+use axum::http::{HeaderMap, HeaderValue};
+use axum::response::{IntoResponse, Response};
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+use std::time::Instant;
+use utoipa::{IntoParams, ToSchema};
+
+/// The multipart form of a classification request (no other fields are accepted).
+#[derive(Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+#[allow(dead_code)]
+pub struct ClassifyForm {
+    /// The photograph or rendering (PNG, JPEG, TIFF, PNM, Radiance HDR, PFM or OpenEXR).
+    #[schema(value_type = String, format = Binary)]
+    image: Vec<u8>,
+    /// Linear luminance of an ideal white surface at the sphere (finite, > 0).
+    #[schema(value_type = f64, required = false)]
+    white: Option<f64>,
+    /// A crop of a white card (its median luminance is the white reference); not with `white`.
+    #[schema(value_type = String, format = Binary, required = false)]
+    white_image: Option<Vec<u8>>,
+    /// Reflectance of the white card in (0, 1] (default 1); only with `white_image`.
+    #[schema(value_type = f64, required = false)]
+    white_reflectance: Option<f64>,
+    /// Sphere centre x (column) in pixels; give cx, cy and r together.
+    #[schema(value_type = f64, required = false)]
+    cx: Option<f64>,
+    /// Sphere centre y (row) in pixels.
+    #[schema(value_type = f64, required = false)]
+    cy: Option<f64>,
+    /// Sphere radius in pixels (≥ 32).
+    #[schema(value_type = f64, required = false)]
+    r: Option<f64>,
+    /// A mask image of the sphere (same size; alpha, or luminance ≥ 0.5); not with cx/cy/r.
+    #[schema(value_type = String, format = Binary, required = false)]
+    mask: Option<Vec<u8>>,
+    /// How integer samples are linearized: `srgb` (default), `linear` or `gamma:<g>`.
+    #[schema(value_type = String, required = false, example = "srgb")]
+    encoding: Option<String>,
+    /// Extra output: `features` (all extracted features) and/or `explain` (nearest training
+    /// images); comma-separated or repeated.
+    #[schema(value_type = String, required = false, example = "features,explain")]
+    include: Option<String>,
+}
+
+#[derive(Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
+pub struct VersionQuery {
+    /// A specific version (default: the active one).
+    #[param(minimum = 1)]
+    pub version: Option<u32>,
+}
+
+/// The served model version.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct ModelId {
+    pub name: String,
+    pub version: u32,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct LabelProbability {
+    pub label: String,
+    pub p: f64,
+}
+
+/// Names and values, index by index.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct NamedValues {
+    pub names: Vec<String>,
+    pub values: Vec<f64>,
+}
+
+/// The classifier's inputs (the model's selected features, raw; for `pca<N>` models the
+/// standardized principal components `pc1…`), and with `include=features` every extracted
+/// feature in canonical order (117 with the default configuration).
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct FeaturesOut {
+    pub names: Vec<String>,
+    pub values: Vec<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub all: Option<NamedValues>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct GeometryOut {
+    pub cx: f64,
+    pub cy: f64,
+    pub r: f64,
+    /// `given`, `mask` (mask image), `alpha` (the image's alpha channel) or `auto`.
+    #[schema(value_type = String, example = "given")]
+    pub method: GeometryMethod,
+    /// Automatic detection only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub confidence: Option<f64>,
+}
+
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct WhiteOut {
+    pub value: f64,
+    /// `given`, `white_image` or `none` (no reference: the image is taken as normalized).
+    #[schema(value_type = String, example = "given")]
+    pub method: WhiteMethod,
+}
+
+/// Milliseconds per stage.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct TimingMs {
+    pub decode: f64,
+    pub features: f64,
+    pub predict: f64,
+    pub total: f64,
+}
+
+/// A training image near the classified one, in the classifier's standardized input space.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct Neighbour {
+    pub path: String,
+    pub class: String,
+    pub illumination: String,
+    pub distance: f64,
+}
+
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct ClassifyResponse {
+    pub request_id: String,
+    pub model: ModelId,
+    /// The predicted class.
+    pub label: String,
+    /// Every class, most probable first.
+    pub probabilities: Vec<LabelProbability>,
+    pub features: FeaturesOut,
+    pub geometry: GeometryOut,
+    pub white: WhiteOut,
+    pub warnings: Vec<String>,
+    pub timing_ms: TimingMs,
+    /// With `include=explain`: the 3 nearest training images, nearest first.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub explain: Option<Vec<Neighbour>>,
+}
+
+/// How white is given, before decoding.
+pub enum WhiteSpec {
+    Value(f64),
+    Card { bytes: Bytes, reflectance: f64 },
+    Missing,
+}
+
+/// Where the sphere is, before decoding.
+pub enum LocateSpec {
+    Circle(geometry::Circle),
+    Mask(Bytes),
+    Auto,
+}
+
+/// A validated classification request.
+pub struct ClassifyInput {
+    pub image: Bytes,
+    pub white: WhiteSpec,
+    pub locate: LocateSpec,
+    pub encoding: Option<Encoding>,
+    pub include_features: bool,
+    pub include_explain: bool,
+}
+
+/// The result of the CPU work.
+pub struct Classified {
+    pub model: Arc<LoadedModel>,
+    pub class: usize,
+    pub probabilities: Vec<f64>,
+    pub analysis: analysis::Analysis,
+    pub selected: Vec<f64>,
+    pub explain: Option<Vec<Neighbour>>,
+    pub decode_ms: f64,
+    pub features_ms: f64,
+    pub predict_ms: f64,
+}
+
+fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+/// Decode, locate, extract and classify (blocking; runs on the CPU pool).
+pub fn classify_blocking(
+    model: Arc<LoadedModel>,
+    input: ClassifyInput,
+    limits: image_io::Limits,
+) -> Result<Classified, ApiError> {
+    let t = Instant::now();
+    let options = DecodeOptions {
+        encoding: input.encoding,
+        limits,
+    };
+    let image = image_io::decode(&input.image, &options)?;
+    drop(input.image);
+    let white = match input.white {
+        WhiteSpec::Value(v) => WhiteInput::Value(v),
+        WhiteSpec::Card { bytes, reflectance } => WhiteInput::Card {
+            image: image_io::decode(&bytes, &options).map_err(|e| {
+                let mut e = ApiError::from(e);
+                e.detail = format!("white_image: {}", e.detail);
+                e
+            })?,
+            reflectance,
+        },
+        WhiteSpec::Missing => WhiteInput::Missing,
+    };
+    let locate = match input.locate {
+        LocateSpec::Circle(c) => Locate::Circle(c),
+        LocateSpec::Mask(bytes) => {
+            let mask = image_io::decode(&bytes, &options).map_err(|e| {
+                let mut e = ApiError::from(e);
+                e.detail = format!("mask: {}", e.detail);
+                e
+            })?;
+            Locate::Mask(analysis::mask_from_image(&mask))
+        }
+        LocateSpec::Auto => Locate::Auto,
+    };
+    let decode_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    // Unless every feature is asked for, extract only those the classifier reads.
+    let wanted = match &model.needed {
+        Some(needed) if !input.include_features => Some(needed.as_slice()),
+        _ => None,
+    };
+    let analysis = analysis::analyze_subset(&model.extractor, &image, &locate, &white, wanted)?;
+    drop(image);
+    let features_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let classifier = &model.file.classifier;
+    let z = classifier.transform(&analysis.values)?;
+    let output = classifier.classify_transformed(&z);
+    let selected = if classifier.pca.is_some() {
+        z.clone()
+    } else {
+        classifier
+            .selected_indices
+            .iter()
+            .map(|&i| analysis.values[i])
+            .collect()
+    };
+    let explain = if input.include_explain {
+        Some(
+            model
+                .file
+                .nearest(&analysis.values, 3)?
+                .into_iter()
+                .map(|(e, distance)| Neighbour {
+                    path: e.path.clone(),
+                    class: e.class.clone(),
+                    illumination: e.illumination.clone(),
+                    distance,
+                })
+                .collect(),
+        )
+    } else {
+        None
+    };
+    let predict_s = t.elapsed().as_secs_f64();
+    metrics::stage("decode", decode_s);
+    metrics::stage("features", features_s);
+    metrics::stage("predict", predict_s);
+    Ok(Classified {
+        class: output.class,
+        probabilities: output.probabilities,
+        analysis,
+        selected,
+        explain,
+        decode_ms: decode_s * 1e3,
+        features_ms: features_s * 1e3,
+        predict_ms: predict_s * 1e3,
+        model,
+    })
+}
+
+/// Parse a finite number field.
+fn number(field: &str, text: &str) -> Result<f64, ApiError> {
+    text.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| {
+            let kind = if field.starts_with("white") {
+                Kind::BadWhite
+            } else if matches!(field, "cx" | "cy" | "r") {
+                Kind::BadGeometry
+            } else {
+                Kind::InvalidField
+            };
+            ApiError::new(
+                kind,
+                format!("{field} must be a finite number, not {text:?}"),
+            )
+        })
+}
+
+/// Options shared by both protocols, as texts and files.
+#[derive(Default)]
+pub struct RawInput {
+    pub image: Option<Bytes>,
+    pub white: Option<String>,
+    pub white_image: Option<Bytes>,
+    pub white_reflectance: Option<String>,
+    pub cx: Option<String>,
+    pub cy: Option<String>,
+    pub r: Option<String>,
+    pub mask: Option<Bytes>,
+    pub encoding: Option<String>,
+    pub include: Vec<String>,
+}
+
+impl RawInput {
+    /// Check the combination of fields and parse the numbers (before any decoding).
+    pub fn validate(self) -> Result<ClassifyInput, ApiError> {
+        let image = self
+            .image
+            .ok_or_else(|| ApiError::new(Kind::MissingField, "the image field is required"))?;
+        if image.is_empty() {
+            return Err(ApiError::new(
+                Kind::MissingField,
+                "the image field is empty",
+            ));
+        }
+        let white = match (self.white, self.white_image) {
+            (Some(_), Some(_)) => {
+                return Err(ApiError::new(
+                    Kind::BadWhite,
+                    "give white or white_image, not both",
+                ));
+            }
+            (Some(text), None) => {
+                if self.white_reflectance.is_some() {
+                    return Err(ApiError::new(
+                        Kind::BadWhite,
+                        "white_reflectance applies to white_image only",
+                    ));
+                }
+                let value = number("white", &text)?;
+                crate::white::given(value)?;
+                WhiteSpec::Value(value)
+            }
+            (None, Some(bytes)) => {
+                let reflectance = match &self.white_reflectance {
+                    Some(t) => number("white_reflectance", t)?,
+                    None => 1.0,
+                };
+                if !(reflectance > 0.0 && reflectance <= 1.0) {
+                    return Err(crate::white::WhiteError::BadReflectance(reflectance).into());
+                }
+                WhiteSpec::Card { bytes, reflectance }
+            }
+            (None, None) => {
+                if self.white_reflectance.is_some() {
+                    return Err(ApiError::new(
+                        Kind::BadWhite,
+                        "white_reflectance applies to white_image only",
+                    ));
+                }
+                WhiteSpec::Missing
+            }
+        };
+        let parse = |f: &str, t: &Option<String>| t.as_deref().map(|t| number(f, t)).transpose();
+        let circle = geometry::given(
+            parse("cx", &self.cx)?,
+            parse("cy", &self.cy)?,
+            parse("r", &self.r)?,
+        )?;
+        let locate = match (circle, self.mask) {
+            (Some(_), Some(_)) => {
+                return Err(ApiError::new(
+                    Kind::BadGeometry,
+                    "give cx, cy and r, or a mask, not both",
+                ));
+            }
+            (Some(g), None) => {
+                let c = g.circle();
+                if c.r < geometry::MIN_RADIUS {
+                    return Err(geometry::GeometryError::TooSmall {
+                        r: c.r,
+                        min: geometry::MIN_RADIUS,
+                    }
+                    .into());
+                }
+                LocateSpec::Circle(c)
+            }
+            (None, Some(bytes)) => LocateSpec::Mask(bytes),
+            (None, None) => LocateSpec::Auto,
+        };
+        let encoding = self
+            .encoding
+            .as_deref()
+            .map(|t| t.parse::<Encoding>())
+            .transpose()?;
+        let (mut include_features, mut include_explain) = (false, false);
+        for item in self.include.iter().flat_map(|s| s.split(',')) {
+            match item.trim() {
+                "features" => include_features = true,
+                "explain" => include_explain = true,
+                "" => {}
+                other => {
+                    return Err(ApiError::new(
+                        Kind::InvalidField,
+                        format!("include: unknown value {other:?} (expected features, explain)"),
+                    ));
+                }
+            }
+        }
+        Ok(ClassifyInput {
+            image,
+            white,
+            locate,
+            encoding,
+            include_features,
+            include_explain,
+        })
+    }
+}
+
+const TEXT_FIELD_LIMIT: usize = 1024;
+
+async fn read_form(mut multipart: Multipart) -> Result<RawInput, ApiError> {
+    let mut raw = RawInput::default();
+    while let Some(field) = multipart.next_field().await? {
+        let name = field.name().unwrap_or_default().to_string();
+        let duplicate = || {
+            ApiError::new(
+                Kind::InvalidField,
+                format!("field {name:?} is given more than once"),
+            )
+        };
+        match name.as_str() {
+            "image" | "white_image" | "mask" => {
+                let bytes = field.bytes().await?;
+                let slot = match name.as_str() {
+                    "image" => &mut raw.image,
+                    "white_image" => &mut raw.white_image,
+                    _ => &mut raw.mask,
+                };
+                if slot.replace(bytes).is_some() {
+                    return Err(duplicate());
+                }
+            }
+            "white" | "white_reflectance" | "cx" | "cy" | "r" | "encoding" | "include" => {
+                let bytes = field.bytes().await?;
+                if bytes.len() > TEXT_FIELD_LIMIT {
+                    return Err(ApiError::new(
+                        Kind::InvalidField,
+                        format!("field {name:?} is too long"),
+                    ));
+                }
+                let text = String::from_utf8(bytes.to_vec()).map_err(|_| {
+                    ApiError::new(
+                        Kind::InvalidField,
+                        format!("field {name:?} is not UTF-8 text"),
+                    )
+                })?;
+                let slot = match name.as_str() {
+                    "white" => &mut raw.white,
+                    "white_reflectance" => &mut raw.white_reflectance,
+                    "cx" => &mut raw.cx,
+                    "cy" => &mut raw.cy,
+                    "r" => &mut raw.r,
+                    "encoding" => &mut raw.encoding,
+                    _ => {
+                        raw.include.push(text);
+                        continue;
+                    }
+                };
+                if slot.replace(text).is_some() {
+                    return Err(duplicate());
+                }
+            }
+            other => {
+                return Err(ApiError::new(
+                    Kind::UnknownField,
+                    format!(
+                        "unknown field {other:?} (expected image, white, white_image, \
+                         white_reflectance, cx, cy, r, mask, encoding, include)"
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(raw)
+}
+
+/// Run a validated request against a model of the state: admission, CPU pool.
+pub async fn run(
+    state: &SharedState,
+    name: &str,
+    version: Option<u32>,
+    input: ClassifyInput,
+) -> Result<Classified, ApiError> {
+    if !state.models.is_served(name) {
+        return Err(ApiError::new(
+            Kind::ModelNotFound,
+            format!("unknown model {name:?}"),
+        ));
+    }
+    let permit = state.cpu.admit()?;
+    let limits = state.config.limits;
+    let worker_state = state.clone();
+    let name = name.to_string();
+    state
+        .cpu
+        .run(permit, move || {
+            let model = worker_state.models.get(&name, version)?;
+            classify_blocking(model, input, limits)
+        })
+        .await
+}
+
+fn response(c: Classified, include_features: bool, started: Instant) -> Response {
+    let request_id = crate::server::error::current_request_id();
+    let model = &c.model;
+    let classes = &model.file.classifier.classes;
+    let mut probabilities: Vec<LabelProbability> = classes
+        .iter()
+        .zip(&c.probabilities)
+        .map(|(label, &p)| LabelProbability {
+            label: label.clone(),
+            p,
+        })
+        .collect();
+    probabilities.sort_by(|a, b| b.p.total_cmp(&a.p));
+    let g = c.analysis.geometry;
+    let total = ms(started);
+    let timing = TimingMs {
+        decode: c.decode_ms,
+        features: c.features_ms,
+        predict: c.predict_ms,
+        total,
+    };
+    let body = ClassifyResponse {
+        request_id,
+        model: ModelId {
+            name: model.name().to_string(),
+            version: model.version(),
+        },
+        label: classes[c.class].clone(),
+        probabilities,
+        features: FeaturesOut {
+            names: model.file.classifier.selected.clone(),
+            values: c.selected,
+            all: include_features.then(|| NamedValues {
+                names: model.feature_names.clone(),
+                values: c.analysis.values.clone(),
+            }),
+        },
+        geometry: GeometryOut {
+            cx: g.cx,
+            cy: g.cy,
+            r: g.r,
+            method: g.method,
+            confidence: g.confidence,
+        },
+        white: WhiteOut {
+            value: c.analysis.white.value,
+            method: c.analysis.white.method,
+        },
+        warnings: c.analysis.warnings,
+        timing_ms: timing.clone(),
+        explain: c.explain,
+    };
+    let mut headers = HeaderMap::new();
+    headers.insert("x-model-version", HeaderValue::from(model.version()));
+    let server_timing = format!(
+        "decode;dur={:.3}, features;dur={:.3}, predict;dur={:.3}, total;dur={:.3}",
+        timing.decode, timing.features, timing.predict, timing.total
+    );
+    if let Ok(v) = HeaderValue::from_str(&server_timing) {
+        headers.insert("server-timing", v);
+    }
+    (headers, Json(body)).into_response()
+}
+
+async fn handle(
+    state: SharedState,
+    name: &str,
+    version: Option<u32>,
+    multipart: Result<Multipart, MultipartRejection>,
+) -> Result<Response, ApiError> {
+    let started = Instant::now();
+    super::health::serving(&state)?;
+    if !state.models.is_served(name) {
+        return Err(ApiError::new(
+            Kind::ModelNotFound,
+            format!("unknown model {name:?}"),
+        ));
+    }
+    let input = read_form(multipart?).await?.validate()?;
+    let include_features = input.include_features;
+    let classified = run(&state, name, version, input).await?;
+    Ok(response(classified, include_features, started))
+}
+
+/// Classify with the default model's active version.
+#[utoipa::path(
+    post,
+    operation_id = "classify", path = "/v1/classify",
+    tag = "classification",
+    request_body(content = ClassifyForm, content_type = "multipart/form-data"),
+    responses(
+        (status = 200, description = "Classification", body = ClassifyResponse,
+         headers(
+            ("x-request-id" = String, description = "The request's id (the client's, if it sent a valid one)"),
+            ("x-model-version" = u32, description = "The model version that answered"),
+            ("server-timing" = String, description = "decode, features, predict and total durations in ms"))),
+        (status = 400, description = "Malformed multipart body (`malformed-request`)", body = Problem, content_type = "application/problem+json"),
+        (status = 404, description = "Default model not served (`model-not-found`)", body = Problem, content_type = "application/problem+json"),
+        (status = 408, description = "Timed out (`timeout`)", body = Problem, content_type = "application/problem+json"),
+        (status = 413, description = "Body over the size limit (`body-too-large`) or image over the pixel limits (`image-too-large`)", body = Problem, content_type = "application/problem+json"),
+        (status = 415, description = "Not multipart/form-data (`unsupported-media-type`) or unknown image format (`unsupported-image-format`)", body = Problem, content_type = "application/problem+json"),
+        (status = 422, description = "Missing image (`missing-field`), unknown or invalid field (`unknown-field`, `invalid-field`), corrupt or unusable image (`corrupt-image`, `invalid-image`), bad circle or mask (`bad-geometry`), bad white reference (`bad-white`)", body = Problem, content_type = "application/problem+json"),
+        (status = 429, description = "Saturated (`overloaded`); see Retry-After", body = Problem, content_type = "application/problem+json",
+         headers(("retry-after" = u32, description = "Seconds"))),
+        (status = 503, description = "Models still loading (`not-ready`); see Retry-After", body = Problem, content_type = "application/problem+json"),
+    )
+)]
+pub async fn classify_default(
+    State(state): State<SharedState>,
+    multipart: Result<Multipart, MultipartRejection>,
+) -> Result<Response, ApiError> {
+    let name = state.config.default_model.clone();
+    handle(state, &name, None, multipart).await
+}
+
+/// Classify with a named model (its active version, or `?version=`).
+#[utoipa::path(
+    post,
+    operation_id = "classify_with_model", path = "/v1/models/{name}/classify",
+    tag = "classification",
+    params(("name" = String, Path, description = "Model name", example = "ward6"), VersionQuery),
+    request_body(content = ClassifyForm, content_type = "multipart/form-data"),
+    responses(
+        (status = 200, description = "Classification", body = ClassifyResponse,
+         headers(
+            ("x-request-id" = String, description = "The request's id (the client's, if it sent a valid one)"),
+            ("x-model-version" = u32, description = "The model version that answered"),
+            ("server-timing" = String, description = "decode, features, predict and total durations in ms"))),
+        (status = 400, description = "Malformed multipart body (`malformed-request`)", body = Problem, content_type = "application/problem+json"),
+        (status = 404, description = "Unknown model or version (`model-not-found`, `version-not-found`)", body = Problem, content_type = "application/problem+json"),
+        (status = 408, description = "Timed out (`timeout`)", body = Problem, content_type = "application/problem+json"),
+        (status = 413, description = "Body over the size limit (`body-too-large`) or image over the pixel limits (`image-too-large`)", body = Problem, content_type = "application/problem+json"),
+        (status = 415, description = "Not multipart/form-data (`unsupported-media-type`) or unknown image format (`unsupported-image-format`)", body = Problem, content_type = "application/problem+json"),
+        (status = 422, description = "Missing image (`missing-field`), unknown or invalid field or query parameter (`unknown-field`, `invalid-field`), corrupt or unusable image (`corrupt-image`, `invalid-image`), bad circle or mask (`bad-geometry`), bad white reference (`bad-white`), refused model file (`invalid-model`)", body = Problem, content_type = "application/problem+json"),
+        (status = 429, description = "Saturated (`overloaded`); see Retry-After", body = Problem, content_type = "application/problem+json",
+         headers(("retry-after" = u32, description = "Seconds"))),
+        (status = 503, description = "Models still loading (`not-ready`); see Retry-After", body = Problem, content_type = "application/problem+json"),
+    )
+)]
+pub async fn classify_named(
+    State(state): State<SharedState>,
+    Path(name): Path<String>,
+    query: Result<Query<VersionQuery>, QueryRejection>,
+    multipart: Result<Multipart, MultipartRejection>,
+) -> Result<Response, ApiError> {
+    let Query(query) = query?;
+    if query.version == Some(0) {
+        return Err(ApiError::new(
+            Kind::InvalidField,
+            "version must be a positive integer",
+        ));
+    }
+    handle(state, &name, query.version, multipart).await
+}

@@ -1,0 +1,223 @@
+//! `GET /v1/models` and `GET /v1/models/{name}`.
+
+use crate::server::error::{ApiError, Kind, Problem};
+use crate::server::state::{LoadedModel, SharedState};
+use axum::Json;
+use axum::extract::{Path, State};
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+/// Ward reflectance parameters of a rendered class.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct WardParams {
+    pub rho_d: f64,
+    pub rho_s: f64,
+    pub alpha: f64,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct ClassOut {
+    pub name: String,
+    /// Known when the class was rendered from Ward parameters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ward: Option<WardParams>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct ModelSummary {
+    pub name: String,
+    /// The version that answers requests without `?version=`.
+    pub active_version: u32,
+    /// Whether `POST /v1/classify` uses this model.
+    pub default: bool,
+    pub classes: Vec<String>,
+    pub feature_set: String,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct ModelList {
+    pub default_model: String,
+    pub models: Vec<ModelSummary>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct FeatureSetOut {
+    /// As specified at training (`hand6`, `auto6`, `pca6`, a list…).
+    pub set: String,
+    /// The classifier's inputs.
+    pub selected: Vec<String>,
+    /// Number of features extracted per image (117 with the default configuration).
+    pub extracted: usize,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct ClassifierOut {
+    /// `svm`, `nn`, `knn5` or `chance`.
+    pub kind: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub c: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gamma: Option<f64>,
+    pub calibrated: bool,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct ClassAccuracy {
+    pub class: String,
+    pub n: usize,
+    pub correct: usize,
+    pub accuracy: f64,
+}
+
+/// Leave-one-illumination-out cross-validation stored with the version.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct CvSummaryOut {
+    pub accuracy: f64,
+    pub n: usize,
+    pub log_loss: f64,
+    pub ece: f64,
+    pub per_class: Vec<ClassAccuracy>,
+    /// `confusion[truth][predicted]`, class order.
+    pub confusion: Vec<Vec<usize>>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct TrainingOut {
+    pub dataset: String,
+    pub images: usize,
+    pub illuminations: usize,
+    pub seed: u64,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct ModelDetail {
+    pub name: String,
+    pub active_version: u32,
+    /// Versions in the registry, ascending.
+    pub versions: Vec<u32>,
+    /// Creation time of the active version (RFC 3339).
+    pub created: String,
+    /// In class order (the order of KServe `probabilities`).
+    pub classes: Vec<ClassOut>,
+    pub features: FeatureSetOut,
+    pub classifier: ClassifierOut,
+    pub training: TrainingOut,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cv: Option<CvSummaryOut>,
+    /// SHA-256 of the active version's model file content.
+    pub sha256: String,
+}
+
+pub fn detail(model: &LoadedModel, versions: Vec<u32>) -> ModelDetail {
+    let f = &model.file;
+    let (c, gamma) = match &f.classifier.model {
+        crate::learn::model::Model::Svm(m) => (Some(m.c), Some(m.gamma)),
+        _ => (None, None),
+    };
+    ModelDetail {
+        name: f.name.clone(),
+        active_version: f.version,
+        versions,
+        created: f.created.clone(),
+        classes: f
+            .classes
+            .iter()
+            .map(|c| ClassOut {
+                name: c.name.clone(),
+                ward: c.ward.as_ref().map(|w| WardParams {
+                    rho_d: w.rho_d,
+                    rho_s: w.rho_s,
+                    alpha: w.alpha,
+                }),
+            })
+            .collect(),
+        features: FeatureSetOut {
+            set: f.features.set.clone(),
+            selected: f.features.selected.clone(),
+            extracted: model.feature_names.len(),
+        },
+        classifier: ClassifierOut {
+            kind: f.classifier.classifier.to_string(),
+            c,
+            gamma,
+            calibrated: f.classifier.calibration.is_some(),
+        },
+        training: TrainingOut {
+            dataset: f.training.dataset.clone(),
+            images: f.training.images,
+            illuminations: f.training.illuminations,
+            seed: f.training.seed,
+        },
+        cv: f.training.cv.as_ref().map(|cv| CvSummaryOut {
+            accuracy: cv.accuracy,
+            n: cv.n,
+            log_loss: cv.log_loss,
+            ece: cv.ece,
+            per_class: cv
+                .per_class
+                .iter()
+                .map(|s| ClassAccuracy {
+                    class: s.class.clone(),
+                    n: s.n,
+                    correct: s.correct,
+                    accuracy: s.accuracy,
+                })
+                .collect(),
+            confusion: cv.confusion.clone(),
+        }),
+        sha256: f.sha256.clone(),
+    }
+}
+
+/// The served models.
+#[utoipa::path(
+    get,
+    operation_id = "list_models", path = "/v1/models",
+    tag = "models",
+    responses((status = 200, description = "Served models", body = ModelList))
+)]
+pub async fn list(State(state): State<SharedState>) -> Json<ModelList> {
+    let models = state
+        .models
+        .all_active()
+        .iter()
+        .map(|m| ModelSummary {
+            name: m.name().to_string(),
+            active_version: m.version(),
+            default: m.name() == state.config.default_model,
+            classes: m.file.classifier.classes.clone(),
+            feature_set: m.file.features.set.clone(),
+        })
+        .collect();
+    Json(ModelList {
+        default_model: state.config.default_model.clone(),
+        models,
+    })
+}
+
+/// One model: classes with Ward parameters, feature set, versions, CV summary.
+#[utoipa::path(
+    get,
+    operation_id = "get_model", path = "/v1/models/{name}",
+    tag = "models",
+    params(("name" = String, Path, description = "Model name", example = "ward6")),
+    responses(
+        (status = 200, description = "The model's active version", body = ModelDetail),
+        (status = 404, description = "Unknown model (`model-not-found`)", body = Problem, content_type = "application/problem+json"),
+    )
+)]
+pub async fn get(
+    State(state): State<SharedState>,
+    Path(name): Path<String>,
+) -> Result<Json<ModelDetail>, ApiError> {
+    let model = state
+        .models
+        .active(&name)
+        .ok_or_else(|| ApiError::new(Kind::ModelNotFound, format!("unknown model {name:?}")))?;
+    let registry = state.models.registry().clone();
+    let versions = tokio::task::spawn_blocking(move || registry.versions(&name))
+        .await
+        .map_err(ApiError::internal)?
+        .unwrap_or_else(|_| vec![model.version()]);
+    Ok(Json(detail(&model, versions)))
+}

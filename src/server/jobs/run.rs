@@ -1,0 +1,507 @@
+//! What the jobs do: validation at submission (so that mistakes are 422 at once), then
+//! execution on a worker thread with progress and cancellation.
+
+use super::paths::DataDir;
+use super::{Activate, JobRequest, LearnParams};
+use crate::dataset::{self, DatasetError, FeatureTable};
+use crate::features::{Extractor, FeatureConfig};
+use crate::image_io::{DecodeOptions, Limits};
+use crate::learn::{
+    self, ClassifierKind, CvReport, Dataset, FeatureSet, Grid, LearnError, TrainSpec,
+};
+use crate::progress::Observer;
+use crate::registry;
+use crate::render::Quality;
+use crate::render::batch::{self, Augment, BatchSpec, RenderError};
+use crate::server::error::{ApiError, Kind};
+use crate::server::state::ModelStore;
+use crate::train::{self, TrainError, TrainOptions};
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+/// A model version.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct ModelRef {
+    pub name: String,
+    pub version: u32,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct FoldResult {
+    /// The held-out illumination.
+    pub illumination: String,
+    pub n_train: usize,
+    pub n_test: usize,
+    pub correct: usize,
+    pub accuracy: f64,
+}
+
+/// Leave-one-illumination-out cross-validation metrics.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct CvResult {
+    pub features: String,
+    pub classifier: String,
+    /// Class order of `per_class` and `confusion`.
+    pub classes: Vec<String>,
+    /// Evaluated images.
+    pub n: usize,
+    pub correct: usize,
+    pub accuracy: f64,
+    pub random_guess_accuracy: f64,
+    pub per_class: Vec<ClassScoreDoc>,
+    /// `confusion[truth][predicted]`, class order.
+    pub confusion: Vec<Vec<usize>>,
+    pub log_loss: f64,
+    /// Expected calibration error (10 bins).
+    pub ece: f64,
+    pub folds: Vec<FoldResult>,
+}
+
+/// Per-class accuracy.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct ClassScoreDoc {
+    pub class: String,
+    pub n: usize,
+    pub correct: usize,
+    pub accuracy: f64,
+}
+
+impl From<&CvReport> for CvResult {
+    fn from(r: &CvReport) -> CvResult {
+        CvResult {
+            features: r.features.clone(),
+            classifier: r.classifier.clone(),
+            classes: r.classes.clone(),
+            n: r.n,
+            correct: r.correct,
+            accuracy: r.accuracy,
+            random_guess_accuracy: r.random_guess_accuracy,
+            per_class: r
+                .per_class
+                .iter()
+                .map(|c| ClassScoreDoc {
+                    class: c.class.clone(),
+                    n: c.n,
+                    correct: c.correct,
+                    accuracy: c.accuracy,
+                })
+                .collect(),
+            confusion: r.confusion.clone(),
+            log_loss: r.log_loss,
+            ece: r.ece,
+            folds: r
+                .folds
+                .iter()
+                .map(|f| FoldResult {
+                    illumination: f.illumination.clone(),
+                    n_train: f.n_train,
+                    n_test: f.n_test,
+                    correct: f.correct,
+                    accuracy: f.accuracy,
+                })
+                .collect(),
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct RenderResult {
+    /// The written manifest, relative to the data directory.
+    pub manifest: String,
+    pub images: usize,
+    pub rendered: usize,
+    /// Images already complete (resumed).
+    pub skipped: usize,
+}
+
+/// What a job produced (the fields of its type).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct JobResult {
+    /// `train`: the version written.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<ModelRef>,
+    /// `train`: whether the new version was activated.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub activated: Option<bool>,
+    /// `train`: why it was (not) activated.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub activation: Option<String>,
+    /// `train` (unless `cross_validate: false`) and `cross_validate`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cv: Option<CvResult>,
+    /// `render`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub render: Option<RenderResult>,
+    /// Number of images or table rows the job learned from (`train`, `cross_validate`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub images: Option<usize>,
+}
+
+/// How a job ended, when not successfully.
+pub enum Failure {
+    Cancelled,
+    Error(String),
+    /// Failed after producing something (e.g. published, then activation refused).
+    Partial(String, Box<JobResult>),
+}
+
+impl From<DatasetError> for Failure {
+    fn from(e: DatasetError) -> Failure {
+        match e {
+            DatasetError::Cancelled => Failure::Cancelled,
+            other => Failure::Error(other.to_string()),
+        }
+    }
+}
+
+impl From<LearnError> for Failure {
+    fn from(e: LearnError) -> Failure {
+        match e {
+            LearnError::Cancelled => Failure::Cancelled,
+            other => Failure::Error(other.to_string()),
+        }
+    }
+}
+
+impl From<TrainError> for Failure {
+    fn from(e: TrainError) -> Failure {
+        match e {
+            TrainError::Learn(e) => e.into(),
+            other => Failure::Error(other.to_string()),
+        }
+    }
+}
+
+impl From<RenderError> for Failure {
+    fn from(e: RenderError) -> Failure {
+        match e {
+            RenderError::Cancelled => Failure::Cancelled,
+            other => Failure::Error(other.to_string()),
+        }
+    }
+}
+
+fn invalid(detail: impl Into<String>) -> ApiError {
+    ApiError::new(Kind::InvalidJob, detail)
+}
+
+fn path_error(detail: String) -> ApiError {
+    ApiError::new(Kind::InvalidPath, detail)
+}
+
+/// The extraction configuration of a learning job (as `reflectance train` chooses it).
+fn config_of(p: &LearnParams) -> Result<FeatureConfig, ApiError> {
+    let named_log = p.features.split(',').any(|n| {
+        let n = n.trim();
+        n.starts_with(crate::features::LOG_PREFIX) || n == "hand6+log"
+    });
+    let config = FeatureConfig::extended(p.log_features || named_log, p.working_radius);
+    config.validate().map_err(|e| invalid(e.to_string()))?;
+    Ok(config)
+}
+
+/// The training specification of learning parameters (feature names are those of the
+/// job's extraction configuration).
+fn spec_of(p: &LearnParams) -> Result<TrainSpec, ApiError> {
+    let names = config_of(p)?.names();
+    let features =
+        FeatureSet::parse_with(&p.features, &names).map_err(|e| invalid(e.to_string()))?;
+    let classifier: ClassifierKind = p
+        .classifier
+        .parse()
+        .map_err(|e: LearnError| invalid(e.to_string()))?;
+    if !(p.c.is_finite() && p.c > 0.0) || p.gamma.is_some_and(|g| !(g.is_finite() && g > 0.0)) {
+        return Err(invalid("c and gamma must be finite and positive"));
+    }
+    Ok(TrainSpec {
+        features,
+        classifier,
+        c: p.c,
+        gamma: p.gamma,
+        grid: p.grid.then(Grid::default),
+    })
+}
+
+fn check_data(p: &LearnParams, data: &DataDir) -> Result<(), ApiError> {
+    match (&p.dataset, &p.table) {
+        (Some(m), None) => data.existing("dataset", m).map(|_| ()).map_err(path_error),
+        (None, Some(t)) => data.existing("table", t).map(|_| ()).map_err(path_error),
+        _ => Err(invalid("give exactly one of dataset (a manifest) or table")),
+    }
+}
+
+/// Checks at submission: parameters, and that every path exists inside the data directory.
+pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
+    match request {
+        JobRequest::Train {
+            name,
+            data: p,
+            activate,
+            classes,
+            cross_validate,
+        } => {
+            if !registry::valid_name(name) {
+                return Err(invalid(format!(
+                    "invalid model name {name:?} (use 1–64 of a-z, 0-9, '_' and '-')"
+                )));
+            }
+            if *activate == Activate::IfBetter && !cross_validate {
+                return Err(invalid(
+                    "activate: if_better compares cross-validated accuracy; it needs cross_validate: true",
+                ));
+            }
+            spec_of(p)?;
+            check_data(p, data)?;
+            if let Some(c) = classes {
+                data.existing("classes", c).map_err(path_error)?;
+            }
+            Ok(())
+        }
+        JobRequest::CrossValidate { data: p } => {
+            spec_of(p)?;
+            check_data(p, data)
+        }
+        JobRequest::Render {
+            probes,
+            classes,
+            out,
+            size,
+            ..
+        } => {
+            if !(16..=4096).contains(size) {
+                return Err(invalid(format!("size {size} must be between 16 and 4096")));
+            }
+            data.existing("probes", probes).map_err(path_error)?;
+            data.existing("classes", classes).map_err(path_error)?;
+            // The output folder is created when the job runs; check where it would be now.
+            let probe = data.root().join(out);
+            if probe.exists() {
+                data.existing("out", out).map_err(path_error)?;
+            } else {
+                data.output_dir("out", out).map_err(path_error)?;
+            }
+            Ok(())
+        }
+    }
+}
+
+/// The feature table of a learning job (extracting features from a manifest's images).
+fn load_table(
+    p: &LearnParams,
+    data: &DataDir,
+    limits: &Limits,
+    observer: &dyn Observer,
+) -> Result<(FeatureTable, String), Failure> {
+    if let Some(t) = &p.table {
+        let path = data.existing("table", t).map_err(Failure::Error)?;
+        let table = FeatureTable::read(&path)?;
+        return Ok((table, t.clone()));
+    }
+    let rel = p.dataset.as_deref().unwrap_or_default();
+    let path = data.existing("dataset", rel).map_err(Failure::Error)?;
+    let manifest = dataset::read_manifest(&path)?;
+    manifest.require_labels()?;
+    for entry in &manifest.entries {
+        data.check_resolved(&format!("manifest line {} image", entry.line), &entry.file)
+            .map_err(Failure::Error)?;
+    }
+    let config = config_of(p).map_err(|e| Failure::Error(e.detail))?;
+    let extractor = Extractor::new(config).map_err(|e| Failure::Error(e.to_string()))?;
+    let options = DecodeOptions {
+        encoding: None,
+        limits: *limits,
+    };
+    observer.stage("features");
+    let table = dataset::extract_manifest_with(&extractor, &manifest, &options, observer)?;
+    Ok((table, rel.to_string()))
+}
+
+/// Run a job to completion (or cancellation).
+pub fn execute(
+    request: &JobRequest,
+    data: &DataDir,
+    limits: &Limits,
+    models: &ModelStore,
+    observer: &dyn Observer,
+) -> Result<JobResult, Failure> {
+    match request {
+        JobRequest::Train {
+            name,
+            data: p,
+            activate,
+            classes,
+            cross_validate,
+        } => {
+            let spec = spec_of(p).map_err(|e| Failure::Error(e.detail))?;
+            let classes = match classes {
+                Some(c) => {
+                    let path = data.existing("classes", c).map_err(Failure::Error)?;
+                    Some(batch::load_classes(&path)?)
+                }
+                None => None,
+            };
+            let (table, label) = load_table(p, data, limits, observer)?;
+            let options = TrainOptions {
+                name: name.clone(),
+                spec,
+                seed: p.seed,
+                cross_validate: *cross_validate,
+                classes,
+                // Recorded only when this job extracted the features itself.
+                working_radius: config_of(p)
+                    .map_err(|e| Failure::Error(e.detail))?
+                    .working_radius
+                    .filter(|_| p.dataset.is_some()),
+            };
+            let mut trained = train::train_with(&table, &label, &options, observer)?;
+            if observer.cancelled() {
+                return Err(Failure::Cancelled);
+            }
+            observer.stage("publish");
+            let report = trained
+                .report
+                .as_ref()
+                .map(serde_json::to_vec_pretty)
+                .transpose()
+                .map_err(|e| Failure::Error(e.to_string()))?;
+            let extra: Vec<(&str, &[u8])> = report
+                .iter()
+                .map(|r| ("report.json", r.as_slice()))
+                .collect();
+            let version = {
+                let _serial = models.lock_registry();
+                let registry = models.registry();
+                // Pin the version being served, so that publishing does not make the new
+                // version active implicitly (the registry's default is the latest).
+                let served = models
+                    .active(name)
+                    .map(|m| m.version())
+                    .or_else(|| registry.active(name).ok());
+                if let Some(v) = served
+                    && let Err(e) = registry.set_active(name, v)
+                {
+                    tracing::warn!(model = %name, error = %e, "could not pin the active version");
+                }
+                let (version, _) = registry
+                    .publish(&mut trained.model, &extra)
+                    .map_err(|e| Failure::Error(e.to_string()))?;
+                version
+            };
+            let new_accuracy = trained.model.training.cv.as_ref().map(|c| c.accuracy);
+            let mut result = JobResult {
+                model: Some(ModelRef {
+                    name: name.clone(),
+                    version,
+                }),
+                cv: trained.report.as_ref().map(CvResult::from),
+                images: Some(table.samples.len()),
+                ..JobResult::default()
+            };
+            let decision = match activate {
+                Activate::Never => Err("activate: never".to_string()),
+                Activate::Always => Ok("activate: always".to_string()),
+                Activate::IfBetter => {
+                    let current = models.active(name);
+                    match (current, new_accuracy) {
+                        (None, _) => Ok("no active version".to_string()),
+                        (Some(m), Some(new)) => match m.file.training.cv.as_ref() {
+                            Some(old) if new > old.accuracy => Ok(format!(
+                                "CV accuracy {new:.4} > {:.4} of version {}",
+                                old.accuracy,
+                                m.version()
+                            )),
+                            Some(old) => Err(format!(
+                                "CV accuracy {new:.4} ≤ {:.4} of version {}",
+                                old.accuracy,
+                                m.version()
+                            )),
+                            None => Err(format!(
+                                "active version {} has no stored CV accuracy to compare with",
+                                m.version()
+                            )),
+                        },
+                        (Some(_), None) => Err("no CV accuracy".to_string()),
+                    }
+                }
+            };
+            match decision {
+                Ok(reason) => {
+                    observer.stage("activate");
+                    match models.activate(name, version) {
+                        Ok(done) => {
+                            result.activated = Some(true);
+                            result.activation = Some(match done.warning {
+                                Some(w) => format!("{reason}; {w}"),
+                                None => reason,
+                            });
+                        }
+                        Err(e) => {
+                            result.activated = Some(false);
+                            result.activation = Some(e.detail.clone());
+                            return Err(Failure::Partial(
+                                format!(
+                                    "version {version} was published but its activation failed: {}",
+                                    e.detail
+                                ),
+                                Box::new(result),
+                            ));
+                        }
+                    }
+                }
+                Err(reason) => {
+                    result.activated = Some(false);
+                    result.activation = Some(reason);
+                }
+            }
+            Ok(result)
+        }
+        JobRequest::CrossValidate { data: p } => {
+            let spec = spec_of(p).map_err(|e| Failure::Error(e.detail))?;
+            let (table, _) = load_table(p, data, limits, observer)?;
+            let ds = Dataset::from_table(&table)?;
+            observer.stage("cross_validate");
+            let report = learn::cross_validate_with(&ds, &spec, p.seed, observer)?;
+            Ok(JobResult {
+                cv: Some(CvResult::from(&report)),
+                images: Some(table.samples.len()),
+                ..JobResult::default()
+            })
+        }
+        JobRequest::Render {
+            probes,
+            classes,
+            out,
+            size,
+            seed,
+        } => {
+            let probes_path = data.existing("probes", probes).map_err(Failure::Error)?;
+            let classes_path = data.existing("classes", classes).map_err(Failure::Error)?;
+            let out_path = data.output_dir("out", out).map_err(Failure::Error)?;
+            let probe_files = batch::probe_list(&probes_path)?;
+            for probe in &probe_files {
+                data.check_resolved("probe", probe)
+                    .map_err(Failure::Error)?;
+            }
+            let spec = BatchSpec {
+                probes: probe_files,
+                classes: batch::load_classes(&classes_path)?,
+                out: out_path,
+                size: *size,
+                seed: *seed,
+                quality: Quality::default(),
+                augment: Augment::default(),
+            };
+            observer.stage("render");
+            let summary = batch::render_dataset_with(&spec, observer)?;
+            Ok(JobResult {
+                render: Some(RenderResult {
+                    manifest: data.display(&summary.manifest),
+                    images: summary.images,
+                    rendered: summary.rendered,
+                    skipped: summary.skipped,
+                }),
+                ..JobResult::default()
+            })
+        }
+    }
+}

@@ -1,0 +1,112 @@
+//! Prometheus metrics (`GET /metrics`). Request counts and latencies are recorded by the
+//! middleware for every response (labels: matched route template, method, status); stage
+//! durations by the classification path; model and job state where they change.
+
+use metrics::{counter, gauge, histogram};
+use metrics_exporter_prometheus::{Matcher, PrometheusBuilder, PrometheusHandle};
+use std::sync::OnceLock;
+
+const LATENCY_BUCKETS: &[f64] = &[
+    0.0005, 0.001, 0.002, 0.004, 0.008, 0.016, 0.032, 0.064, 0.128, 0.256, 0.512, 1.0, 2.0, 5.0,
+    10.0, 30.0,
+];
+
+/// The process-wide recorder (installed once; every server in the process shares it).
+pub fn handle() -> &'static PrometheusHandle {
+    static HANDLE: OnceLock<PrometheusHandle> = OnceLock::new();
+    HANDLE.get_or_init(|| {
+        let builder = PrometheusBuilder::new()
+            .set_buckets_for_metric(Matcher::Suffix("_seconds".into()), LATENCY_BUCKETS)
+            .expect("non-empty buckets");
+        let recorder = builder.build_recorder();
+        let handle = recorder.handle();
+        if metrics::set_global_recorder(recorder).is_err() {
+            tracing::warn!("a metrics recorder was already installed; /metrics will be empty");
+        }
+        describe();
+        gauge!("reflectance_build_info", "version" => env!("CARGO_PKG_VERSION")).set(1.0);
+        handle
+    })
+}
+
+fn describe() {
+    use metrics::{describe_counter, describe_gauge, describe_histogram};
+    describe_counter!(
+        "reflectance_http_requests_total",
+        "HTTP requests by matched route, method and status"
+    );
+    describe_histogram!(
+        "reflectance_http_request_duration_seconds",
+        "HTTP request latency by matched route, method and status"
+    );
+    describe_gauge!(
+        "reflectance_http_requests_in_flight",
+        "HTTP requests being handled"
+    );
+    describe_histogram!(
+        "reflectance_stage_duration_seconds",
+        "Classification stage durations (decode, features, predict)"
+    );
+    describe_counter!(
+        "reflectance_requests_shed_total",
+        "Classification requests refused with 429 because the CPU pool was saturated"
+    );
+    describe_gauge!(
+        "reflectance_model_active_version",
+        "Active (served) version of each model"
+    );
+    describe_counter!(
+        "reflectance_model_load_failures_total",
+        "Model versions refused at load or activation (schema, checksum, self-test, I/O)"
+    );
+    describe_gauge!("reflectance_jobs", "Admin jobs by state");
+    describe_gauge!(
+        "reflectance_job_queue_depth",
+        "Admin jobs waiting for a worker"
+    );
+}
+
+pub fn request(route: &str, method: &str, status: u16, seconds: f64) {
+    let labels = [
+        ("route", route.to_string()),
+        ("method", method.to_string()),
+        ("status", status.to_string()),
+    ];
+    counter!("reflectance_http_requests_total", &labels).increment(1);
+    histogram!("reflectance_http_request_duration_seconds", &labels).record(seconds);
+}
+
+pub fn in_flight(delta: f64) {
+    gauge!("reflectance_http_requests_in_flight").increment(delta);
+}
+
+pub fn stage(stage: &'static str, seconds: f64) {
+    histogram!("reflectance_stage_duration_seconds", "stage" => stage).record(seconds);
+}
+
+pub fn shed() {
+    counter!("reflectance_requests_shed_total").increment(1);
+}
+
+pub fn model_active(model: &str, version: u32) {
+    gauge!("reflectance_model_active_version", "model" => model.to_string())
+        .set(f64::from(version));
+}
+
+pub fn model_load_failure(model: &str) {
+    counter!("reflectance_model_load_failures_total", "model" => model.to_string()).increment(1);
+}
+
+pub fn jobs(counts: &[(&'static str, usize)], queued: usize) {
+    for (state, n) in counts {
+        gauge!("reflectance_jobs", "state" => *state).set(*n as f64);
+    }
+    gauge!("reflectance_job_queue_depth").set(queued as f64);
+}
+
+/// The exposition text.
+pub fn render() -> String {
+    let handle = handle();
+    handle.run_upkeep();
+    handle.render()
+}

@@ -1,0 +1,271 @@
+//! `reflectance serve`: the classification service (DESIGN.md §5).
+//!
+//! * [`config`] — flags and environment;
+//! * [`state`] — readiness, the model store (atomic hot swap), the CPU pool;
+//! * [`router`] — the two planes and the middleware;
+//! * [`handlers`] — one module per area;
+//! * [`error`] — the one place errors become HTTP statuses and problem+json;
+//! * [`auth`], [`metrics`], [`jobs`], [`openapi`].
+
+pub mod auth;
+pub mod config;
+pub mod error;
+pub mod handlers;
+pub mod jobs;
+pub mod metrics;
+pub mod openapi;
+pub mod router;
+pub mod state;
+
+use config::{Config, LogFormat};
+use state::{AppState, CpuPool, ModelStore, Phase, Readiness, SharedState};
+use std::future::Future;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Build the shared state: clean the registry's staging leftovers, start the job system
+/// (when the admin plane is on) and the CPU pool. Models are not loaded yet (the server
+/// reports `loading`); call [`load_models`].
+pub fn build_state(config: Config) -> Result<SharedState, String> {
+    let _ = metrics::handle();
+    let registry = crate::registry::Registry::new(&config.models);
+    match registry.clean_staging() {
+        Ok(0) => {}
+        Ok(n) => tracing::info!(removed = n, "removed staging leftovers from the registry"),
+        Err(e) => tracing::warn!(error = %e, "could not clean the registry's staging leftovers"),
+    }
+    let models = Arc::new(ModelStore::new(registry, config.model_cache));
+    let jobs = if config.admin_enabled() {
+        Some(jobs::JobManager::start(
+            &config.jobs_dir,
+            &config.data_dir,
+            config.limits,
+            models.clone(),
+            config.workers,
+            config.job_queue,
+        )?)
+    } else {
+        None
+    };
+    let cpu = CpuPool::new(config.cpu_threads, config.max_inflight)?;
+    Ok(Arc::new(AppState {
+        config,
+        models,
+        readiness: Readiness::default(),
+        cpu,
+        jobs,
+        started: Instant::now(),
+    }))
+}
+
+/// Load every model's active version (blocking); the default model must load. Marks the
+/// state ready.
+pub fn load_models(state: &AppState) -> Result<(), String> {
+    let failed = state.models.load_all().map_err(|e| e.detail)?;
+    for (name, reason) in &failed {
+        tracing::error!(model = %name, %reason, "model not served: its active version does not load");
+    }
+    let default = &state.config.default_model;
+    if !state.models.is_served(default) {
+        let reason = failed
+            .iter()
+            .find(|(n, _)| n == default)
+            .map_or("it is not in the registry".to_string(), |(_, r)| r.clone());
+        return Err(format!(
+            "default model {default:?} in {} cannot be served: {reason}",
+            state.config.models.display()
+        ));
+    }
+    for model in state.models.all_active() {
+        tracing::info!(
+            model = model.name(),
+            version = model.version(),
+            "model loaded"
+        );
+    }
+    state.readiness.set(Phase::Ready);
+    Ok(())
+}
+
+fn init_logging(config: &Config) {
+    use std::io::IsTerminal;
+    use tracing_subscriber::filter::{LevelFilter, Targets};
+    use tracing_subscriber::prelude::*;
+    let filter: Targets = config
+        .log
+        .parse()
+        .or_else(|_| {
+            config
+                .log
+                .parse::<LevelFilter>()
+                .map(|l| Targets::new().with_default(l))
+        })
+        .unwrap_or_else(|_| Targets::new().with_default(LevelFilter::INFO));
+    let json = match config.log_format {
+        LogFormat::Json => true,
+        LogFormat::Text => false,
+        LogFormat::Auto => !std::io::stderr().is_terminal(),
+    };
+    let registry = tracing_subscriber::registry().with(filter);
+    let result = if json {
+        registry
+            .with(
+                tracing_subscriber::fmt::layer()
+                    .json()
+                    .with_current_span(false)
+                    .with_writer(std::io::stderr),
+            )
+            .try_init()
+    } else {
+        registry
+            .with(
+                tracing_subscriber::fmt::layer()
+                    .with_ansi(std::io::stderr().is_terminal())
+                    .with_writer(std::io::stderr),
+            )
+            .try_init()
+    };
+    let _ = result;
+}
+
+/// Resolves on SIGTERM or SIGINT.
+async fn termination() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        () = ctrl_c => {},
+        () = term => {},
+    }
+}
+
+/// Serve both planes on bound listeners until `shutdown` resolves, then drain: readiness
+/// turns 503, after `drain_delay` the listeners close and in-flight requests get up to
+/// `shutdown_grace` to finish; running jobs are asked to stop.
+pub async fn serve(
+    state: SharedState,
+    data: tokio::net::TcpListener,
+    admin: Option<tokio::net::TcpListener>,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<(), String> {
+    let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
+    let signal = |mut rx: tokio::sync::watch::Receiver<bool>| async move {
+        let _ = rx.wait_for(|stop| *stop).await;
+    };
+    let data_server = axum::serve(data, router::data_router(state.clone()))
+        .with_graceful_shutdown(signal(stop_rx.clone()));
+    let data_task = tokio::spawn(async move { data_server.await });
+    let admin_task = admin.map(|listener| {
+        let server = axum::serve(listener, router::admin_router(state.clone()))
+            .with_graceful_shutdown(signal(stop_rx.clone()));
+        tokio::spawn(async move { server.await })
+    });
+    shutdown.await;
+    tracing::info!("shutting down: draining");
+    state.readiness.set(Phase::Draining);
+    tokio::time::sleep(state.config.drain_delay).await;
+    let _ = stop_tx.send(true);
+    if let Some(jobs) = &state.jobs {
+        jobs.shutdown();
+    }
+    let grace = state.config.shutdown_grace;
+    let drained = tokio::time::timeout(grace, async {
+        let _ = data_task.await;
+        if let Some(task) = admin_task {
+            let _ = task.await;
+        }
+    })
+    .await;
+    if drained.is_err() {
+        tracing::warn!("in-flight requests did not finish within the shutdown grace period");
+    }
+    if let Some(jobs) = state.jobs.clone() {
+        let _ = tokio::task::spawn_blocking(move || jobs.join(grace)).await;
+    }
+    tracing::info!("stopped");
+    Ok(())
+}
+
+/// Keep freed request buffers in the allocator instead of returning them to the kernel:
+/// every classification allocates a few large arrays (the luminance plane, the unwrapped
+/// annulus, subbands, FFT buffers), and with glibc's defaults each one is a fresh `mmap`
+/// whose pages fault in and are zeroed again on every request (~15 % of the CPU time under
+/// load). The price is that the process keeps its peak heap (tens of MiB).
+fn tune_allocator() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    {
+        // SAFETY: mallopt only sets allocator parameters; called once at start-up.
+        unsafe {
+            libc::mallopt(libc::M_MMAP_THRESHOLD, 64 << 20);
+            libc::mallopt(libc::M_TRIM_THRESHOLD, 256 << 20);
+        }
+    }
+}
+
+/// `reflectance serve`: everything, from configuration to shutdown.
+pub fn run(config: Config) -> Result<(), String> {
+    tune_allocator();
+    init_logging(&config);
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .thread_name("reflectance-io")
+        .build()
+        .map_err(|e| format!("cannot start the runtime: {e}"))?;
+    runtime.block_on(async move {
+        let data = tokio::net::TcpListener::bind(config.listen)
+            .await
+            .map_err(|e| format!("cannot listen on {}: {e}", config.listen))?;
+        let admin = if config.admin_enabled() {
+            let listener = tokio::net::TcpListener::bind(config.admin_listen)
+                .await
+                .map_err(|e| format!("cannot listen on {}: {e}", config.admin_listen))?;
+            Some(listener)
+        } else {
+            None
+        };
+        tracing::info!(
+            listen = %config.listen,
+            admin = %if config.admin_enabled() { config.admin_listen.to_string() } else { "off".into() },
+            models = %config.models.display(),
+            default_model = %config.default_model,
+            "starting"
+        );
+        let state = build_state(config)?;
+        // Listen at once (liveness answers, readiness says "loading"), load meanwhile.
+        let loader = state.clone();
+        let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<String>();
+        tokio::task::spawn_blocking(move || {
+            if let Err(e) = load_models(&loader) {
+                tracing::error!(error = %e, "cannot start");
+                let _ = stop_tx.send(e);
+            }
+        });
+        let failure = Arc::new(std::sync::Mutex::new(None::<String>));
+        let recorded = failure.clone();
+        let shutdown = async move {
+            tokio::select! {
+                () = termination() => {},
+                // A dropped sender means the models loaded: keep serving.
+                Ok(reason) = stop_rx => {
+                    *recorded.lock().unwrap_or_else(|e| e.into_inner()) = Some(reason);
+                }
+            }
+        };
+        serve(state, data, admin, shutdown).await?;
+        match failure.lock().unwrap_or_else(|e| e.into_inner()).take() {
+            Some(reason) => Err(reason),
+            None => Ok(()),
+        }
+    })
+}

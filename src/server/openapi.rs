@@ -1,0 +1,102 @@
+//! The OpenAPI 3.1 document, generated from the handlers' annotations (utoipa). The
+//! committed `openapi.yaml` must equal it: `tests/server_openapi.rs` fails otherwise, and
+//! `REFLECTANCE_UPDATE_OPENAPI=1 cargo test --release --test server_openapi` rewrites it.
+
+use super::error::Problem;
+use super::handlers::{admin, classify, health, models, v2};
+use super::jobs;
+use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
+use utoipa::openapi::server::Server;
+use utoipa::{Modify, OpenApi};
+
+struct Extras;
+
+impl Modify for Extras {
+    fn modify(&self, doc: &mut utoipa::openapi::OpenApi) {
+        let components = doc.components.get_or_insert_with(Default::default);
+        components.add_security_scheme(
+            "bearer",
+            SecurityScheme::Http(
+                HttpBuilder::new()
+                    .scheme(HttpAuthScheme::Bearer)
+                    .description(Some(
+                        "The admin token (--admin-token-file or REFLECTANCE_ADMIN_TOKEN)",
+                    ))
+                    .build(),
+            ),
+        );
+        // The admin plane listens on its own address.
+        for (path, item) in doc.paths.paths.iter_mut() {
+            if path.starts_with("/admin/") {
+                item.servers = Some(vec![Server::new("http://127.0.0.1:8081")]);
+            }
+        }
+    }
+}
+
+#[derive(OpenApi)]
+#[openapi(
+    info(
+        title = "reflectance",
+        description = "What a sphere is made of, from one photograph under unknown real-world \
+            lighting (Dror, Adelson & Willsky 2001).\n\n\
+            Every error is `application/problem+json` (RFC 9457) with `type` \
+            (`urn:reflectance:problem:<slug>`), `title`, `status`, `detail` and `request_id`. \
+            Besides the statuses listed per operation, any request may be answered 404 \
+            (`not-found`, unknown route), 405 (`method-not-allowed`), 408 (`timeout`), \
+            413 (`body-too-large`) or 500 (`internal`). Every response carries `x-request-id` \
+            (the client's, when it sends 1–128 visible ASCII characters, else a new one).\n\n\
+            The data plane listens on port 8080, the admin plane (`/admin/…`, bearer token) \
+            on 127.0.0.1:8081.",
+        license(name = "see the repository")
+    ),
+    servers((url = "http://localhost:8080", description = "data plane")),
+    paths(
+        classify::classify_default,
+        classify::classify_named,
+        models::list,
+        models::get,
+        health::live,
+        health::ready,
+        health::metrics,
+        health::openapi,
+        v2::server_metadata,
+        v2::health_live,
+        v2::health_ready,
+        v2::model_metadata,
+        v2::model_ready,
+        v2::infer,
+        admin::submit,
+        admin::list,
+        admin::get,
+        admin::cancel,
+        admin::versions,
+        admin::activate,
+        admin::delete_version,
+    ),
+    components(schemas(
+        Problem,
+        classify::ClassifyForm,
+        classify::ClassifyResponse,
+        jobs::JobRequest,
+        jobs::JobRecord,
+        jobs::JobState,
+        jobs::Activate,
+    )),
+    modifiers(&Extras),
+    tags(
+        (name = "classification", description = "Classify a sphere"),
+        (name = "models", description = "Served models"),
+        (name = "health", description = "Health, metrics, this document"),
+        (name = "kserve-v2", description = "Open Inference Protocol (KServe V2 REST)"),
+        (name = "admin", description = "Admin plane: jobs and registry (bearer token)"),
+    )
+)]
+pub struct ApiDoc;
+
+/// The document as YAML.
+pub fn yaml() -> String {
+    ApiDoc::openapi()
+        .to_yaml()
+        .unwrap_or_else(|e| format!("# cannot render the OpenAPI document: {e}\n"))
+}

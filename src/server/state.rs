@@ -1,0 +1,330 @@
+//! Shared state: readiness, the model store with atomic hot swap, and the CPU pool that
+//! keeps decoding and feature extraction off the async runtime.
+
+use super::config::Config;
+use super::error::{ApiError, Kind};
+use super::jobs::JobManager;
+use super::metrics;
+use crate::features::Extractor;
+use crate::model::ModelFile;
+use crate::registry::{Registry, RegistryError};
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::{Arc, Mutex, RwLock};
+use tokio::sync::{OwnedSemaphorePermit, Semaphore};
+
+/// Life cycle of the process, as `/health/ready` reports it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    Loading = 0,
+    Ready = 1,
+    Draining = 2,
+}
+
+#[derive(Debug, Default)]
+pub struct Readiness(AtomicU8);
+
+impl Readiness {
+    pub fn get(&self) -> Phase {
+        match self.0.load(Ordering::Acquire) {
+            0 => Phase::Loading,
+            1 => Phase::Ready,
+            _ => Phase::Draining,
+        }
+    }
+    pub fn set(&self, phase: Phase) {
+        self.0.store(phase as u8, Ordering::Release);
+    }
+}
+
+/// A verified model version, ready to classify: the file and its feature extractor.
+#[derive(Debug)]
+pub struct LoadedModel {
+    pub file: ModelFile,
+    pub extractor: Extractor,
+    /// The canonical feature names of the model's extraction configuration.
+    pub feature_names: Vec<String>,
+    /// The features the classifier reads (`None`: all of them, e.g. for PCA): a request
+    /// that does not ask for every feature extracts only these.
+    pub needed: Option<Vec<usize>>,
+}
+
+impl LoadedModel {
+    /// Build the extractor for a verified model file.
+    pub fn new(file: ModelFile) -> Result<LoadedModel, ApiError> {
+        let extractor = Extractor::new(file.features.config)
+            .map_err(|e| ApiError::new(Kind::InvalidModel, e.to_string()))?;
+        let feature_names = file.features.config.names();
+        let classifier = &file.classifier;
+        let needed = (classifier.pca.is_none()
+            && classifier.selected_indices.len() < feature_names.len())
+        .then(|| classifier.selected_indices.clone());
+        Ok(LoadedModel {
+            file,
+            extractor,
+            feature_names,
+            needed,
+        })
+    }
+
+    pub fn name(&self) -> &str {
+        &self.file.name
+    }
+
+    pub fn version(&self) -> u32 {
+        self.file.version
+    }
+}
+
+/// Outcome of an activation.
+#[derive(Debug)]
+pub struct Activated {
+    pub previous: Option<u32>,
+    /// Set when the choice could not be written to the registry (read-only models folder):
+    /// it holds in memory until the process restarts.
+    pub warning: Option<String>,
+}
+
+/// The active version of every model, swapped atomically: a request clones the `Arc` of
+/// the version it started with and finishes on it, whatever is activated meanwhile.
+#[derive(Debug)]
+pub struct ModelStore {
+    registry: Registry,
+    active: RwLock<BTreeMap<String, Arc<LoadedModel>>>,
+    /// Recently used non-active versions (`?version=`), most recent last.
+    cache: Mutex<Vec<Arc<LoadedModel>>>,
+    cache_size: usize,
+    /// Serializes activations so that load-verify-swap-persist happen as one step.
+    activation: Mutex<()>,
+}
+
+impl ModelStore {
+    pub fn new(registry: Registry, cache_size: usize) -> ModelStore {
+        ModelStore {
+            registry,
+            active: RwLock::new(BTreeMap::new()),
+            cache: Mutex::new(Vec::new()),
+            cache_size,
+            activation: Mutex::new(()),
+        }
+    }
+
+    pub fn registry(&self) -> &Registry {
+        &self.registry
+    }
+
+    /// Load (and verify) a version from the registry. Blocking.
+    pub fn load_version(&self, name: &str, version: u32) -> Result<LoadedModel, ApiError> {
+        let file = self.registry.load(name, version).inspect_err(|e| {
+            if matches!(e, RegistryError::Model { .. } | RegistryError::Io { .. }) {
+                metrics::model_load_failure(name);
+                tracing::warn!(model = name, version, error = %e, "model version refused");
+            }
+        })?;
+        LoadedModel::new(file).inspect_err(|_| metrics::model_load_failure(name))
+    }
+
+    /// Load the active version of every model in the registry. Blocking. Returns the
+    /// models that failed (name, reason); they are not served.
+    pub fn load_all(&self) -> Result<Vec<(String, String)>, ApiError> {
+        let mut failed = Vec::new();
+        for name in self.registry.names()? {
+            let loaded = self
+                .registry
+                .active(&name)
+                .map_err(ApiError::from)
+                .and_then(|v| self.load_version(&name, v));
+            match loaded {
+                Ok(model) => self.install(Arc::new(model)),
+                Err(e) => failed.push((name, e.detail)),
+            }
+        }
+        Ok(failed)
+    }
+
+    fn install(&self, model: Arc<LoadedModel>) {
+        metrics::model_active(model.name(), model.version());
+        let mut active = self.active.write().unwrap_or_else(|e| e.into_inner());
+        active.insert(model.name().to_string(), model);
+    }
+
+    /// The active version of `name`, if loaded.
+    pub fn active(&self, name: &str) -> Option<Arc<LoadedModel>> {
+        let active = self.active.read().unwrap_or_else(|e| e.into_inner());
+        active.get(name).cloned()
+    }
+
+    /// Every loaded active model, by name.
+    pub fn all_active(&self) -> Vec<Arc<LoadedModel>> {
+        let active = self.active.read().unwrap_or_else(|e| e.into_inner());
+        active.values().cloned().collect()
+    }
+
+    /// The model to serve: the active version, or a specific one (loaded on first use and
+    /// cached). Blocking when a version must be read from disk.
+    pub fn get(&self, name: &str, version: Option<u32>) -> Result<Arc<LoadedModel>, ApiError> {
+        let active = self.active(name);
+        let Some(version) = version else {
+            return match active {
+                Some(model) => Ok(model),
+                None => Err(self.missing(name)),
+            };
+        };
+        if let Some(model) = active.filter(|m| m.version() == version) {
+            return Ok(model);
+        }
+        {
+            let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
+            if let Some(i) = cache
+                .iter()
+                .position(|m| m.name() == name && m.version() == version)
+            {
+                let model = cache.remove(i);
+                cache.push(model.clone());
+                return Ok(model);
+            }
+        }
+        if self.active(name).is_none() {
+            return Err(self.missing(name));
+        }
+        let model = Arc::new(self.load_version(name, version)?);
+        if self.cache_size > 0 {
+            let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
+            cache.push(model.clone());
+            let excess = cache.len().saturating_sub(self.cache_size);
+            cache.drain(..excess);
+        }
+        Ok(model)
+    }
+
+    fn missing(&self, name: &str) -> ApiError {
+        ApiError::new(Kind::ModelNotFound, format!("unknown model {name:?}"))
+    }
+
+    /// Whether a model name is served.
+    pub fn is_served(&self, name: &str) -> bool {
+        self.active(name).is_some()
+    }
+
+    /// Make `version` the active version of `name`: load it, verify schema and checksum,
+    /// self-test, then swap atomically and record it in the registry. A failure leaves the
+    /// previous version serving (and is counted in `reflectance_model_load_failures_total`).
+    /// Blocking.
+    pub fn activate(&self, name: &str, version: u32) -> Result<Activated, ApiError> {
+        let _serial = self.activation.lock().unwrap_or_else(|e| e.into_inner());
+        let model = Arc::new(self.load_version(name, version)?);
+        model.file.self_test().map_err(|e| {
+            metrics::model_load_failure(name);
+            ApiError::from(e)
+        })?;
+        let previous = self.active(name).map(|m| m.version());
+        self.install(model);
+        let warning = self.registry.set_active(name, version).err().map(|e| {
+            let warning = format!(
+                "activation of {name} version {version} holds in memory only: the registry \
+                 could not record it ({e})"
+            );
+            tracing::warn!(model = name, version, error = %e, "activation not persisted");
+            warning
+        });
+        let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
+        cache.retain(|m| !(m.name() == name && m.version() == version));
+        tracing::info!(model = name, version, ?previous, "model activated");
+        Ok(Activated { previous, warning })
+    }
+
+    /// Delete an inactive version (the served active version is refused even if the
+    /// registry's record differs). Blocking.
+    pub fn delete(&self, name: &str, version: u32) -> Result<(), ApiError> {
+        let _serial = self.activation.lock().unwrap_or_else(|e| e.into_inner());
+        if self.active(name).is_some_and(|m| m.version() == version) {
+            return Err(ApiError::new(
+                Kind::VersionActive,
+                format!("version {version} of {name:?} is active; activate another version first"),
+            ));
+        }
+        self.registry.delete(name, version)?;
+        let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
+        cache.retain(|m| !(m.name() == name && m.version() == version));
+        Ok(())
+    }
+
+    /// Serialize with activations (used by jobs that publish and may activate).
+    pub fn lock_registry(&self) -> std::sync::MutexGuard<'_, ()> {
+        self.activation.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// A fixed pool of threads for decoding and feature extraction, in front of which a
+/// semaphore admits at most `max_inflight` requests: the next one is shed at once (429).
+pub struct CpuPool {
+    pool: rayon::ThreadPool,
+    admission: Arc<Semaphore>,
+}
+
+impl CpuPool {
+    pub fn new(threads: usize, max_inflight: usize) -> Result<CpuPool, String> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .thread_name(|i| format!("reflectance-cpu-{i}"))
+            .build()
+            .map_err(|e| format!("cannot start the CPU pool: {e}"))?;
+        Ok(CpuPool {
+            pool,
+            admission: Arc::new(Semaphore::new(max_inflight)),
+        })
+    }
+
+    /// A place in the pool's queue, or 429 when the service is saturated.
+    pub fn admit(&self) -> Result<OwnedSemaphorePermit, ApiError> {
+        self.admission.clone().try_acquire_owned().map_err(|_| {
+            metrics::shed();
+            ApiError::new(
+                Kind::Overloaded,
+                "too many requests in progress; retry shortly",
+            )
+            .retry_after(1)
+        })
+    }
+
+    /// Requests admitted now.
+    pub fn inflight(&self, max: usize) -> usize {
+        max - self.admission.available_permits()
+    }
+
+    /// Run `work` on the pool (first come, first served) holding `permit` until it ends.
+    pub async fn run<T: Send + 'static>(
+        &self,
+        permit: OwnedSemaphorePermit,
+        work: impl FnOnce() -> Result<T, ApiError> + Send + 'static,
+    ) -> Result<T, ApiError> {
+        let (tx, rx) = tokio::sync::oneshot::channel();
+        self.pool.spawn_fifo(move || {
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work))
+                .unwrap_or_else(|panic| {
+                    let what = panic
+                        .downcast_ref::<&str>()
+                        .map(|s| s.to_string())
+                        .or_else(|| panic.downcast_ref::<String>().cloned())
+                        .unwrap_or_default();
+                    Err(ApiError::internal(format!("panic in CPU work: {what}")))
+                });
+            drop(permit);
+            let _ = tx.send(result);
+        });
+        rx.await
+            .unwrap_or_else(|_| Err(ApiError::internal("CPU task lost")))
+    }
+}
+
+/// Everything the handlers share.
+pub struct AppState {
+    pub config: Config,
+    pub models: Arc<ModelStore>,
+    pub readiness: Readiness,
+    pub cpu: CpuPool,
+    pub jobs: Option<Arc<JobManager>>,
+    pub started: std::time::Instant,
+}
+
+pub type SharedState = Arc<AppState>;

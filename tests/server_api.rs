@@ -1,0 +1,605 @@
+//! The data plane against the real router (in-process): classification of rendered
+//! spheres, every error class as problem+json, models, health, metrics, KServe V2.
+
+mod common;
+
+use axum::body::Body;
+use axum::http::Request;
+use base64::Engine;
+use common::server::{
+    Part, config, fixture, get, models_copy, post_json, post_multipart, send, start,
+};
+use serde_json::{Value, json};
+
+const CX: &str = "47.5";
+const R: &str = "43.63636363636363";
+
+fn classify_fields<'a>(image: &'a [u8], white: &'a str) -> Vec<(&'a str, Part<'a>)> {
+    vec![
+        ("image", Part::File(image)),
+        ("white", Part::Text(white)),
+        ("cx", Part::Text(CX)),
+        ("cy", Part::Text(CX)),
+        ("r", Part::Text(R)),
+    ]
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn classifies_held_out_renderings_correctly() {
+    let server = start(config(&models_copy("classify")));
+    let fx = fixture();
+    assert_eq!(fx.held_out.len(), 3);
+    for (image, class, white) in &fx.held_out {
+        let white = white.to_string();
+        let answer = send(
+            &server.data,
+            post_multipart("/v1/classify", &classify_fields(image, &white)),
+        )
+        .await;
+        assert_eq!(
+            answer.status,
+            200,
+            "{}",
+            String::from_utf8_lossy(&answer.body)
+        );
+        assert_eq!(answer.header("content-type"), Some("application/json"));
+        assert_eq!(answer.header("x-model-version"), Some("1"));
+        let timing = answer.header("server-timing").unwrap();
+        for stage in ["decode;dur=", "features;dur=", "predict;dur=", "total;dur="] {
+            assert!(timing.contains(stage), "{timing}");
+        }
+        let doc = answer.json();
+        assert_eq!(doc["label"], class.as_str(), "{doc}");
+        assert_eq!(doc["model"], json!({"name": "ward6", "version": 1}));
+        assert_eq!(
+            doc["request_id"].as_str(),
+            answer.header("x-request-id"),
+            "{doc}"
+        );
+        let probs = doc["probabilities"].as_array().unwrap();
+        assert_eq!(probs.len(), 3);
+        let ps: Vec<f64> = probs.iter().map(|p| p["p"].as_f64().unwrap()).collect();
+        assert!(ps.windows(2).all(|w| w[0] >= w[1]), "{ps:?}");
+        assert!((ps.iter().sum::<f64>() - 1.0).abs() < 1e-9);
+        assert_eq!(
+            doc["features"]["names"],
+            json!([
+                "pix.mean",
+                "pix.p10",
+                "wav.s1.v.var",
+                "wav.s2.v.var",
+                "ratio.v.s1_s2",
+                "wav.s2.v.kurt"
+            ])
+        );
+        assert_eq!(doc["features"]["values"].as_array().unwrap().len(), 6);
+        assert!(doc["features"].get("all").is_none());
+        assert_eq!(doc["geometry"]["method"], "given");
+        assert_eq!(doc["geometry"]["cx"], 47.5);
+        assert_eq!(doc["white"]["method"], "given");
+        // r < 80 px: accepted with a warning.
+        assert!(
+            doc["warnings"][0].as_str().unwrap().contains("below 80"),
+            "{doc}"
+        );
+        for stage in ["decode", "features", "predict", "total"] {
+            assert!(doc["timing_ms"][stage].as_f64().unwrap() >= 0.0);
+        }
+        assert!(doc.get("explain").is_none());
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn includes_all_features_and_explanations_and_other_locators() {
+    let server = start(config(&models_copy("include")));
+    let (image, class, white) = &fixture().held_out[1];
+    let white = white.to_string();
+    let mut fields = classify_fields(image, &white);
+    fields.push(("include", Part::Text("features")));
+    fields.push(("include", Part::Text("explain")));
+    let answer = send(
+        &server.data,
+        post_multipart("/v1/models/ward6/classify?version=1", &fields),
+    )
+    .await;
+    assert_eq!(
+        answer.status,
+        200,
+        "{}",
+        String::from_utf8_lossy(&answer.body)
+    );
+    let doc = answer.json();
+    let all = &doc["features"]["all"];
+    assert_eq!(all["names"].as_array().unwrap().len(), 117);
+    assert_eq!(all["values"].as_array().unwrap().len(), 117);
+    assert_eq!(all["names"][0], "pix.mean");
+    // The selected features (extracted alone by default) equal the full extraction's.
+    let plain = send(
+        &server.data,
+        post_multipart("/v1/classify", &classify_fields(image, &white)),
+    )
+    .await
+    .json();
+    let names = all["names"].as_array().unwrap();
+    for (name, value) in plain["features"]["names"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(plain["features"]["values"].as_array().unwrap())
+    {
+        let i = names.iter().position(|n| n == name).unwrap();
+        assert_eq!(&all["values"][i], value, "{name}");
+    }
+    assert_eq!(plain["probabilities"], doc["probabilities"]);
+    let explain = doc["explain"].as_array().unwrap();
+    assert_eq!(explain.len(), 3);
+    let d: Vec<f64> = explain
+        .iter()
+        .map(|e| e["distance"].as_f64().unwrap())
+        .collect();
+    assert!(d.windows(2).all(|w| w[0] <= w[1]));
+    assert_eq!(explain[0]["class"], class.as_str(), "{doc}");
+    assert!(explain[0]["path"].as_str().unwrap().ends_with(".pfm"));
+    assert!(
+        explain[0]["illumination"]
+            .as_str()
+            .unwrap()
+            .starts_with("probe")
+    );
+
+    // The rendering's mask locates the sphere; so does automatic detection (black
+    // background); no white reference gives a warning.
+    let mask_path = fixture().dir.join(format!("test/probe3__{class}.mask.png"));
+    let mask = std::fs::read(mask_path).unwrap();
+    let answer = send(
+        &server.data,
+        post_multipart(
+            "/v1/classify",
+            &[
+                ("image", Part::File(image)),
+                ("white", Part::Text(&white)),
+                ("mask", Part::File(&mask)),
+            ],
+        ),
+    )
+    .await;
+    let doc = answer.json();
+    assert_eq!(doc["geometry"]["method"], "mask", "{doc}");
+    assert!(
+        (doc["geometry"]["r"].as_f64().unwrap() - 43.64).abs() < 1.0,
+        "{doc}"
+    );
+    assert_eq!(doc["label"], class.as_str());
+    let answer = send(
+        &server.data,
+        post_multipart("/v1/classify", &[("image", Part::File(image))]),
+    )
+    .await;
+    let doc = answer.json();
+    assert_eq!(doc["geometry"]["method"], "auto", "{doc}");
+    assert!(doc["geometry"]["confidence"].as_f64().unwrap() >= 0.9);
+    assert_eq!(doc["white"]["method"], "none");
+    assert!(
+        doc["warnings"].to_string().contains("no white reference"),
+        "{doc}"
+    );
+
+    // The client's request id is kept.
+    let mut request = post_multipart("/v1/classify", &classify_fields(image, &white));
+    request
+        .headers_mut()
+        .insert("x-request-id", "client-id-42".parse().unwrap());
+    let answer = send(&server.data, request).await;
+    assert_eq!(answer.header("x-request-id"), Some("client-id-42"));
+    assert_eq!(answer.json()["request_id"], "client-id-42");
+}
+
+fn png_sphere() -> Vec<u8> {
+    common::sphere_png(200, 90.0)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_client_mistake_is_a_problem_document() {
+    let mut cfg = config(&models_copy("errors"));
+    cfg.body_limit = 200_000;
+    let server = start(cfg);
+    let png = png_sphere();
+    let data = &server.data;
+    let classify = |fields: &[(&str, Part)]| post_multipart("/v1/classify", fields);
+    let circle = |image| {
+        vec![
+            ("image", Part::File(image)),
+            ("cx", Part::Text("99.5")),
+            ("cy", Part::Text("99.5")),
+            ("r", Part::Text("90")),
+        ]
+    };
+
+    // Sanity: the PNG sphere classifies.
+    assert_eq!(send(data, classify(&circle(&png))).await.status, 200);
+
+    // Corrupt (truncated) PNG, unknown format, too many pixels (crafted header).
+    send(data, classify(&circle(&png[..png.len() / 2])))
+        .await
+        .problem(422, "corrupt-image");
+    send(data, classify(&circle(b"hello, not an image")))
+        .await
+        .problem(415, "unsupported-image-format");
+    let huge = common::png_with_header_size(100_000, 100_000);
+    send(data, classify(&circle(&huge)))
+        .await
+        .problem(413, "image-too-large");
+
+    // Bad circles.
+    let mut small = circle(&png);
+    small[3] = ("r", Part::Text("10"));
+    send(data, classify(&small))
+        .await
+        .problem(422, "bad-geometry");
+    let partial = [("image", Part::File(&png)), ("cx", Part::Text("99.5"))];
+    send(data, classify(&partial))
+        .await
+        .problem(422, "bad-geometry");
+    let mut outside = circle(&png);
+    outside[1] = ("cx", Part::Text("10"));
+    send(data, classify(&outside))
+        .await
+        .problem(422, "bad-geometry");
+    let mut nan = circle(&png);
+    nan[1] = ("cx", Part::Text("NaN"));
+    send(data, classify(&nan))
+        .await
+        .problem(422, "bad-geometry");
+    let mut both = circle(&png);
+    both.push(("mask", Part::File(&png)));
+    send(data, classify(&both))
+        .await
+        .problem(422, "bad-geometry");
+    // Detection on a noisy background fails cleanly.
+    let noise: Vec<u8> = (0..200 * 200u32)
+        .map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8)
+        .collect();
+    let noisy = common::png8(200, 200, 1, &noise);
+    send(data, classify(&[("image", Part::File(&noisy))]))
+        .await
+        .problem(422, "bad-geometry");
+
+    // Bad white references.
+    for bad in ["-1", "0", "abc", "inf"] {
+        let mut fields = circle(&png);
+        fields.push(("white", Part::Text(bad)));
+        send(data, classify(&fields))
+            .await
+            .problem(422, "bad-white");
+    }
+    let mut two_whites = circle(&png);
+    two_whites.push(("white", Part::Text("0.5")));
+    two_whites.push(("white_image", Part::File(&png)));
+    send(data, classify(&two_whites))
+        .await
+        .problem(422, "bad-white");
+    let black = common::png8(8, 8, 1, &[0; 64]);
+    let mut black_card = circle(&png);
+    black_card.push(("white_image", Part::File(&black)));
+    send(data, classify(&black_card))
+        .await
+        .problem(422, "bad-white");
+
+    // Unknown model or version.
+    send(
+        data,
+        post_multipart("/v1/models/nope/classify", &circle(&png)),
+    )
+    .await
+    .problem(404, "model-not-found");
+    send(
+        data,
+        post_multipart("/v1/models/ward6/classify?version=9", &circle(&png)),
+    )
+    .await
+    .problem(404, "version-not-found");
+    send(
+        data,
+        post_multipart("/v1/models/ward6/classify?version=x", &circle(&png)),
+    )
+    .await
+    .problem(422, "invalid-field");
+
+    // Missing image, unknown field, bad option values, duplicates.
+    send(data, classify(&[("white", Part::Text("0.5"))]))
+        .await
+        .problem(422, "missing-field");
+    let mut extra = circle(&png);
+    extra.push(("colour", Part::Text("red")));
+    send(data, classify(&extra))
+        .await
+        .problem(422, "unknown-field");
+    let mut include = circle(&png);
+    include.push(("include", Part::Text("features,everything")));
+    send(data, classify(&include))
+        .await
+        .problem(422, "invalid-field");
+    let mut encoding = circle(&png);
+    encoding.push(("encoding", Part::Text("gamma:-2")));
+    send(data, classify(&encoding))
+        .await
+        .problem(422, "invalid-field");
+    let mut twice = circle(&png);
+    twice.push(("image", Part::File(&png)));
+    send(data, classify(&twice))
+        .await
+        .problem(422, "invalid-field");
+
+    // Wrong content type, malformed multipart.
+    send(data, post_json("/v1/classify", &json!({"image": "x"})))
+        .await
+        .problem(415, "unsupported-media-type");
+    let broken = Request::post("/v1/classify")
+        .header("content-type", "multipart/form-data; boundary=xyz")
+        .body(Body::from(
+            "--xyz\r\nContent-Disposition: form-data; name=\"image\"\r\n\r\nabc",
+        ))
+        .unwrap();
+    send(data, broken).await.problem(400, "malformed-request");
+
+    // Body over the limit: declared (Content-Length) and streamed.
+    let big = vec![7u8; 300_000];
+    let (content_type, body) = common::server::multipart(&[("image", Part::File(&big))]);
+    let declared = Request::post("/v1/classify")
+        .header("content-type", content_type.clone())
+        .header("content-length", body.len())
+        .body(Body::from(body.clone()))
+        .unwrap();
+    send(data, declared).await.problem(413, "body-too-large");
+    // Without Content-Length the limit applies while the body is read.
+    let streamed = Request::post("/v1/classify")
+        .header("content-type", content_type)
+        .body(Body::from(body))
+        .unwrap();
+    send(data, streamed).await.problem(413, "body-too-large");
+
+    // Unknown route, wrong method.
+    send(data, get("/v1/nothing"))
+        .await
+        .problem(404, "not-found");
+    let answer = send(data, get("/v1/classify")).await;
+    answer.problem(405, "method-not-allowed");
+    assert!(answer.header("allow").unwrap().contains("POST"));
+    send(data, get("/v1/models/nope"))
+        .await
+        .problem(404, "model-not-found");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn sheds_load_times_out_and_reports_readiness() {
+    // Saturated: the one admission slot is taken, the next request is shed at once.
+    let mut cfg = config(&models_copy("shed"));
+    cfg.max_inflight = 1;
+    let server = start(cfg);
+    let png = png_sphere();
+    let fields = [
+        ("image", Part::File(&png)),
+        ("cx", Part::Text("99.5")),
+        ("cy", Part::Text("99.5")),
+        ("r", Part::Text("90")),
+    ];
+    let permit = server.state.cpu.admit().unwrap();
+    let answer = send(&server.data, post_multipart("/v1/classify", &fields)).await;
+    answer.problem(429, "overloaded");
+    assert_eq!(answer.header("retry-after"), Some("1"));
+    drop(permit);
+    assert_eq!(
+        send(&server.data, post_multipart("/v1/classify", &fields))
+            .await
+            .status,
+        200
+    );
+
+    // Readiness: loading, ready, draining.
+    let state = reflectance::server::build_state(config(&models_copy("ready"))).unwrap();
+    let router = reflectance::server::router::data_router(state.clone());
+    let doc = send(&router, get("/health/ready"))
+        .await
+        .problem(503, "not-ready");
+    assert_eq!(doc["detail"], "loading models");
+    assert_eq!(send(&router, get("/health/live")).await.status, 200);
+    send(&router, get("/v2/health/ready"))
+        .await
+        .problem(503, "not-ready");
+    reflectance::server::load_models(&state).unwrap();
+    assert_eq!(
+        send(&router, get("/health/ready")).await.json(),
+        json!({"status": "ready"})
+    );
+    state
+        .readiness
+        .set(reflectance::server::state::Phase::Draining);
+    let doc = send(&router, get("/health/ready"))
+        .await
+        .problem(503, "not-ready");
+    assert!(doc["detail"].as_str().unwrap().contains("draining"));
+
+    // A per-request time limit far below the work's duration.
+    let mut cfg = config(&models_copy("timeout"));
+    cfg.request_timeout = std::time::Duration::from_micros(50);
+    let server = start(cfg);
+    let big = common::sphere_png(1200, 560.0);
+    let fields = [("image", Part::File(&big))];
+    send(&server.data, post_multipart("/v1/classify", &fields))
+        .await
+        .problem(408, "timeout");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn models_and_metrics() {
+    let server = start(config(&models_copy("models")));
+    let list = send(&server.data, get("/v1/models")).await.json();
+    assert_eq!(list["default_model"], "ward6");
+    assert_eq!(list["models"][0]["name"], "ward6");
+    assert_eq!(list["models"][0]["active_version"], 1);
+    assert_eq!(list["models"][0]["default"], true);
+    let detail = send(&server.data, get("/v1/models/ward6")).await.json();
+    assert_eq!(detail["versions"], json!([1]));
+    assert_eq!(detail["active_version"], 1);
+    assert_eq!(detail["features"]["set"], "hand6");
+    assert_eq!(detail["features"]["extracted"], 117);
+    assert_eq!(detail["classifier"]["kind"], "svm");
+    assert_eq!(detail["classes"].as_array().unwrap().len(), 3);
+    let cv = &detail["cv"];
+    assert!(cv["accuracy"].as_f64().unwrap() > 0.5, "{detail}");
+    assert_eq!(cv["confusion"].as_array().unwrap().len(), 3);
+    assert_eq!(detail["sha256"].as_str().unwrap().len(), 64);
+
+    let (image, _, white) = &fixture().held_out[0];
+    let white = white.to_string();
+    assert_eq!(
+        send(
+            &server.data,
+            post_multipart("/v1/classify", &classify_fields(image, &white))
+        )
+        .await
+        .status,
+        200
+    );
+    send(&server.data, get("/nope"))
+        .await
+        .problem(404, "not-found");
+    let answer = send(&server.data, get("/metrics")).await;
+    assert_eq!(answer.status, 200);
+    assert!(
+        answer
+            .header("content-type")
+            .unwrap()
+            .starts_with("text/plain")
+    );
+    let text = String::from_utf8(answer.body).unwrap();
+    for needle in [
+        "reflectance_http_requests_total{route=\"/v1/classify\",method=\"POST\",status=\"200\"}",
+        "reflectance_http_requests_total{route=\"unmatched\",method=\"GET\",status=\"404\"}",
+        "reflectance_http_request_duration_seconds_bucket{route=\"/v1/models/{name}\",method=\"GET\",status=\"200\",le=",
+        "reflectance_stage_duration_seconds_bucket{stage=\"features\",le=",
+        "reflectance_stage_duration_seconds_bucket{stage=\"decode\",le=",
+        "reflectance_stage_duration_seconds_bucket{stage=\"predict\",le=",
+        "reflectance_http_requests_in_flight",
+        "reflectance_model_active_version{model=\"ward6\"} 1",
+    ] {
+        assert!(text.contains(needle), "{needle} missing from\n{text}");
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn kserve_v2_protocol() {
+    let server = start(config(&models_copy("v2")));
+    let data = &server.data;
+    let meta = send(data, get("/v2")).await.json();
+    assert_eq!(meta["name"], "reflectance");
+    assert_eq!(
+        send(data, get("/v2/health/live")).await.json(),
+        json!({"live": true})
+    );
+    assert_eq!(
+        send(data, get("/v2/health/ready")).await.json(),
+        json!({"ready": true})
+    );
+    let model = send(data, get("/v2/models/ward6")).await.json();
+    assert_eq!(model["versions"], json!(["1"]));
+    assert_eq!(
+        model["outputs"][1],
+        json!({"name": "probabilities", "datatype": "FP64", "shape": [3]})
+    );
+    assert_eq!(
+        send(data, get("/v2/models/ward6/ready")).await.json(),
+        json!({"name": "ward6", "ready": true})
+    );
+    send(data, get("/v2/models/nope"))
+        .await
+        .problem(404, "model-not-found");
+    send(data, get("/v2/models/nope/ready"))
+        .await
+        .problem(404, "model-not-found");
+
+    for (image, class, white) in &fixture().held_out {
+        let b64 = base64::engine::general_purpose::STANDARD.encode(image);
+        let number = |name: &str, v: f64| json!({"name": name, "datatype": "FP64", "shape": [1], "data": [v]});
+        let request = json!({
+            "id": "req-1",
+            "inputs": [
+                {"name": "image", "datatype": "BYTES", "shape": [1], "data": [b64]},
+                number("white", *white), number("cx", 47.5), number("cy", 47.5),
+                number("r", 43.63636363636363),
+            ]
+        });
+        let answer = send(data, post_json("/v2/models/ward6/infer", &request)).await;
+        assert_eq!(
+            answer.status,
+            200,
+            "{}",
+            String::from_utf8_lossy(&answer.body)
+        );
+        assert_eq!(answer.header("x-model-version"), Some("1"));
+        let doc = answer.json();
+        assert_eq!(doc["model_name"], "ward6");
+        assert_eq!(doc["model_version"], "1");
+        assert_eq!(doc["id"], "req-1");
+        assert_eq!(doc["outputs"][0]["name"], "label");
+        assert_eq!(doc["outputs"][0]["data"][0], class.as_str(), "{doc}");
+        let p: Vec<f64> = doc["outputs"][1]["data"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        assert_eq!(p.len(), 3);
+        assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-9);
+        assert_eq!(doc["outputs"][2]["data"].as_array().unwrap().len(), 3);
+    }
+    let bad = |inputs: Value| post_json("/v2/models/ward6/infer", &json!({"inputs": inputs}));
+    send(
+        data,
+        bad(json!([{"name": "image", "datatype": "BYTES", "shape": [1], "data": ["***"]}])),
+    )
+    .await
+    .problem(422, "invalid-field");
+    send(
+        data,
+        bad(json!([{"name": "image", "datatype": "FP32", "shape": [1], "data": [1.0]}])),
+    )
+    .await
+    .problem(422, "invalid-field");
+    send(
+        data,
+        bad(json!([{"name": "white", "datatype": "FP64", "shape": [1], "data": [0.5]}])),
+    )
+    .await
+    .problem(422, "missing-field");
+    send(
+        data,
+        bad(json!([{"name": "colour", "datatype": "FP64", "shape": [1], "data": [0.5]}])),
+    )
+    .await
+    .problem(422, "unknown-field");
+    let garbage = base64::engine::general_purpose::STANDARD.encode(b"not an image");
+    send(
+        data,
+        bad(json!([{"name": "image", "datatype": "BYTES", "shape": [1], "data": [garbage]}])),
+    )
+    .await
+    .problem(415, "unsupported-image-format");
+    send(
+        data,
+        post_json("/v2/models/ward6/infer", &json!({"inputs": "x"})),
+    )
+    .await
+    .problem(422, "invalid-field");
+    let not_json = Request::post("/v2/models/ward6/infer")
+        .header("content-type", "application/json")
+        .body(Body::from("{nope"))
+        .unwrap();
+    send(data, not_json).await.problem(400, "malformed-request");
+    let text = Request::post("/v2/models/ward6/infer")
+        .body(Body::from("{}"))
+        .unwrap();
+    send(data, text)
+        .await
+        .problem(415, "unsupported-media-type");
+}
