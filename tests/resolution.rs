@@ -24,7 +24,11 @@ fn lighting() -> (Lighting, bool) {
     let mut map = EnvMap::from_fn(512, 256, |d| {
         0.3 + 0.6 * d.y.max(0.0) + 0.2 * (12.0 * d.x).sin() * (9.0 * d.z).cos()
     });
-    map.luminance[40 * 512 + 300] = 3000.0;
+    // A sun a few texels wide: a single-texel source aliases on the unwrap grid.
+    for (dy, dx) in (-2i32..=2).flat_map(|dy| (-2i32..=2).map(move |dx| (dy, dx))) {
+        let weight = (-f64::from(dx * dx + dy * dy) / 2.0).exp();
+        map.luminance[((40 + dy) * 512 + 300 + dx) as usize] += 300.0 * weight;
+    }
     (Lighting::new(map), false)
 }
 
