@@ -39,6 +39,14 @@ pub enum AnalysisError {
     Geometry(#[from] GeometryError),
     #[error(transparent)]
     White(#[from] WhiteError),
+    /// Pixels are f32 once divided by white: the ratio must neither overflow nor vanish.
+    #[error(
+        "the image divided by white ({white:e}) is out of range: its brightest pixel becomes \
+         {normalized:e} (usable: {min:e} to {max:e}); check the white value",
+        min = f32::MIN_POSITIVE,
+        max = f32::MAX
+    )]
+    Scale { white: f64, normalized: f64 },
 }
 
 /// Features of one sphere and what produced them.
@@ -101,6 +109,18 @@ pub fn resolve_white(input: &WhiteInput) -> Result<(White, Option<String>), Whit
     }
 }
 
+/// Refuse a white value that pushes the image's brightest pixel out of f32's normal range
+/// (an all-black image is fine: it stays zero).
+fn check_scale(image: &LinearImage, white: f64) -> Result<(), AnalysisError> {
+    let peak = image.luminance.iter().fold(0.0f64, |m, &v| m.max(v));
+    let normalized = peak / white;
+    let representable = f64::from(f32::MIN_POSITIVE)..=f64::from(f32::MAX);
+    if peak > 0.0 && !representable.contains(&normalized) {
+        return Err(AnalysisError::Scale { white, normalized });
+    }
+    Ok(())
+}
+
 /// Locate, normalize and extract.
 pub fn analyze(
     extractor: &Extractor,
@@ -122,6 +142,7 @@ pub fn analyze_subset(
 ) -> Result<Analysis, AnalysisError> {
     let mut warnings = image.warnings.clone();
     let (white, white_warning) = resolve_white(white_input)?;
+    check_scale(image, white.value)?;
     let (geometry, geometry_warnings) = locate(image, how, extractor)?;
     warnings.extend(geometry_warnings);
     warnings.extend(white_warning);

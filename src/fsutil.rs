@@ -16,6 +16,27 @@ pub fn temp_path(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.tmp-{}-{unique}", std::process::id()))
 }
 
+/// Test-only crash windows: with `REFLECTANCE_TEST_PAUSE=point=ms[,point=ms…]` in the
+/// environment the calling thread sleeps at the named point, so that the crash-safety
+/// tests (`tests/crash_safety.rs`) can SIGKILL the process there deterministically. Points:
+/// `publish` (a new version's files are staged in a hidden directory, not yet renamed into
+/// place) and `activate` (a version is swapped in memory, not yet recorded in `ACTIVE`).
+/// Unset in production; it is read only at these rare points.
+pub fn test_pause(point: &str) {
+    let Ok(spec) = std::env::var("REFLECTANCE_TEST_PAUSE") else {
+        return;
+    };
+    for item in spec.split(',') {
+        if let Some((name, ms)) = item.split_once('=')
+            && name.trim() == point
+            && let Ok(ms) = ms.trim().parse::<u64>()
+        {
+            tracing::warn!(point, ms, "REFLECTANCE_TEST_PAUSE: pausing");
+            std::thread::sleep(std::time::Duration::from_millis(ms));
+        }
+    }
+}
+
 /// fsync a directory so that a rename inside it is durable.
 pub fn sync_dir(dir: &Path) -> io::Result<()> {
     fs::File::open(dir)?.sync_all()

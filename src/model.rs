@@ -158,8 +158,9 @@ fn canonical(value: &Value, out: &mut Vec<u8>) {
     }
 }
 
-/// SHA-256 (hex) of a document without its `sha256` field.
-fn checksum(mut document: Value) -> String {
+/// SHA-256 (hex) of a document without its `sha256` field: the value a model file's
+/// `sha256` must hold (public for tools that edit model files, e.g. the fuzz targets).
+pub fn checksum(mut document: Value) -> String {
     if let Value::Object(map) = &mut document {
         map.remove("sha256");
     }

@@ -181,6 +181,7 @@ impl Registry {
                 let _ = fs::remove_dir_all(&staging);
                 return Err(e);
             }
+            crate::fsutil::test_pause("publish");
             let target = dir.join(version.to_string());
             match fs::rename(&staging, &target) {
                 Ok(()) => {
@@ -234,7 +235,8 @@ impl Registry {
         fs::remove_dir_all(&doomed).map_err(io(&doomed))
     }
 
-    /// Leftovers of interrupted writes (hidden temporary directories), removed at start-up.
+    /// Leftovers of interrupted writes, removed at start-up: hidden temporary directories
+    /// (a version being staged or deleted) and files (an `ACTIVE` being replaced).
     pub fn clean_staging(&self) -> Result<usize, RegistryError> {
         let mut removed = 0;
         for name in self.names_including_empty()? {
@@ -244,10 +246,16 @@ impl Registry {
                     .file_name()
                     .to_str()
                     .is_some_and(|n| n.starts_with('.') && n.contains(".tmp-"));
-                if hidden && entry.path().is_dir() {
-                    fs::remove_dir_all(entry.path()).map_err(io(&entry.path()))?;
-                    removed += 1;
+                if !hidden {
+                    continue;
                 }
+                let path = entry.path();
+                if path.is_dir() {
+                    fs::remove_dir_all(&path).map_err(io(&path))?;
+                } else {
+                    fs::remove_file(&path).map_err(io(&path))?;
+                }
+                removed += 1;
             }
         }
         Ok(removed)

@@ -403,9 +403,13 @@ async fn sheds_load_times_out_and_reports_readiness() {
         .problem(503, "not-ready");
     assert_eq!(doc["detail"], "loading models");
     assert_eq!(send(&router, get("/health/live")).await.status, 200);
+    // The Open Inference Protocol answers "false" with a 4xx.
     send(&router, get("/v2/health/ready"))
         .await
-        .problem(503, "not-ready");
+        .problem(400, "v2-not-ready");
+    send(&router, get("/v2/models/ward6/ready"))
+        .await
+        .problem(400, "v2-not-ready");
     reflectance::server::load_models(&state).unwrap();
     assert_eq!(
         send(&router, get("/health/ready")).await.json(),

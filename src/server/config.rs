@@ -85,8 +85,9 @@ pub struct ServeArgs {
     pub limits: LimitArgs,
 }
 
-/// The validated configuration the server runs with.
-#[derive(Clone, Debug)]
+/// The validated configuration the server runs with. Its `Debug` output redacts the admin
+/// token, so that logging a configuration can never leak it.
+#[derive(Clone)]
 pub struct Config {
     pub models: PathBuf,
     pub default_model: String,
@@ -108,6 +109,35 @@ pub struct Config {
     pub limits: Limits,
     pub log_format: LogFormat,
     pub log: String,
+}
+
+impl std::fmt::Debug for Config {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Config")
+            .field("models", &self.models)
+            .field("default_model", &self.default_model)
+            .field("listen", &self.listen)
+            .field("admin_listen", &self.admin_listen)
+            .field(
+                "admin_token",
+                &self.admin_token.as_ref().map(|_| "<redacted>"),
+            )
+            .field("data_dir", &self.data_dir)
+            .field("jobs_dir", &self.jobs_dir)
+            .field("workers", &self.workers)
+            .field("job_queue", &self.job_queue)
+            .field("cpu_threads", &self.cpu_threads)
+            .field("max_inflight", &self.max_inflight)
+            .field("body_limit", &self.body_limit)
+            .field("request_timeout", &self.request_timeout)
+            .field("shutdown_grace", &self.shutdown_grace)
+            .field("drain_delay", &self.drain_delay)
+            .field("model_cache", &self.model_cache)
+            .field("limits", &self.limits)
+            .field("log_format", &self.log_format)
+            .field("log", &self.log)
+            .finish()
+    }
 }
 
 impl Config {
@@ -225,5 +255,19 @@ impl ServeArgs {
             log_format: self.log_format,
             log: self.log,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn debug_output_redacts_the_admin_token() {
+        let mut config = Config::new("models", "ward6");
+        config.admin_token = Some("super-secret-token-0123456789".into());
+        let text = format!("{config:?}");
+        assert!(!text.contains("super-secret"), "{text}");
+        assert!(text.contains("<redacted>"), "{text}");
     }
 }

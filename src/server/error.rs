@@ -19,6 +19,7 @@
 //! | unknown model / version | 404 | `model-not-found` / `version-not-found` |
 //! | model file refused (schema, checksum, self-test) | 422 | `invalid-model` |
 //! | deleting the active version | 409 | `version-active` |
+//! | KServe V2 health "false" (loading, draining) | 400 | `v2-not-ready` |
 
 use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
@@ -77,11 +78,12 @@ pub enum Kind {
     Timeout,
     BodyTooLarge,
     NotReady,
+    NotReadyV2,
     Internal,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 28] = [
+    pub const ALL: [Kind; 29] = [
         Kind::MalformedRequest,
         Kind::UnsupportedMediaType,
         Kind::MissingField,
@@ -109,6 +111,7 @@ impl Kind {
         Kind::Timeout,
         Kind::BodyTooLarge,
         Kind::NotReady,
+        Kind::NotReadyV2,
         Kind::Internal,
     ];
 
@@ -191,6 +194,9 @@ impl Kind {
                 S::PAYLOAD_TOO_LARGE,
             ),
             Kind::NotReady => ("not-ready", "Service not ready", S::SERVICE_UNAVAILABLE),
+            // The Open Inference Protocol's health endpoints answer "false" with a 4xx
+            // (its reference server, Triton, uses 400).
+            Kind::NotReadyV2 => ("v2-not-ready", "Not ready", S::BAD_REQUEST),
             Kind::Internal => (
                 "internal",
                 "Internal server error",
@@ -338,6 +344,7 @@ impl From<AnalysisError> for ApiError {
             AnalysisError::Decode(e) => e.into(),
             AnalysisError::Geometry(e) => e.into(),
             AnalysisError::White(e) => e.into(),
+            AnalysisError::Scale { .. } => ApiError::new(Kind::InvalidImage, e.to_string()),
         }
     }
 }

@@ -59,6 +59,10 @@ fn describe() {
         "reflectance_model_load_failures_total",
         "Model versions refused at load or activation (schema, checksum, self-test, I/O)"
     );
+    describe_counter!(
+        "reflectance_model_fallbacks_total",
+        "Models served from an older version because the active one did not load at start-up"
+    );
     describe_gauge!("reflectance_jobs", "Admin jobs by state");
     describe_gauge!(
         "reflectance_job_queue_depth",
@@ -95,6 +99,11 @@ pub fn model_active(model: &str, version: u32) {
 
 pub fn model_load_failure(model: &str) {
     counter!("reflectance_model_load_failures_total", "model" => model.to_string()).increment(1);
+}
+
+/// A model served from an older version because its active one did not load at start-up.
+pub fn model_fallback(model: &str) {
+    counter!("reflectance_model_fallbacks_total", "model" => model.to_string()).increment(1);
 }
 
 pub fn jobs(counts: &[(&'static str, usize)], queued: usize) {

@@ -124,19 +124,50 @@ impl ModelStore {
         LoadedModel::new(file).inspect_err(|_| metrics::model_load_failure(name))
     }
 
-    /// Load the active version of every model in the registry. Blocking. Returns the
-    /// models that failed (name, reason); they are not served.
+    /// Load the active version of every model in the registry. Blocking. When the active
+    /// version (the `ACTIVE` one, else the newest) does not load, the newest version that
+    /// does is served instead — in memory only: the registry's record is left as it is —
+    /// with an error in the log and `reflectance_model_fallbacks_total` counting it.
+    /// Returns the models of which no version loads (name, reason); they are not served.
     pub fn load_all(&self) -> Result<Vec<(String, String)>, ApiError> {
         let mut failed = Vec::new();
         for name in self.registry.names()? {
-            let loaded = self
-                .registry
-                .active(&name)
-                .map_err(ApiError::from)
-                .and_then(|v| self.load_version(&name, v));
-            match loaded {
-                Ok(model) => self.install(Arc::new(model)),
-                Err(e) => failed.push((name, e.detail)),
+            let wanted = match self.registry.active(&name) {
+                Ok(v) => v,
+                Err(e) => {
+                    failed.push((name, ApiError::from(e).detail));
+                    continue;
+                }
+            };
+            let reason = match self.load_version(&name, wanted) {
+                Ok(model) => {
+                    self.install(Arc::new(model));
+                    continue;
+                }
+                Err(e) => e.detail,
+            };
+            let mut others = self.registry.versions(&name).unwrap_or_default();
+            others.retain(|&v| v != wanted);
+            let fallback = others
+                .iter()
+                .rev()
+                .find_map(|&v| self.load_version(&name, v).ok());
+            match fallback {
+                Some(model) => {
+                    tracing::error!(
+                        model = %name,
+                        wanted,
+                        served = model.version(),
+                        %reason,
+                        "active version does not load: serving the newest version that does"
+                    );
+                    metrics::model_fallback(&name);
+                    self.install(Arc::new(model));
+                }
+                None => failed.push((
+                    name,
+                    format!("version {wanted}: {reason}; no other version loads"),
+                )),
             }
         }
         Ok(failed)
@@ -219,6 +250,7 @@ impl ModelStore {
         })?;
         let previous = self.active(name).map(|m| m.version());
         self.install(model);
+        crate::fsutil::test_pause("activate");
         let warning = self.registry.set_active(name, version).err().map(|e| {
             let warning = format!(
                 "activation of {name} version {version} holds in memory only: the registry \

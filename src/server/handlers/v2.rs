@@ -127,13 +127,19 @@ pub async fn health_live() -> Json<Live> {
     Json(Live { live: true })
 }
 
-/// Server readiness.
+/// The protocol's "false": a 4xx (its health section: "A 200 status code indicates true
+/// and a 4xx status code indicates false").
+fn v2_readiness(state: &SharedState) -> Result<(), ApiError> {
+    super::health::readiness(state).map_err(|e| ApiError::new(Kind::NotReadyV2, e.detail))
+}
+
+/// Server readiness (200: ready; 400: not ready, as the protocol answers "false" with a 4xx).
 #[utoipa::path(get, operation_id = "v2_ready", path = "/v2/health/ready", tag = "kserve-v2",
     responses(
         (status = 200, description = "Ready", body = Ready),
-        (status = 503, description = "Loading or draining (`not-ready`)", body = Problem, content_type = "application/problem+json")))]
+        (status = 400, description = "Loading or draining (`v2-not-ready`): the protocol's \"false\"", body = Problem, content_type = "application/problem+json")))]
 pub async fn health_ready(State(state): State<SharedState>) -> Result<Json<Ready>, ApiError> {
-    super::health::readiness(&state)?;
+    v2_readiness(&state)?;
     Ok(Json(Ready { ready: true }))
 }
 
@@ -178,23 +184,22 @@ pub async fn model_metadata(
     }))
 }
 
-/// Model readiness.
+/// Model readiness (200: ready; 400 while the server loads or drains; 404: unknown model).
 #[utoipa::path(get, operation_id = "v2_model_ready", path = "/v2/models/{name}/ready", tag = "kserve-v2",
     params(("name" = String, Path, description = "Model name", example = "ward6")),
     responses(
         (status = 200, description = "Ready", body = ModelReady),
+        (status = 400, description = "Loading or draining (`v2-not-ready`): the protocol's \"false\"", body = Problem, content_type = "application/problem+json"),
         (status = 404, description = "Unknown model (`model-not-found`)", body = Problem, content_type = "application/problem+json")))]
 pub async fn model_ready(
     State(state): State<SharedState>,
     Path(name): Path<String>,
 ) -> Result<Json<ModelReady>, ApiError> {
+    v2_readiness(&state)?;
     if !state.models.is_served(&name) {
         return Err(unknown(&name));
     }
-    Ok(Json(ModelReady {
-        name,
-        ready: state.readiness.get() == crate::server::state::Phase::Ready,
-    }))
+    Ok(Json(ModelReady { name, ready: true }))
 }
 
 fn invalid(detail: String) -> ApiError {

@@ -1,0 +1,58 @@
+//! Image decoding + feature extraction on arbitrary bytes: every input is either refused
+//! with a typed error or yields finite, non-negative luminance whose analysis (automatic
+//! location, and a given circle when the image is large enough) never panics.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use reflectance::analysis::{self, Locate, WhiteInput};
+use reflectance::features::{Extractor, FeatureConfig};
+use reflectance::geometry::Circle;
+use reflectance::image_io::{DecodeOptions, Limits, decode};
+use std::sync::OnceLock;
+
+fn extractor() -> &'static Extractor {
+    static EXTRACTOR: OnceLock<Extractor> = OnceLock::new();
+    EXTRACTOR.get_or_init(|| Extractor::new(FeatureConfig::default()).expect("default config"))
+}
+
+fuzz_target!(|data: &[u8]| {
+    // Smaller limits than the server's, so that each execution stays fast.
+    let options = DecodeOptions {
+        encoding: None,
+        limits: Limits {
+            max_width: 1024,
+            max_height: 1024,
+            max_pixels: 1 << 20,
+        },
+    };
+    let Ok(image) = decode(data, &options) else {
+        return;
+    };
+    assert!(image.width() > 0 && image.height() > 0);
+    assert!(
+        image.luminance.iter().all(|v| v.is_finite() && *v >= 0.0),
+        "decoded luminance must be finite and non-negative"
+    );
+    if let Some(mask) = &image.alpha_mask {
+        assert_eq!(mask.dim(), image.luminance.dim());
+    }
+    let extractor = extractor();
+    if let Ok(a) = analysis::analyze(extractor, &image, &Locate::Auto, &WhiteInput::Missing) {
+        assert_eq!(a.values.len(), extractor.config().names().len());
+    }
+    let (w, h) = (image.width() as f64, image.height() as f64);
+    let r = w.min(h) / 2.0 - 1.0;
+    if r >= 32.0 {
+        let circle = Circle {
+            cx: (w - 1.0) / 2.0,
+            cy: (h - 1.0) / 2.0,
+            r,
+        };
+        let _ = analysis::analyze(
+            extractor,
+            &image,
+            &Locate::Circle(circle),
+            &WhiteInput::Value(0.5),
+        );
+    }
+});

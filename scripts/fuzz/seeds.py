@@ -1,0 +1,92 @@
+#!/usr/bin/env python3
+"""Seed corpora of the fuzz targets, generated from the repository's fixtures and shipped
+models (nothing is committed): fuzz/corpus/<target>/seed-*.
+
+    python3 scripts/fuzz/seeds.py
+"""
+import base64
+import json
+import pathlib
+import struct
+import zlib
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+FEATURES = ROOT / "tests/fixtures/features"
+CORPUS = ROOT / "fuzz/corpus"
+
+
+def png_gray(width, height, value):
+    raw = b"".join(b"\0" + bytes([value]) * width for _ in range(height))
+
+    def chunk(kind, data):
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(raw))
+            + chunk(b"IEND", b""))
+
+
+def write(target, name, data):
+    out = CORPUS / target
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"seed-{name}").write_bytes(data)
+
+
+def images():
+    seeds = {p.name: p.read_bytes() for p in sorted(FEATURES.glob("*.png"))}
+    seeds["tiny.png"] = png_gray(1, 1, 128)
+    seeds["flat64.png"] = png_gray(64, 64, 200)
+    seeds["tiny.pfm"] = b"Pf\n2 2\n-1\n" + struct.pack("<4f", 0.5, 1.0, 0.0, 2.0)
+    seeds["tiny.hdr"] = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 2\n" + bytes(
+        [128, 128, 128, 129] * 4)
+    seeds["tiny.pgm"] = b"P5\n2 2\n255\n\x00\x40\x80\xff"
+    seeds["exr-magic"] = bytes([0x76, 0x2F, 0x31, 0x01, 2, 0, 0, 0])
+    return seeds
+
+
+def multipart(fields, boundary=b"B"):
+    body = b""
+    for name, value, is_file in fields:
+        body += b"--" + boundary + b"\r\n"
+        disposition = b'Content-Disposition: form-data; name="' + name + b'"'
+        if is_file:
+            disposition += b'; filename="f"\r\nContent-Type: application/octet-stream'
+        body += disposition + b"\r\n\r\n" + value + b"\r\n"
+    return body + b"--" + boundary + b"--\r\n"
+
+
+def main():
+    for name, data in images().items():
+        write("decode_features", name, data)
+
+    # multipart_router: selector byte (route | content type << 2), then the body.
+    gray8 = (FEATURES / "sphere_gray8.png").read_bytes()
+    circle = [(b"cx", b"52.35", False), (b"cy", b"48.7", False), (b"r", b"40.3", False)]
+    form = multipart([(b"image", gray8, True), (b"white", b"1.0", False)] + circle)
+    write("multipart_router", "classify", bytes([0]) + form)
+    write("multipart_router", "named", bytes([1]) + form)
+    write("multipart_router", "auto", bytes([0]) + multipart([(b"image", gray8, True)]))
+    mask = png_gray(106, 99, 255)
+    write("multipart_router", "mask", bytes([2]) + multipart(
+        [(b"image", gray8, True), (b"mask", mask, True), (b"encoding", b"gamma:2.2", False),
+         (b"include", b"features,explain", False)]))
+    infer = {"inputs": [
+        {"name": "image", "datatype": "BYTES", "shape": [1],
+         "data": [base64.b64encode(gray8).decode()]},
+        {"name": "white", "datatype": "FP64", "shape": [1], "data": [1.0]},
+        {"name": "cx", "datatype": "FP64", "shape": [1], "data": [52.35]},
+        {"name": "cy", "datatype": "FP64", "shape": [1], "data": [48.7]},
+        {"name": "r", "datatype": "FP64", "shape": [1], "data": [40.3]}]}
+    write("multipart_router", "infer", bytes([3 | 3 << 2]) + json.dumps(infer).encode())
+
+    # model_file: the shipped models with their exemplars cut to three (the target
+    # recomputes the checksum, so the seeds need not carry a valid one).
+    for name in ("ward6", "ward11"):
+        model = json.loads((ROOT / "models" / name / "1/model.json").read_text())
+        model["exemplars"] = model.get("exemplars", [])[:3]
+        write("model_file", name, json.dumps(model).encode())
+
+
+if __name__ == "__main__":
+    main()
