@@ -7,19 +7,11 @@
 
 mod common;
 
-use common::server::{Part, TOKEN, copy_dir, multipart, temp_dir};
+use common::server::{Part, TOKEN, copy_dir, free_port, multipart, temp_dir};
 use serde_json::{Value, json};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
 
 struct Reply {
     status: u16,

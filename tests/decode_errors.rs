@@ -173,33 +173,10 @@ fn sixteen_bit_and_palette_pngs_decode_exactly() {
     }
 }
 
-/// A 2×2, 8-bit palette PNG written chunk by chunk (zlib stored blocks, no compression).
+/// A 2×2, 8-bit palette PNG.
 fn palette_png(entries: &[[u8; 3]], indices: &[u8; 4]) -> Vec<u8> {
-    fn chunk(out: &mut Vec<u8>, kind: &[u8], data: &[u8]) {
-        out.extend_from_slice(&(data.len() as u32).to_be_bytes());
-        let mut body = kind.to_vec();
-        body.extend_from_slice(data);
-        out.extend_from_slice(&body);
-        out.extend_from_slice(&crc32(&body).to_be_bytes());
-    }
     let raw = [0, indices[0], indices[1], 0, indices[2], indices[3]];
-    let adler = {
-        let (mut a, mut b) = (1u32, 0u32);
-        for &x in &raw {
-            a = (a + u32::from(x)) % 65521;
-            b = (b + a) % 65521;
-        }
-        (b << 16) | a
-    };
-    let mut zlib = vec![0x78, 0x01, 1, raw.len() as u8, 0, !(raw.len() as u8), 0xff];
-    zlib.extend_from_slice(&raw);
-    zlib.extend_from_slice(&adler.to_be_bytes());
-    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
-    chunk(&mut png, b"IHDR", &[0, 0, 0, 2, 0, 0, 0, 2, 8, 3, 0, 0, 0]);
-    chunk(&mut png, b"PLTE", &entries.concat());
-    chunk(&mut png, b"IDAT", &zlib);
-    chunk(&mut png, b"IEND", &[]);
-    png
+    png_raw(2, 2, 8, 3, &[(b"PLTE", &entries.concat())], &raw)
 }
 
 #[test]

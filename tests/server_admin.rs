@@ -7,7 +7,7 @@ mod common;
 use axum::body::Body;
 use axum::http::Request;
 use common::server::{
-    CLASSES_JSON, Part, TOKEN, TestServer, config, fixture, get, models_copy, post_json,
+    CLASSES_JSON, Part, TOKEN, TestServer, config, fixture, free_port, get, models_copy, post_json,
     post_multipart, send, start, temp_dir, with_token, write_probes,
 };
 use serde_json::{Value, json};
@@ -559,14 +559,6 @@ async fn a_corrupt_version_is_refused_and_the_old_one_keeps_serving() {
 }
 
 // ---- the real binary: start-up checks, restart after a crash, graceful shutdown ----
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
 
 /// One HTTP/1.1 exchange over a fresh connection: (status, body).
 fn http(port: u16, method: &str, path: &str, body: Option<&Value>) -> Option<(u16, Value)> {

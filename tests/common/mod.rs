@@ -65,4 +65,52 @@ pub fn png_with_header_size(width: u32, height: u32) -> Vec<u8> {
     png
 }
 
+/// A PNG built chunk by chunk: IHDR fields, extra chunks before IDAT, raw (unfiltered
+/// scanlines with their filter bytes) stored uncompressed in zlib.
+pub fn png_raw(
+    width: u32,
+    height: u32,
+    depth: u8,
+    color: u8,
+    extra: &[(&[u8; 4], &[u8])],
+    raw: &[u8],
+) -> Vec<u8> {
+    fn chunk(out: &mut Vec<u8>, kind: &[u8], data: &[u8]) {
+        out.extend_from_slice(&(data.len() as u32).to_be_bytes());
+        let mut body = kind.to_vec();
+        body.extend_from_slice(data);
+        out.extend_from_slice(&body);
+        out.extend_from_slice(&crc32(&body).to_be_bytes());
+    }
+    let adler = {
+        let (mut a, mut b) = (1u32, 0u32);
+        for &x in raw {
+            a = (a + u32::from(x)) % 65521;
+            b = (b + a) % 65521;
+        }
+        (b << 16) | a
+    };
+    let mut zlib = vec![0x78, 0x01];
+    for (k, block) in raw.chunks(65535).enumerate() {
+        let last = (k + 1) * 65535 >= raw.len();
+        let n = block.len() as u16;
+        zlib.push(u8::from(last));
+        zlib.extend_from_slice(&n.to_le_bytes());
+        zlib.extend_from_slice(&(!n).to_le_bytes());
+        zlib.extend_from_slice(block);
+    }
+    zlib.extend_from_slice(&adler.to_be_bytes());
+    let mut ihdr = width.to_be_bytes().to_vec();
+    ihdr.extend_from_slice(&height.to_be_bytes());
+    ihdr.extend_from_slice(&[depth, color, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    chunk(&mut png, b"IHDR", &ihdr);
+    for (kind, data) in extra {
+        chunk(&mut png, &kind[..], data);
+    }
+    chunk(&mut png, b"IDAT", &zlib);
+    chunk(&mut png, b"IEND", &[]);
+    png
+}
+
 pub mod server;

@@ -23,6 +23,15 @@ use tower::ServiceExt;
 
 pub const TOKEN: &str = "test-token-0123456789abcdef";
 
+/// A loopback port nobody listens on (right now).
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
 pub fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("reflectance-srv-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
