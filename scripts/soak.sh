@@ -13,7 +13,8 @@
 # status counts, p50/p99 latency and the server's RSS. The overload phase then opens
 # 4 × CONNECTIONS connections against --max-inflight = CONNECTIONS: the excess must be
 # refused at once with 429, not queued until a timeout (a curl probe times single requests
-# during it). Success: no 5xx, RSS growth ≤ 10 % after the first minute, stable p99.
+# during it). Success: no 5xx, RSS growth ≤ 10 % after the first minute, stable p99, every
+# admin job succeeded (the first failure is printed).
 # Exits non-zero when a criterion fails.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -60,7 +61,7 @@ cat > "$WORK/data/classes.json" <<'JSON'
   {"name": "dark", "rho_d": 0.08, "rho_s": 0.0, "alpha": 0.0}]}
 JSON
 "$BIN" render --probes "$WORK/data/probes" --classes "$WORK/data/classes.json" \
-  --out "$WORK/data/tiny" --size 64 >/dev/null 2>&1
+  --out "$WORK/data/tiny" --size 72 >/dev/null 2>&1
 python3 scripts/loadtest/sphere_png.py "$WORK/sphere.png"
 head -c "$(( $(stat -c %s "$WORK/sphere.png") / 2 ))" "$WORK/sphere.png" > "$WORK/corrupt.png"
 head -c 1200000 /dev/urandom > "$WORK/big.bin"
@@ -111,6 +112,10 @@ SAMPLER_PID=$!
       sleep 0.5
     done
     echo "$kind $state" >> "$WORK/jobs.log"
+    if [ "$state" = failed ]; then
+      curl -sS -H "$AUTH" "http://127.0.0.1:$ADMIN_PORT/admin/v1/jobs/$id" >> "$WORK/failed-jobs.log" || true
+      echo >> "$WORK/failed-jobs.log"
+    fi
   done ) &
 ADMIN_PID=$!
 
@@ -134,6 +139,9 @@ wait "$ADMIN_PID" 2>/dev/null || true
 ADMIN_PID=
 
 echo "admin jobs during the soak: $(sort "$WORK/jobs.log" | uniq -c | awk '{printf "%s %s=%s; ", $2, $3, $1}')"
+if [ -s "$WORK/failed-jobs.log" ]; then
+  echo "first failed job: $(head -1 "$WORK/failed-jobs.log")"
+fi
 
 echo "== overload: $((4 * CONNECTIONS)) connections for ${OVERLOAD_SECONDS}s against --max-inflight $MAX_INFLIGHT"
 ( end=$(( $(date +%s) + OVERLOAD_SECONDS - 2 ))
@@ -181,5 +189,8 @@ sys.exit(0 if growth <= 10.0 else 1)
 PY
 echo "overload: $shed requests refused with 429"
 [ "$shed" -gt 0 ] || fail=1
+succeeded=$(grep -c ' succeeded$' "$WORK/jobs.log" || true)
+echo "admin jobs: $succeeded succeeded, $(grep -vc ' succeeded$' "$WORK/jobs.log" || true) did not"
+[ "$succeeded" -gt 0 ] && [ ! -s "$WORK/failed-jobs.log" ] || fail=1
 [ $fail -eq 0 ] && echo "PASS" || echo "FAIL"
 exit $fail

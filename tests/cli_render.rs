@@ -148,7 +148,7 @@ fn augmentation_adds_views_with_suffixed_illuminations() {
         "--out",
         out.to_str().unwrap(),
         "--size",
-        "48",
+        "72",
         "--rotations",
         "4",
         "--elevations",

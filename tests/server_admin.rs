@@ -371,7 +371,7 @@ async fn cancellation_and_the_bounded_queue() {
         .await
         .problem(404, "job-not-found");
     // The worker is free again.
-    let c = submit(&server, json!({"type": "render", "probes": "probes", "classes": "classes.json", "out": "small", "size": 48})).await;
+    let c = submit(&server, json!({"type": "render", "probes": "probes", "classes": "classes.json", "out": "small", "size": 72})).await;
     let done = wait_for(&server, c["id"].as_str().unwrap(), TERMINAL).await;
     assert_eq!(done["state"], "succeeded", "{done}");
 }

@@ -240,12 +240,7 @@ fn stable_hash(text: &str) -> u64 {
 }
 
 fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
-    if !(16..=4096).contains(&spec.size) {
-        return Err(RenderError::Options(format!(
-            "size {} must be between 16 and 4096",
-            spec.size
-        )));
-    }
+    super::check_size(spec.size).map_err(RenderError::Options)?;
     let q = &spec.quality;
     if !(1..=16).contains(&q.pixel_samples)
         || !(1..=16).contains(&q.lobe_pixel_samples)

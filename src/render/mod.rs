@@ -128,6 +128,24 @@ pub struct Rendering {
     pub circle: Circle,
 }
 
+/// Image sizes a rendering may have: from the least whose sphere (r = N / 2.2) features can
+/// be extracted from (r ≥ 32 px) to a sane maximum.
+pub const SIZES: std::ops::RangeInclusive<usize> = 71..=4096;
+
+/// Why `size` is not in [`SIZES`].
+pub fn check_size(size: usize) -> Result<(), String> {
+    if SIZES.contains(&size) {
+        return Ok(());
+    }
+    Err(format!(
+        "size {size} must be between {} (a sphere of radius {} px, the least that features \
+         can be extracted from) and {}",
+        SIZES.start(),
+        crate::geometry::MIN_RADIUS,
+        SIZES.end()
+    ))
+}
+
 /// The sphere's circle in an N×N rendering.
 pub fn circle(size: usize) -> Circle {
     let c = (size as f64 - 1.0) / 2.0;
@@ -485,5 +503,18 @@ pub(crate) mod testing {
             return None;
         }
         Some(EnvMap::load(&path).expect("probe loads"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_least_size_is_the_least_extractable_sphere() {
+        let least = *SIZES.start();
+        assert!(circle(least).r >= crate::geometry::MIN_RADIUS);
+        assert!(circle(least - 1).r < crate::geometry::MIN_RADIUS);
+        assert!(check_size(least - 1).is_err() && check_size(least).is_ok());
     }
 }

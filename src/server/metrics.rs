@@ -25,8 +25,26 @@ pub fn handle() -> &'static PrometheusHandle {
         }
         describe();
         gauge!("reflectance_build_info", "version" => env!("CARGO_PKG_VERSION")).set(1.0);
+        spawn_upkeep(handle.clone());
         handle
     })
+}
+
+/// Histogram samples wait in per-metric buffers until upkeep folds them into the buckets;
+/// without it, a server nobody scrapes grows by every sample it records (measured by
+/// `scripts/soak.sh`: +3 MiB a minute at 1200 requests/s).
+fn spawn_upkeep(handle: PrometheusHandle) {
+    let spawned = std::thread::Builder::new()
+        .name("reflectance-metrics".into())
+        .spawn(move || {
+            loop {
+                std::thread::sleep(std::time::Duration::from_secs(5));
+                handle.run_upkeep();
+            }
+        });
+    if let Err(e) = spawned {
+        tracing::warn!(error = %e, "cannot start metrics upkeep; memory grows until /metrics is scraped");
+    }
 }
 
 fn describe() {

@@ -141,9 +141,9 @@ pub enum JobRequest {
         classes: String,
         /// Output folder relative to the data directory (created).
         out: String,
-        /// Image size in pixels (16…4096).
+        /// Image size in pixels (71…4096: the sphere's radius, size / 2.2, must be ≥ 32 px).
         #[serde(default = "default_size")]
-        #[schema(default = 256, minimum = 16, maximum = 4096)]
+        #[schema(default = 256, minimum = 71, maximum = 4096)]
         size: usize,
         #[serde(default = "default_seed")]
         #[schema(default = 1)]

@@ -268,9 +268,7 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
             size,
             ..
         } => {
-            if !(16..=4096).contains(size) {
-                return Err(invalid(format!("size {size} must be between 16 and 4096")));
-            }
+            crate::render::check_size(*size).map_err(invalid)?;
             data.existing("probes", probes).map_err(path_error)?;
             data.existing("classes", classes).map_err(path_error)?;
             // The output folder is created when the job runs; check where it would be now.
