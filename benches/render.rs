@@ -38,49 +38,33 @@ fn class(name: &str, rho_d: f64, rho_s: f64, alpha: f64) -> Material {
     }
 }
 
-#[divan::bench(sample_count = 10)]
-fn matte(bencher: Bencher) {
-    let m = class("white_matte", 0.9, 0.0, 0.0);
+/// One 256×256 image of `material`.
+fn bench_class(bencher: Bencher, material: Material) {
     bencher.bench(|| {
         render(
             lighting(),
-            &m,
+            &material,
             256,
             &View::default(),
             &Quality::default(),
             &mut Rng::new(1),
         )
     });
+}
+
+#[divan::bench(sample_count = 10)]
+fn matte(bencher: Bencher) {
+    bench_class(bencher, class("white_matte", 0.9, 0.0, 0.0));
 }
 
 #[divan::bench(sample_count = 10)]
 fn mirror(bencher: Bencher) {
-    let m = class("chrome", 0.0, 0.75, 0.0);
-    bencher.bench(|| {
-        render(
-            lighting(),
-            &m,
-            256,
-            &View::default(),
-            &Quality::default(),
-            &mut Rng::new(1),
-        )
-    });
+    bench_class(bencher, class("chrome", 0.0, 0.75, 0.0));
 }
 
 #[divan::bench(sample_count = 10)]
 fn shiny(bencher: Bencher) {
-    let m = class("white_shiny", 0.7, 0.25, 0.01);
-    bencher.bench(|| {
-        render(
-            lighting(),
-            &m,
-            256,
-            &View::default(),
-            &Quality::default(),
-            &mut Rng::new(1),
-        )
-    });
+    bench_class(bencher, class("white_shiny", 0.7, 0.25, 0.01));
 }
 
 /// Per-probe precomputation (irradiance grid, bright sources), shared by all classes.

@@ -112,7 +112,12 @@ pub fn resolve_white(input: &WhiteInput) -> Result<(White, Option<String>), Whit
 /// Refuse a white value that pushes the image's brightest pixel out of f32's normal range
 /// (an all-black image is fine: it stays zero).
 fn check_scale(image: &LinearImage, white: f64) -> Result<(), AnalysisError> {
-    let peak = image.luminance.iter().fold(0.0f64, |m, &v| m.max(v));
+    // Samples are finite and non-negative (decoding refuses others): a plain comparison
+    // vectorizes, where f64::max's NaN handling does not.
+    let peak = image
+        .luminance
+        .iter()
+        .fold(0.0f64, |m, &v| if v > m { v } else { m });
     let normalized = peak / white;
     let representable = f64::from(f32::MIN_POSITIVE)..=f64::from(f32::MAX);
     if peak > 0.0 && !representable.contains(&normalized) {
