@@ -10,6 +10,8 @@ use reflectance::pyramid::{self, Edge};
 use reflectance::spectrum::SpectrumPlan;
 
 fn main() {
+    // As the binary does: see `reflectance::heap`.
+    reflectance::heap::tune();
     divan::main();
 }
 

@@ -20,6 +20,8 @@ use reflectance::learn::{Dataset, FeatureSet, cross_validate};
 use reflectance::rng::Rng;
 
 fn main() {
+    // As the binary does: see `reflectance::heap`.
+    reflectance::heap::tune();
     let path = std::env::temp_dir().join("reflectance_learn_bench.csv");
     table().write(&path).expect("write bench table");
     eprintln!("bench table: {}", path.display());

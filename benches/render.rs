@@ -10,6 +10,8 @@ use reflectance::rng::Rng;
 use std::sync::OnceLock;
 
 fn main() {
+    // As the binary does: see `reflectance::heap`.
+    reflectance::heap::tune();
     divan::main();
 }
 

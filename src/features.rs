@@ -251,8 +251,13 @@ impl Extractor {
             Some((image, moved)) => (image.view(), moved),
             None => (luminance, circle),
         };
-        let s = self.config.unwrap.supersampling(circle.r);
-        let mut grid = unwrap(luminance, circle, &self.config.unwrap, &self.angles(s));
+        let angles = self.angles(self.config.unwrap.supersampling(circle.r));
+        let gain = 1.0 / white;
+        if gain.is_finite() {
+            return unwrap(luminance, circle, &self.config.unwrap, &angles, gain);
+        }
+        // A subnormal white has no finite reciprocal: divide instead.
+        let mut grid = unwrap(luminance, circle, &self.config.unwrap, &angles, 1.0);
         grid.mapv_inplace(|v| v / white);
         grid
     }
@@ -286,7 +291,7 @@ impl Extractor {
 
     /// The feature vector of computed stages.
     pub fn features_of(&self, stages: &Stages) -> Vec<f64> {
-        let mut scratch: Vec<u64> = Vec::with_capacity(stages.unwrapped.len());
+        let mut scratch: Vec<u64> = Vec::new();
         let mut out = Vec::with_capacity(FEATURE_COUNT);
         let summary = |values: &Array2<f64>, scratch: &mut Vec<u64>| {
             summarize(values.as_slice().expect("standard layout"), scratch)
@@ -521,6 +526,32 @@ mod tests {
             .mapv(|v| v.max(LOG_PIXEL_FLOOR).log10());
         let expected = plain.features_of(&plain.stages_of_unwrapped(log));
         assert_eq!(&values[FEATURE_COUNT..], expected.as_slice());
+    }
+
+    #[test]
+    fn white_scales_the_unwrap_even_without_a_finite_reciprocal() {
+        let img = Array2::from_shape_fn((128, 128), |(y, x)| 0.5 + 0.001 * (x + 3 * y) as f64);
+        let circle = Circle {
+            cx: 64.0,
+            cy: 63.5,
+            r: 60.0,
+        };
+        let extractor = Extractor::new(FeatureConfig::default()).unwrap();
+        let unit = extractor.unwrap(img.view(), &circle, 1.0);
+        let half = extractor.unwrap(img.view(), &circle, 0.5);
+        assert!(
+            unit.iter()
+                .zip(&half)
+                .all(|(u, h)| (2.0 * u - h).abs() < 1e-14)
+        );
+        // 1/1e-310 overflows; the cells are still the (finite) quotients.
+        let faint = img.mapv(|v| v * 1e-300);
+        let tiny = extractor.unwrap(faint.view(), &circle, 1e-310);
+        assert!(
+            unit.iter()
+                .zip(&tiny)
+                .all(|(u, t)| (u * 1e10 - t).abs() <= 1e-12 * t)
+        );
     }
 
     #[test]

@@ -9,6 +9,7 @@ pub mod dataset;
 pub mod features;
 pub mod fsutil;
 pub mod geometry;
+pub mod heap;
 pub mod image_io;
 pub mod learn;
 pub mod model;

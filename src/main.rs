@@ -1,3 +1,4 @@
 fn main() -> std::process::ExitCode {
+    reflectance::heap::tune();
     reflectance::cli::main()
 }

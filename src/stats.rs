@@ -102,8 +102,10 @@ pub struct Moments {
 pub fn summarize(values: &[f64], scratch: &mut Vec<u64>) -> Summary {
     assert!(!values.is_empty(), "statistics of an empty set");
     let m = moments(values);
+    // The range from the moments saves the radix selection a pass; NaN would escape it.
+    let range = (!m.mean.is_nan()).then_some((m.min, m.max));
     let [p10, p50, p90] = percentile_ranks(values.len(), [10.0, 50.0, 90.0], |wanted| {
-        order_statistics(values, wanted, scratch)
+        order_statistics(values, wanted, range, scratch)
     });
     Summary {
         mean: m.mean,
@@ -119,7 +121,7 @@ pub fn summarize(values: &[f64], scratch: &mut Vec<u64>) -> Summary {
 /// Percentiles with numpy's default (linear) method.
 pub fn percentiles<const K: usize>(values: &[f64], ps: [f64; K]) -> [f64; K] {
     percentile_ranks(values.len(), ps, |wanted| {
-        order_statistics(values, wanted, &mut Vec::new())
+        order_statistics(values, wanted, None, &mut Vec::new())
     })
 }
 
@@ -143,13 +145,141 @@ fn percentile_ranks<const K: usize>(
     positions.map(|(lo, hi, t)| lerp(at(lo), at(hi), t))
 }
 
-/// The values at the given (sorted, distinct) ranks, by introselect on order keys (integer
-/// compares are cheaper than `total_cmp`); `keys` is scratch space.
-fn order_statistics(values: &[f64], wanted: &[usize], keys: &mut Vec<u64>) -> Vec<f64> {
+/// The values at the given (sorted, distinct) ranks. `range` is (min, max) of `values` if
+/// known and NaN-free; `keys` is scratch space.
+fn order_statistics(
+    values: &[f64],
+    wanted: &[usize],
+    range: Option<(f64, f64)>,
+    keys: &mut Vec<u64>,
+) -> Vec<f64> {
+    match range {
+        Some(range) if values.len() > SMALL_SELECT && bucketable(range) => {
+            let mut found = Vec::with_capacity(wanted.len());
+            bucket_select(values, wanted, range, RECURSION, &mut found);
+            found
+        }
+        _ => introselect(values, wanted, keys),
+    }
+}
+
+/// Introselect on order keys (integer compares are cheaper than `total_cmp`).
+fn introselect(values: &[f64], wanted: &[usize], keys: &mut Vec<u64>) -> Vec<f64> {
     keys.clear();
     keys.extend(values.iter().map(|&v| order_key(v)));
     select_many(keys, wanted, 0);
     wanted.iter().map(|&r| from_order_key(keys[r])).collect()
+}
+
+/// Most histogram buckets per bucket pass (two 16 KiB histograms stay in L1); fewer for
+/// fewer values, about eight values per bucket, so that scanning the histogram stays cheap.
+const MAX_BUCKETS: usize = 1 << 12;
+/// Below this many values, introselect beats the bucket passes.
+const SMALL_SELECT: usize = 512;
+/// Bucket passes at most: each narrows the range 4096-fold; values that still crowd one
+/// bucket after that (a range of many decades) finish with introselect.
+const RECURSION: u32 = 2;
+
+fn bucketable((min, max): (f64, f64)) -> bool {
+    min.is_finite() && max.is_finite() && min < max
+}
+
+/// Selection by value buckets: `⌊(v − min)·scale⌋` is monotone in v, so a histogram of it
+/// locates each wanted rank in one bucket, and only those few buckets are gathered and
+/// searched further. Three light passes over the values (the first vectorizes), against
+/// several full partitions for introselect.
+fn bucket_select(
+    values: &[f64],
+    wanted: &[usize],
+    (min, max): (f64, f64),
+    depth: u32,
+    found: &mut Vec<f64>,
+) {
+    let n_buckets = (values.len() / 8).next_power_of_two().min(MAX_BUCKETS);
+    let scale = n_buckets as f64 / (max - min);
+    let top = (n_buckets - 1) as f64;
+    let buckets: Vec<i32> = values
+        .iter()
+        .map(|&v| {
+            let position = ((v - min) * scale).clamp(0.0, top);
+            // SAFETY: v, min and scale are finite, so `position` is a number in
+            // [0, top], representable as i32. (The checked `as` does not vectorize.)
+            unsafe { position.to_int_unchecked::<i32>() }
+        })
+        .collect();
+    // Two interleaved histograms: runs of equal buckets would otherwise serialize on one
+    // counter's load and store.
+    let (mut even, mut odd) = (vec![0u32; n_buckets], vec![0u32; n_buckets]);
+    let (pairs, tail) = buckets.split_at(buckets.len() & !1);
+    for pair in pairs.chunks_exact(2) {
+        even[pair[0] as usize] += 1;
+        odd[pair[1] as usize] += 1;
+    }
+    tail.iter().for_each(|&b| even[b as usize] += 1);
+    let runs = wanted_buckets(&even, &odd, wanted);
+    let mut slot = vec![u8::MAX; n_buckets];
+    let mut gathered: Vec<Vec<f64>> = runs
+        .iter()
+        .enumerate()
+        .map(|(i, run)| {
+            slot[run.bucket] = i as u8;
+            Vec::with_capacity(run.len)
+        })
+        .collect();
+    for (&v, &b) in values.iter().zip(&buckets) {
+        let s = slot[b as usize];
+        if s != u8::MAX {
+            gathered[s as usize].push(v);
+        }
+    }
+    for (run, members) in runs.iter().zip(gathered) {
+        let local: Vec<usize> = run.ranks.iter().map(|&r| r - run.first_rank).collect();
+        let range = members
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+                (lo.min(v), hi.max(v))
+            });
+        if depth > 1 && members.len() > SMALL_SELECT && bucketable(range) {
+            bucket_select(&members, &local, range, depth - 1, found);
+        } else {
+            found.extend(introselect(&members, &local, &mut Vec::new()));
+        }
+    }
+}
+
+/// One histogram bucket that holds wanted ranks.
+struct Run<'a> {
+    bucket: usize,
+    /// Rank of the bucket's smallest member among all values.
+    first_rank: usize,
+    len: usize,
+    ranks: &'a [usize],
+}
+
+/// The buckets of a histogram pair that hold the (sorted) `wanted` ranks, in order.
+fn wanted_buckets<'a>(even: &[u32], odd: &[u32], wanted: &'a [usize]) -> Vec<Run<'a>> {
+    let mut runs = Vec::new();
+    let (mut start, mut next) = (0, 0);
+    for (bucket, (a, b)) in even.iter().zip(odd).enumerate() {
+        if next == wanted.len() {
+            break;
+        }
+        let len = (a + b) as usize;
+        let first = next;
+        while next < wanted.len() && wanted[next] < start + len {
+            next += 1;
+        }
+        if next > first {
+            runs.push(Run {
+                bucket,
+                first_rank: start,
+                len,
+                ranks: &wanted[first..next],
+            });
+        }
+        start += len;
+    }
+    runs
 }
 
 /// A u64 whose unsigned order is the total order of f64.
@@ -289,16 +419,56 @@ mod tests {
                     _ => -next() * 1e-3,
                 })
                 .collect();
-            let mut sorted = values.clone();
-            sorted.sort_by(f64::total_cmp);
-            let got = percentiles(&values, [10.0, 50.0, 90.0]);
+            assert_percentiles_sort_like(&values);
+        }
+    }
+
+    /// Both selection paths (introselect, and buckets from the moments' range) against a
+    /// full sort.
+    fn assert_percentiles_sort_like(values: &[f64]) {
+        let n = values.len();
+        let mut sorted = values.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let s = summary(values);
+        let paths = [
+            percentiles(values, [10.0, 50.0, 90.0]),
+            [s.p10, s.p50, s.p90],
+        ];
+        for got in paths {
             for (g, p) in got.iter().zip([10.0, 50.0, 90.0]) {
                 let h = p / 100.0 * (n - 1) as f64;
                 let lo = h.floor() as usize;
                 let hi = (lo + 1).min(n - 1);
                 let want = lerp(sorted[lo], sorted[hi], h - lo as f64);
-                assert_eq!(*g, want, "n={n} p={p}");
+                assert_eq!(g.to_bits(), want.to_bits(), "n={n} p={p}");
             }
         }
+    }
+
+    #[test]
+    fn bucket_selection_handles_crowded_and_extreme_ranges() {
+        let n = 20_000;
+        // Everything in one bucket but a far outlier: the bucket pass recurses.
+        let mut crowded: Vec<f64> = (0..n).map(|i| ((i * 7919) % n) as f64 * 1e-4).collect();
+        crowded[17] = 1e9;
+        assert_percentiles_sort_like(&crowded);
+        // Six hundred decades: still crowded after two bucket passes, so introselect ends it.
+        let decades: Vec<f64> = (0..n)
+            .map(|i| 10f64.powf(((i * 7919) % n) as f64 / n as f64 * 600.0 - 300.0))
+            .collect();
+        assert_percentiles_sort_like(&decades);
+        // Signed zeros share a bucket and keep their total order.
+        let zeros: Vec<f64> = (0..n)
+            .map(|i| match i % 4 {
+                0 => -0.0,
+                1 => 0.0,
+                2 => -1.0,
+                _ => 1.0,
+            })
+            .collect();
+        assert_percentiles_sort_like(&zeros);
+        // A few ranks land at the very top bucket (v = max).
+        let ramp: Vec<f64> = (0..n).map(|i| (i % 10) as f64).collect();
+        assert_percentiles_sort_like(&ramp);
     }
 }
