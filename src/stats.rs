@@ -201,7 +201,8 @@ fn bucket_select(
     let buckets: Vec<i32> = values
         .iter()
         .map(|&v| {
-            let position = ((v - min) * scale).clamp(0.0, top);
+            // max/min rather than clamp: clamp's argument check keeps the loop scalar.
+            let position = ((v - min) * scale).max(0.0).min(top);
             // SAFETY: v, min and scale are finite, so `position` is a number in
             // [0, top], representable as i32. (The checked `as` does not vectorize.)
             unsafe { position.to_int_unchecked::<i32>() }
