@@ -119,12 +119,12 @@ impl SpectrumPlan {
             (self.rows, self.cols),
             "image size does not match the plan"
         );
-        let spectrum = self.spectrum(image);
+        let powers: Vec<f64> = self.spectrum(image).iter().map(|f| f.norm_sqr()).collect();
         let norm = 1.0 / ((self.rows * self.cols) as f64).powi(2);
         let sums: Vec<f64> = self
             .class_bins
             .iter()
-            .map(|bins| sum_powers(&spectrum, bins) * norm)
+            .map(|bins| sum_powers(&powers, bins) * norm)
             .collect();
         let mut oriented = [[0.0; 4]; BANDS];
         for (i, slot) in oriented.iter_mut().flatten().enumerate() {
@@ -139,12 +139,14 @@ impl SpectrumPlan {
     /// Half spectrum of the mean-removed image, column-major: `[kx][ky]`, kx ≤ cols/2.
     fn spectrum(&self, image: ArrayView2<f64>) -> Vec<Complex<f64>> {
         let (rows, half) = (self.rows, self.cols / 2 + 1);
-        let mean = image.iter().sum::<f64>() / (rows * self.cols) as f64;
+        let image = image.as_standard_layout();
+        let pixels = image.as_slice().expect("standard layout");
+        let mean = crate::stats::sum(pixels) / pixels.len() as f64;
         let mut row_in = self.row_fft.make_input_vec();
         let mut row_out = self.row_fft.make_output_vec();
         let mut scratch = self.row_fft.make_scratch_vec();
         let mut columns = vec![Complex::new(0.0, 0.0); half * rows];
-        for (ky, row) in image.rows().into_iter().enumerate() {
+        for (ky, row) in pixels.chunks_exact(self.cols).enumerate() {
             row_in.iter_mut().zip(row).for_each(|(d, &s)| *d = s - mean);
             self.row_fft
                 .process_with_scratch(&mut row_in, &mut row_out, &mut scratch)
@@ -158,17 +160,17 @@ impl SpectrumPlan {
     }
 }
 
-/// Σ |F|² over `bins`, with independent accumulators (the order is fixed: deterministic).
-fn sum_powers(spectrum: &[Complex<f64>], bins: &[u32]) -> f64 {
+/// Σ powers over `bins`, with independent accumulators (the order is fixed: deterministic).
+fn sum_powers(powers: &[f64], bins: &[u32]) -> f64 {
     let mut acc = [0.0f64; 4];
     let chunks = bins.chunks_exact(4);
     let tail = chunks.remainder();
     for chunk in chunks {
         for k in 0..4 {
-            acc[k] += spectrum[chunk[k] as usize].norm_sqr();
+            acc[k] += powers[chunk[k] as usize];
         }
     }
-    let tail_sum: f64 = tail.iter().map(|&b| spectrum[b as usize].norm_sqr()).sum();
+    let tail_sum: f64 = tail.iter().map(|&b| powers[b as usize]).sum();
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail_sum
 }
 
