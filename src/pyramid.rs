@@ -198,7 +198,7 @@ unsafe fn build_avx2(image: ArrayView2<f64>, levels: usize, x_edge: Edge) -> Pyr
 
 #[inline(always)]
 fn build_portable(image: ArrayView2<f64>, levels: usize, x_edge: Edge) -> Pyramid {
-    let mut current = image.as_standard_layout().into_owned();
+    let mut current = image.as_standard_layout();
     let mut out = Vec::with_capacity(levels);
     for _ in 0..levels {
         let lo_y = corr_down_y(current.view(), &QMF9_LO, 0);
@@ -206,11 +206,11 @@ fn build_portable(image: ArrayView2<f64>, levels: usize, x_edge: Edge) -> Pyrami
         let (lolo, v) = corr_down_x(lo_y.view(), x_edge);
         let (h, d) = corr_down_x(hi_y.view(), x_edge);
         out.push(Level { h, v, d });
-        current = lolo;
+        current = lolo.into();
     }
     Pyramid {
         levels: out,
-        lowpass: current,
+        lowpass: current.into_owned(),
     }
 }
 
