@@ -76,6 +76,16 @@ fn features_excluding_decode(bencher: Bencher) {
     bencher.bench(|| extractor.extract(divan::black_box(image.luminance.view()), &c, 1.0));
 }
 
+/// The shipped models' configuration: the 117 features plus 117 more of log10 of the
+/// unwrapped image.
+#[divan::bench]
+fn features_with_log_domain(bencher: Bencher) {
+    let image = decoded();
+    let extractor = Extractor::new(FeatureConfig::with_log_domain()).expect("config");
+    let c = circle();
+    bencher.bench(|| extractor.extract(divan::black_box(image.luminance.view()), &c, 1.0));
+}
+
 #[divan::bench]
 fn features_including_decode(bencher: Bencher) {
     let bytes = png_bytes();

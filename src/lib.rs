@@ -12,6 +12,7 @@ pub mod geometry;
 pub mod heap;
 pub mod image_io;
 pub mod learn;
+pub mod log10;
 pub mod model;
 pub mod progress;
 pub mod pyramid;
