@@ -21,7 +21,7 @@ use reflectance::rng::Rng;
 
 fn main() {
     // As the binary does: see `reflectance::heap`.
-    reflectance::heap::tune();
+    assert!(reflectance::heap::tune(), "heap thresholds refused");
     let path = std::env::temp_dir().join("reflectance_learn_bench.csv");
     table().write(&path).expect("write bench table");
     eprintln!("bench table: {}", path.display());

@@ -11,7 +11,7 @@ use std::sync::OnceLock;
 
 fn main() {
     // As the binary does: see `reflectance::heap`.
-    reflectance::heap::tune();
+    assert!(reflectance::heap::tune(), "heap thresholds refused");
     divan::main();
 }
 

@@ -1,4 +1,6 @@
 fn main() -> std::process::ExitCode {
-    reflectance::heap::tune();
+    if !reflectance::heap::tune() {
+        eprintln!("warning: the allocator refused the heap thresholds (see src/heap.rs)");
+    }
     reflectance::cli::main()
 }

@@ -197,25 +197,9 @@ pub async fn serve(
     Ok(())
 }
 
-/// Keep freed request buffers in the allocator instead of returning them to the kernel:
-/// every classification allocates a few large arrays (the luminance plane, the unwrapped
-/// annulus, subbands, FFT buffers), and with glibc's defaults each one is a fresh `mmap`
-/// whose pages fault in and are zeroed again on every request (~15 % of the CPU time under
-/// load). The price is that the process keeps its peak heap (tens of MiB).
-fn tune_allocator() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    {
-        // SAFETY: mallopt only sets allocator parameters; called once at start-up.
-        unsafe {
-            libc::mallopt(libc::M_MMAP_THRESHOLD, 64 << 20);
-            libc::mallopt(libc::M_TRIM_THRESHOLD, 256 << 20);
-        }
-    }
-}
-
 /// `reflectance serve`: everything, from configuration to shutdown.
+/// (The binary has already tuned the heap for repeated requests: `crate::heap`.)
 pub fn run(config: Config) -> Result<(), String> {
-    tune_allocator();
     init_logging(&config);
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
