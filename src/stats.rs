@@ -45,17 +45,7 @@ pub fn sum(values: &[f64]) -> f64 {
 pub fn moments(values: &[f64]) -> Moments {
     let n = values.len() as f64;
     let (chunks, tail) = values.split_at(values.len() / LANES * LANES);
-    let [sum, lo, hi] = lane_sums_and_range(chunks);
-    let mut total: f64 = sum.iter().sum();
-    let (mut min, mut max) = (
-        lo.iter().copied().fold(f64::INFINITY, f64::min),
-        hi.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-    );
-    for &x in tail {
-        total += x;
-        min = min.min(x);
-        max = max.max(x);
-    }
+    let (total, min, max) = sum_and_range(values);
     let mean = total / n;
     let [m2, m3, m4] = lane_central_sums(chunks, mean);
     let (mut m2, mut m3, mut m4) = (
@@ -81,6 +71,23 @@ pub fn moments(values: &[f64]) -> Moments {
         min,
         max,
     }
+}
+
+/// Σx, min and max (NaN values are skipped by min and max, not by the sum).
+fn sum_and_range(values: &[f64]) -> (f64, f64, f64) {
+    let (chunks, tail) = values.split_at(values.len() / LANES * LANES);
+    let [sum, lo, hi] = lane_sums_and_range(chunks);
+    let mut total: f64 = sum.iter().sum();
+    let (mut min, mut max) = (
+        lo.iter().copied().fold(f64::INFINITY, f64::min),
+        hi.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    );
+    for &x in tail {
+        total += x;
+        min = min.min(x);
+        max = max.max(x);
+    }
+    (total, min, max)
 }
 
 /// Per lane of `chunks` (a whole number of [`LANES`]-chunks): Σx, min and max.
@@ -235,8 +242,10 @@ pub fn summarize(values: &[f64], scratch: &mut Vec<u64>) -> Summary {
 
 /// Percentiles with numpy's default (linear) method.
 pub fn percentiles<const K: usize>(values: &[f64], ps: [f64; K]) -> [f64; K] {
+    let (total, min, max) = sum_and_range(values);
+    let range = (!total.is_nan()).then_some((min, max));
     percentile_ranks(values.len(), ps, |wanted| {
-        order_statistics(values, wanted, None, &mut Vec::new())
+        order_statistics(values, wanted, range, &mut Vec::new())
     })
 }
 
@@ -615,7 +624,10 @@ mod tests {
             .collect();
         assert_percentiles_sort_like(&zeros);
         // A few ranks land at the very top bucket (v = max).
-        let ramp: Vec<f64> = (0..n).map(|i| (i % 10) as f64).collect();
+        let mut ramp: Vec<f64> = (0..n).map(|i| (i % 10) as f64).collect();
+        assert_percentiles_sort_like(&ramp);
+        // A NaN escapes the range of min and max: introselect, in total order, instead.
+        ramp[3] = f64::NAN;
         assert_percentiles_sort_like(&ramp);
     }
 }
