@@ -10,6 +10,7 @@ use common::server::{
     CLASSES_JSON, Part, TOKEN, TestServer, config, fixture, free_port, get, models_copy, post_json,
     post_multipart, send, start, temp_dir, with_token, write_probes,
 };
+use reflectance::server::config::Config;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -23,13 +24,19 @@ fn data_dir(name: &str) -> PathBuf {
 }
 
 fn admin_server(name: &str, workers: usize, queue: usize) -> (TestServer, PathBuf) {
+    admin_server_with(name, |cfg| {
+        cfg.workers = workers;
+        cfg.job_queue = queue;
+    })
+}
+
+fn admin_server_with(name: &str, tweak: impl FnOnce(&mut Config)) -> (TestServer, PathBuf) {
     let data = data_dir(name);
     let mut cfg = config(&models_copy(&format!("{name}-models")));
     cfg.admin_token = Some(TOKEN.into());
     cfg.jobs_dir = data.join("jobs");
     cfg.data_dir = data.clone();
-    cfg.workers = workers;
-    cfg.job_queue = queue;
+    tweak(&mut cfg);
     (start(cfg), data)
 }
 
@@ -374,6 +381,86 @@ async fn cancellation_and_the_bounded_queue() {
     let c = submit(&server, json!({"type": "render", "probes": "probes", "classes": "classes.json", "out": "small", "size": 72})).await;
     let done = wait_for(&server, c["id"].as_str().unwrap(), TERMINAL).await;
     assert_eq!(done["state"], "succeeded", "{done}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn finished_jobs_beyond_the_history_are_forgotten() {
+    let (server, data) = admin_server_with("history", |cfg| {
+        cfg.workers = 1;
+        cfg.job_queue = 4;
+        cfg.job_history = 2;
+    });
+    let id = |doc: &Value| doc["id"].as_str().unwrap().to_string();
+    let running = id(&submit(&server, slow_render("slow/h")).await);
+    wait_for(&server, &running, &["running"]).await;
+    let mut queued = Vec::new();
+    for k in 0..3 {
+        queued.push(id(
+            &submit(&server, slow_render(&format!("slow/q{k}"))).await
+        ));
+    }
+    let cancel = |id: &str| {
+        authed(post_json(
+            &format!("/admin/v1/jobs/{id}/cancel"),
+            &json!({}),
+        ))
+    };
+    for q in &queued {
+        assert_eq!(send(&server.admin, cancel(q)).await.status, 200);
+    }
+    let status = |id: &str| {
+        let server = &server;
+        let id = id.to_string();
+        async move {
+            send(&server.admin, authed(get(&format!("/admin/v1/jobs/{id}"))))
+                .await
+                .status
+        }
+    };
+    let file = |id: &str| data.join("jobs").join(format!("{id}.json"));
+    // Three finished, two kept: the first cancelled is forgotten, in memory and on disk.
+    assert_eq!(status(&queued[0]).await, 404);
+    assert!(!file(&queued[0]).exists());
+    assert_eq!(status(&queued[1]).await, 200);
+    assert_eq!(status(&queued[2]).await, 200);
+    // The running job finishes last, so the next oldest finish goes.
+    assert_eq!(send(&server.admin, cancel(&running)).await.status, 200);
+    wait_for(&server, &running, TERMINAL).await;
+    assert_eq!(status(&queued[1]).await, 404);
+    assert!(!file(&queued[1]).exists());
+    assert!(file(&queued[2]).exists() && file(&running).exists());
+    let list = send(&server.admin, authed(get("/admin/v1/jobs")))
+        .await
+        .json();
+    let ids: Vec<&str> = list["jobs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|j| j["id"].as_str().unwrap())
+        .collect();
+    assert_eq!(ids.len(), 2, "{list}");
+    assert!(ids.contains(&queued[2].as_str()) && ids.contains(&running.as_str()));
+
+    // A restart with a shorter history forgets the excess at once.
+    drop(server);
+    let mut cfg = config(&models_copy("history-restart-models"));
+    cfg.admin_token = Some(TOKEN.into());
+    cfg.jobs_dir = data.join("jobs");
+    cfg.data_dir = data.clone();
+    cfg.job_history = 1;
+    let again = start(cfg);
+    let list = send(&again.admin, authed(get("/admin/v1/jobs")))
+        .await
+        .json();
+    assert_eq!(list["jobs"].as_array().unwrap().len(), 1, "{list}");
+    let records = std::fs::read_dir(data.join("jobs"))
+        .unwrap()
+        .filter(|e| {
+            let path = e.as_ref().unwrap().path();
+            path.extension().is_some_and(|x| x == "json")
+        })
+        .count();
+    assert_eq!(records, 1);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -52,6 +52,10 @@ pub struct ServeArgs {
     /// Jobs that may wait for a worker; beyond this `POST /admin/v1/jobs` answers 429.
     #[arg(long, env = "REFLECTANCE_JOB_QUEUE", default_value_t = 16)]
     pub job_queue: usize,
+    /// Finished job records kept (in memory and in the jobs folder); the oldest finished
+    /// beyond this are forgotten.
+    #[arg(long, env = "REFLECTANCE_JOB_HISTORY", default_value_t = 1000)]
+    pub job_history: usize,
     /// Threads that decode images and compute features (default: the number of CPUs).
     #[arg(long, env = "REFLECTANCE_CPU_THREADS")]
     pub cpu_threads: Option<usize>,
@@ -99,6 +103,7 @@ pub struct Config {
     pub jobs_dir: PathBuf,
     pub workers: usize,
     pub job_queue: usize,
+    pub job_history: usize,
     pub cpu_threads: usize,
     pub max_inflight: usize,
     pub body_limit: usize,
@@ -126,6 +131,7 @@ impl std::fmt::Debug for Config {
             .field("jobs_dir", &self.jobs_dir)
             .field("workers", &self.workers)
             .field("job_queue", &self.job_queue)
+            .field("job_history", &self.job_history)
             .field("cpu_threads", &self.cpu_threads)
             .field("max_inflight", &self.max_inflight)
             .field("body_limit", &self.body_limit)
@@ -155,6 +161,7 @@ impl Config {
             data_dir,
             workers: 1,
             job_queue: 16,
+            job_history: 1000,
             cpu_threads: default_cpu_threads(),
             max_inflight: 64,
             body_limit: 16 * 1024 * 1024,
@@ -241,6 +248,7 @@ impl ServeArgs {
             jobs_dir,
             workers: positive("--workers", self.workers)?,
             job_queue: positive("--job-queue", self.job_queue)?,
+            job_history: positive("--job-history", self.job_history)?,
             cpu_threads: positive(
                 "--cpu-threads",
                 self.cpu_threads.unwrap_or_else(default_cpu_threads),

@@ -43,6 +43,7 @@ pub fn build_state(config: Config) -> Result<SharedState, String> {
             models.clone(),
             config.workers,
             config.job_queue,
+            config.job_history,
         )?)
     } else {
         None

@@ -246,6 +246,9 @@ pub struct JobManager {
     limits: Limits,
     models: Arc<ModelStore>,
     records: Mutex<BTreeMap<String, JobRecord>>,
+    /// Ids of finished records, oldest finish first; beyond `history` they are forgotten.
+    finished: Mutex<VecDeque<String>>,
+    history: usize,
     cancel: Mutex<HashMap<String, Arc<AtomicBool>>>,
     queue: Mutex<Queue>,
     wake: Condvar,
@@ -254,7 +257,8 @@ pub struct JobManager {
 
 impl JobManager {
     /// Open the jobs folder (marking records of a previous process that never finished as
-    /// failed: "interrupted") and start `workers` threads behind a queue of `capacity`.
+    /// failed: "interrupted") and start `workers` threads behind a queue of `capacity`,
+    /// keeping the `history` most recently finished records.
     pub fn start(
         jobs_dir: &Path,
         data_dir: &Path,
@@ -262,6 +266,7 @@ impl JobManager {
         models: Arc<ModelStore>,
         workers: usize,
         capacity: usize,
+        history: usize,
     ) -> Result<Arc<JobManager>, String> {
         std::fs::create_dir_all(jobs_dir)
             .map_err(|e| format!("jobs directory {}: {e}", jobs_dir.display()))?;
@@ -273,6 +278,8 @@ impl JobManager {
             limits,
             models,
             records: Mutex::new(records),
+            finished: Mutex::new(VecDeque::new()),
+            history,
             cancel: Mutex::new(HashMap::new()),
             queue: Mutex::new(Queue {
                 waiting: VecDeque::new(),
@@ -316,6 +323,47 @@ impl JobManager {
             tracing::warn!(job = %record.id, "job interrupted by a restart: marked failed");
             self.persist(&record);
         }
+        let mut done: Vec<(String, String)> = self
+            .lock_records()
+            .values()
+            .map(|r| (r.finished.clone().unwrap_or_default(), r.id.clone()))
+            .collect();
+        // Finish times have one-second resolution; ids order ties by creation.
+        done.sort();
+        for (_, id) in done {
+            self.retire(&id);
+        }
+    }
+
+    /// Count a record as finished, and forget the oldest finished ones beyond the history.
+    fn retire(&self, id: &str) {
+        // A job cancelled while queued never reaches a worker, which would drop its flag.
+        self.lock_cancel().remove(id);
+        let forgotten: Vec<String> = {
+            let mut finished = self.finished.lock().unwrap_or_else(|e| e.into_inner());
+            finished.push_back(id.to_string());
+            let excess = finished.len().saturating_sub(self.history);
+            finished.drain(..excess).collect()
+        };
+        if forgotten.is_empty() {
+            return;
+        }
+        let mut records = self.lock_records();
+        for old in forgotten {
+            records.remove(&old);
+            let path = self.record_path(&old);
+            match std::fs::remove_file(&path) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                Err(e) => {
+                    tracing::warn!(job = %old, path = %path.display(), error = %e, "cannot remove an old job record")
+                }
+            }
+        }
+    }
+
+    fn record_path(&self, id: &str) -> PathBuf {
+        self.dir.join(format!("{id}.json"))
     }
 
     pub fn data_dir(&self) -> &DataDir {
@@ -415,6 +463,9 @@ impl JobManager {
             flag.store(true, Ordering::SeqCst);
         }
         self.persist(&record);
+        if record.state.is_terminal() {
+            self.retire(id);
+        }
         self.publish_metrics();
         tracing::info!(job = %id, "job cancellation requested");
         Ok(record)
@@ -479,7 +530,7 @@ impl JobManager {
     }
 
     fn persist(&self, record: &JobRecord) {
-        let path = self.dir.join(format!("{}.json", record.id));
+        let path = self.record_path(&record.id);
         let written = serde_json::to_vec_pretty(record)
             .map_err(std::io::Error::other)
             .and_then(|bytes| write_atomic(&path, &bytes));
@@ -578,6 +629,7 @@ impl JobManager {
             }
             tracing::info!(job = %record.id, state = record.state.as_str(), error = ?record.error, "job finished");
         });
+        self.retire(&id);
         self.lock_cancel().remove(&id);
         self.publish_metrics();
     }
