@@ -68,22 +68,23 @@ fn decode_png(bencher: Bencher) {
     });
 }
 
-#[divan::bench]
-fn features_excluding_decode(bencher: Bencher) {
+fn bench_extraction(bencher: Bencher, config: FeatureConfig) {
     let image = decoded();
-    let extractor = Extractor::new(FeatureConfig::default()).expect("config");
+    let extractor = Extractor::new(config).expect("config");
     let c = circle();
     bencher.bench(|| extractor.extract(divan::black_box(image.luminance.view()), &c, 1.0));
+}
+
+#[divan::bench]
+fn features_excluding_decode(bencher: Bencher) {
+    bench_extraction(bencher, FeatureConfig::default());
 }
 
 /// The shipped models' configuration: the 117 features plus 117 more of log10 of the
 /// unwrapped image.
 #[divan::bench]
 fn features_with_log_domain(bencher: Bencher) {
-    let image = decoded();
-    let extractor = Extractor::new(FeatureConfig::with_log_domain()).expect("config");
-    let c = circle();
-    bencher.bench(|| extractor.extract(divan::black_box(image.luminance.view()), &c, 1.0));
+    bench_extraction(bencher, FeatureConfig::with_log_domain());
 }
 
 #[divan::bench]

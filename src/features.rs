@@ -7,7 +7,7 @@
 use crate::geometry::Circle;
 use crate::pyramid::{self, Edge};
 use crate::spectrum::{BandPowers, ORIENTATIONS, SpectrumPlan};
-use crate::stats::{STAT_NAMES, Summary, moments, percentiles, summarize};
+use crate::stats::{STAT_NAMES, Summary, moments, percentiles_with, summarize};
 use crate::unwrap::{AngleTable, UnwrapConfig, angle_table, unwrap};
 use ndarray::{Array2, ArrayView2};
 use serde::{Deserialize, Serialize};
@@ -397,26 +397,26 @@ impl Extractor {
             }
         }
         let fill = |values: &[f64], base: usize, force_moments: bool, out: &mut [f64]| -> f64 {
-            let mut var = f64::NAN;
+            let mut known = None;
             if force_moments || need[base..base + 4].iter().any(|&b| b) {
                 let m = moments(values);
                 out[base] = m.mean;
                 out[base + 1] = log10_floor(m.var);
                 out[base + 2] = m.skew;
                 out[base + 3] = log10_floor(m.kurt);
-                var = m.var;
+                known = Some(m);
             }
             // Order statistics are exact, so one percentile alone (one selection) equals
             // the same percentile computed with the others.
             let wanted: Vec<usize> = (0..3).filter(|&k| need[base + 4 + k]).collect();
             if let [k] = wanted[..] {
-                let [p] = percentiles(values, [[10.0, 50.0, 90.0][k]]);
+                let [p] = percentiles_with(values, [[10.0, 50.0, 90.0][k]], known.as_ref());
                 out[base + 4 + k] = p;
             } else if !wanted.is_empty() {
-                let [p10, p50, p90] = percentiles(values, [10.0, 50.0, 90.0]);
+                let [p10, p50, p90] = percentiles_with(values, [10.0, 50.0, 90.0], known.as_ref());
                 out[base + 4..base + 7].copy_from_slice(&[p10, p50, p90]);
             }
-            var
+            known.map_or(f64::NAN, |m| m.var)
         };
         fn slice(a: &Array2<f64>) -> std::borrow::Cow<'_, [f64]> {
             match a.as_slice() {

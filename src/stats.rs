@@ -220,14 +220,19 @@ pub struct Moments {
     pub max: f64,
 }
 
+impl Moments {
+    /// (min, max), if it bounds every value: a NaN (which makes the mean NaN) escapes it.
+    pub fn range(&self) -> Option<(f64, f64)> {
+        (!self.mean.is_nan()).then_some((self.min, self.max))
+    }
+}
+
 /// All seven statistics; `scratch` is reused by the percentile selection.
 pub fn summarize(values: &[f64], scratch: &mut Vec<u64>) -> Summary {
     assert!(!values.is_empty(), "statistics of an empty set");
     let m = moments(values);
-    // The range from the moments saves the radix selection a pass; NaN would escape it.
-    let range = (!m.mean.is_nan()).then_some((m.min, m.max));
     let [p10, p50, p90] = percentile_ranks(values.len(), [10.0, 50.0, 90.0], |wanted| {
-        order_statistics(values, wanted, range, scratch)
+        order_statistics(values, wanted, m.range(), scratch)
     });
     Summary {
         mean: m.mean,
@@ -242,8 +247,22 @@ pub fn summarize(values: &[f64], scratch: &mut Vec<u64>) -> Summary {
 
 /// Percentiles with numpy's default (linear) method.
 pub fn percentiles<const K: usize>(values: &[f64], ps: [f64; K]) -> [f64; K] {
-    let (total, min, max) = sum_and_range(values);
-    let range = (!total.is_nan()).then_some((min, max));
+    percentiles_with(values, ps, None)
+}
+
+/// [`percentiles`], reusing the range of `known` moments of the same values if given.
+pub fn percentiles_with<const K: usize>(
+    values: &[f64],
+    ps: [f64; K],
+    known: Option<&Moments>,
+) -> [f64; K] {
+    let range = match known {
+        Some(m) => m.range(),
+        None => {
+            let (total, min, max) = sum_and_range(values);
+            (!total.is_nan()).then_some((min, max))
+        }
+    };
     percentile_ranks(values.len(), ps, |wanted| {
         order_statistics(values, wanted, range, &mut Vec::new())
     })
