@@ -266,41 +266,30 @@ fn predict_rendered_spheres_with_a_trained_model() {
     ]);
     let manifest = data.join("manifest.csv");
     let models = dir.join("models");
-    run(&[
-        "train",
-        "--manifest",
-        manifest.to_str().unwrap(),
-        "--features",
-        "mean1",
-        "--classifier",
-        "nn",
-        "--models",
-        models.to_str().unwrap(),
-        "--name",
-        "tiny",
-        "--classes",
-        classes.to_str().unwrap(),
-    ]);
+    let train = |name: &str, extra: &[&str]| {
+        let mut args = vec![
+            "train",
+            "--manifest",
+            manifest.to_str().unwrap(),
+            "--features",
+            "mean1",
+            "--classifier",
+            "nn",
+            "--models",
+            models.to_str().unwrap(),
+            "--name",
+            name,
+        ];
+        args.extend_from_slice(extra);
+        run(&args);
+    };
+    train("tiny", &["--classes", classes.to_str().unwrap()]);
     let model = Registry::new(&models).load("tiny", 1).unwrap();
     assert_eq!(model.features.config.working_radius, None);
     assert_eq!(model.classes[1].name, "dark");
     assert_eq!(model.classes[1].ward.as_ref().unwrap().rho_d, 0.1);
     // A working radius given to train is recorded in the model's feature configuration.
-    run(&[
-        "train",
-        "--manifest",
-        manifest.to_str().unwrap(),
-        "--features",
-        "mean1",
-        "--classifier",
-        "nn",
-        "--models",
-        models.to_str().unwrap(),
-        "--name",
-        "tiny-wr",
-        "--working-radius",
-        "40",
-    ]);
+    train("tiny-wr", &["--working-radius", "40"]);
     let wr = Registry::new(&models).load("tiny-wr", 1).unwrap();
     assert_eq!(wr.features.config.working_radius, Some(40.0));
     let predictions = dir.join("p.csv");
