@@ -151,8 +151,8 @@ echo "== overload: $((4 * CONNECTIONS)) connections for ${OVERLOAD_SECONDS}s aga
       -F cx=127.5 -F cy=127.5 -F r=116 "http://127.0.0.1:$PORT/v1/classify" >> "$WORK/probe.log" || true
   done ) &
 PROBE_PID=$!
-wrk -t2 -c$((4 * CONNECTIONS)) -d"${OVERLOAD_SECONDS}s" -s scripts/soak/overload.lua \
-  "http://127.0.0.1:$PORT/v1/classify" | tee "$WORK/overload.txt" | sed -n '/^statuses/,$p'
+ONLY_VALID=1 wrk -t2 -c$((4 * CONNECTIONS)) -d"${OVERLOAD_SECONDS}s" -s scripts/soak/mixed.lua \
+  "http://127.0.0.1:$PORT" | tee "$WORK/overload.txt" | sed -n '/^statuses/,$p'
 wait "$PROBE_PID" || true
 python3 - "$WORK/probe.log" <<'PY'
 import sys
