@@ -258,6 +258,17 @@ pub fn format_f64(v: f64) -> String {
     }
 }
 
+/// The illumination group of procedural maps (`synthetic@<id>`, see `render::synthetic`):
+/// like every `@` row, training only; having no original rows, it is never held out.
+pub const SYNTHETIC_ILLUMINATION: &str = "synthetic";
+
+/// Whether an illumination label names a synthetic map.
+pub fn is_synthetic(illumination: &str) -> bool {
+    illumination
+        .split_once('@')
+        .is_some_and(|(group, _)| group == SYNTHETIC_ILLUMINATION)
+}
+
 const LABEL_COLUMNS: [&str; 3] = ["path", "class", "illumination"];
 
 impl FeatureTable {
@@ -349,12 +360,21 @@ impl FeatureTable {
 
     /// The rows of original renders only (illuminations without an `@` view suffix).
     pub fn originals(&self) -> FeatureTable {
+        self.filtered(|illumination| !illumination.contains('@'))
+    }
+
+    /// Every row but those of synthetic illuminations.
+    pub fn without_synthetic(&self) -> FeatureTable {
+        self.filtered(|illumination| !is_synthetic(illumination))
+    }
+
+    fn filtered(&self, keep: impl Fn(&str) -> bool) -> FeatureTable {
         FeatureTable {
             names: self.names.clone(),
             samples: self
                 .samples
                 .iter()
-                .filter(|s| !s.illumination.contains('@'))
+                .filter(|s| keep(&s.illumination))
                 .cloned()
                 .collect(),
         }

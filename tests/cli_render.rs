@@ -155,6 +155,8 @@ fn augmentation_adds_views_with_suffixed_illuminations() {
         "40,50",
         "--contrasts",
         "0.7",
+        "--synthetic",
+        "2",
     ]);
     assert!(
         result.status.success(),
@@ -174,15 +176,44 @@ fn augmentation_adds_views_with_suffixed_illuminations() {
         "probe0@rot090",
         "probe0@rot180",
         "probe0@rot270",
+        "synthetic@s1-0000",
+        "synthetic@s1-0001",
     ];
     for e in expected {
         assert!(illuminations.contains(e), "{illuminations:?}");
     }
-    assert_eq!(manifest.lines().count(), 1 + 2 * 7 * 3);
+    // Probes in 7 views, synthetic maps in the original view only.
+    assert_eq!(manifest.lines().count(), 1 + 2 * 7 * 3 + 2 * 3);
     // A flatter dynamic range renders a different image of the same scene.
     let original = std::fs::read(out.join("probe0__shiny.pfm")).unwrap();
     let flatter = std::fs::read(out.join("probe0@c0.7__shiny.pfm")).unwrap();
     assert_ne!(original, flatter);
+    // Cross-validation trains on the synthetic maps in every fold and never tests them.
+    let cv = run(&[
+        "cv",
+        "--manifest",
+        out.join("manifest.csv").to_str().unwrap(),
+        "--features",
+        "hand2",
+        "--classifier",
+        "nn",
+        "--json",
+    ]);
+    assert!(
+        cv.status.success(),
+        "{}",
+        String::from_utf8_lossy(&cv.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&cv.stdout).unwrap();
+    assert_eq!(report["n"], 2 * 3);
+    let folds = report["folds"].as_array().unwrap();
+    let held_out: Vec<&str> = folds
+        .iter()
+        .map(|f| f["illumination"].as_str().unwrap())
+        .collect();
+    assert_eq!(held_out, ["probe0", "probe1"]);
+    // The other probe's 7 views and both synthetic maps, 3 classes each.
+    assert!(folds.iter().all(|f| f["n_train"] == (7 + 2) * 3));
 }
 
 #[test]

@@ -12,7 +12,8 @@ fn temp_dir(name: &str) -> PathBuf {
     dir
 }
 
-/// Four probes × three classes at 80 px: small enough for every table cell.
+/// Four probes and two synthetic illuminations × three classes at 80 px: small enough for
+/// every table cell.
 fn render(dir: &Path) -> PathBuf {
     let probes = dir.join("probes");
     std::fs::create_dir_all(&probes).unwrap();
@@ -47,6 +48,8 @@ fn render(dir: &Path) -> PathBuf {
             out.to_str().unwrap(),
             "--size",
             "80",
+            "--synthetic",
+            "2",
         ])
         .status()
         .unwrap();
@@ -100,12 +103,18 @@ fn report_writes_both_tables_json_and_plots() {
     );
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(report_dir.join("report.json")).unwrap()).unwrap();
-    // Per data set: 6 Table 1 rows, 4 more Table 2 cells, 2 augmented-protocol rows.
-    assert_eq!(json["cells"].as_array().unwrap().len(), 4 * (6 + 4 + 2));
-    assert!(
-        md.contains("| **hand6+log, augmented training views** |"),
-        "{md}"
-    );
+    // Per data set: 6 Table 1 rows, 4 more Table 2 cells, 2 rows for each of our protocols.
+    assert_eq!(json["cells"].as_array().unwrap().len(), 4 * (6 + 4 + 2 + 2));
+    for row in [
+        "| **hand6+log, augmented training views** |",
+        "| **hand6, views + synthetic illuminations** |",
+    ] {
+        assert!(md.contains(row), "{row}\n{md}");
+    }
+    for dataset in json["datasets"].as_array().unwrap() {
+        assert_eq!(dataset["synthetic_rows"], 2 * 3);
+        assert_eq!(dataset["rows"], (4 + 2) * 3);
+    }
     for cell in json["cells"].as_array().unwrap() {
         let acc = cell["accuracy"].as_f64().unwrap();
         assert!((0.0..=1.0).contains(&acc));

@@ -32,6 +32,10 @@ pub struct RenderArgs {
     /// luminance^k, e.g. 0.7,1.4).
     #[arg(long, value_delimiter = ',')]
     contrasts: Vec<f64>,
+    /// Augmentation: also render this many procedural illuminations (dead-leaves maps with
+    /// compact sources; labelled `synthetic@…`, used for training only).
+    #[arg(long, default_value_t = 0)]
+    synthetic: usize,
     /// Sub-pixel samples per side.
     #[arg(long, default_value_t = Quality::default().pixel_samples)]
     pixel_samples: usize,
@@ -59,6 +63,7 @@ pub fn run(args: RenderArgs) -> CliResult {
             rotations: args.rotations,
             elevations: args.elevations,
             contrasts: args.contrasts,
+            synthetic: args.synthetic,
         },
     };
     let start = std::time::Instant::now();

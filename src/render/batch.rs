@@ -6,7 +6,7 @@
 use super::envmap::{EnvMap, EnvMapError};
 use super::ward::{Material, MaterialError};
 use super::{Lighting, Quality, View, render};
-use crate::dataset::format_f64;
+use crate::dataset::{SYNTHETIC_ILLUMINATION, format_f64};
 use crate::fsutil::write_atomic;
 use crate::image_io::pfm;
 use crate::progress;
@@ -126,6 +126,10 @@ pub struct Augment {
     /// Additional dynamic ranges of each probe: luminance L^k (rescaled to the same mean),
     /// k < 1 flattening and k > 1 sharpening the contrast between sources and surroundings.
     pub contrasts: Vec<f64>,
+    /// Procedural illuminations ([`super::synthetic`]) rendered besides the probes, in the
+    /// original view only, labelled `synthetic@s<seed>-<index>`: one group that never
+    /// holds originals, so cross-validation trains on them in every fold and never tests them.
+    pub synthetic: usize,
 }
 
 /// One view of a probe: the illumination label suffix and the camera.
@@ -205,8 +209,14 @@ pub struct BatchSummary {
     pub manifest: PathBuf,
 }
 
+/// Where a probe's map comes from.
+enum Source {
+    File(PathBuf),
+    Synthetic { seed: u64, index: u64 },
+}
+
 struct Probe {
-    path: PathBuf,
+    source: Source,
     stem: String,
     map: OnceLock<Result<EnvMap, String>>,
     /// One lighting per dynamic range (see [`Variant::lighting`]).
@@ -216,9 +226,10 @@ struct Probe {
 impl Probe {
     /// The map, loaded once.
     fn map(&self) -> Result<&EnvMap, RenderError> {
-        let loaded = self
-            .map
-            .get_or_init(|| EnvMap::load(&self.path).map_err(|e| e.to_string()));
+        let loaded = self.map.get_or_init(|| match &self.source {
+            Source::File(path) => EnvMap::load(path).map_err(|e| e.to_string()),
+            Source::Synthetic { seed, index } => Ok(super::synthetic::map(*seed, *index)),
+        });
         loaded
             .as_ref()
             .map_err(|e| RenderError::Probe(EnvMapError::Other(e.clone())))
@@ -239,6 +250,9 @@ fn stable_hash(text: &str) -> u64 {
     })
 }
 
+/// The index of a synthetic illumination has four digits.
+const MAX_SYNTHETIC: usize = 9999;
+
 fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
     super::check_size(spec.size).map_err(RenderError::Options)?;
     let q = &spec.quality;
@@ -253,10 +267,11 @@ fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
     let a = &spec.augment;
     let bad_elevation = a.elevations.iter().any(|e| !(5.0..=85.0).contains(e));
     let bad_contrast = a.contrasts.iter().any(|c| !(0.1..=4.0).contains(c));
-    if a.rotations > 360 || bad_elevation || bad_contrast {
-        return Err(RenderError::Options(
-            "rotations must be ≤ 360, elevations within 5°…85° and contrasts within 0.1…4".into(),
-        ));
+    if a.rotations > 360 || bad_elevation || bad_contrast || a.synthetic > MAX_SYNTHETIC {
+        return Err(RenderError::Options(format!(
+            "rotations must be ≤ 360, elevations within 5°…85°, contrasts within 0.1…4 and \
+             synthetic illuminations ≤ {MAX_SYNTHETIC}"
+        )));
     }
     Ok(())
 }
@@ -265,6 +280,30 @@ fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
 /// skipped (resume). Writes `manifest.csv` last, atomically.
 pub fn render_dataset(spec: &BatchSpec) -> Result<BatchSummary, RenderError> {
     render_dataset_with(spec, &progress::Silent)
+}
+
+/// The probe files, then the synthetic maps.
+fn probes_of(spec: &BatchSpec) -> Vec<Probe> {
+    let probe = |source: Source, stem: String| Probe {
+        source,
+        stem,
+        map: OnceLock::new(),
+        lightings: (0..=spec.augment.contrasts.len())
+            .map(|_| OnceLock::new())
+            .collect(),
+    };
+    let files = spec.probes.iter().map(|path| {
+        let stem = path
+            .file_stem()
+            .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+        probe(Source::File(path.clone()), stem)
+    });
+    let seed = spec.seed;
+    let synthetic = (0..spec.augment.synthetic as u64).map(|index| {
+        let stem = format!("{SYNTHETIC_ILLUMINATION}@s{seed}-{index:04}");
+        probe(Source::Synthetic { seed, index }, stem)
+    });
+    files.chain(synthetic).collect()
 }
 
 /// [`render_dataset`] reporting each finished image to `observer`; a cancellation seen
@@ -276,25 +315,15 @@ pub fn render_dataset_with(
 ) -> Result<BatchSummary, RenderError> {
     validate(spec)?;
     std::fs::create_dir_all(&spec.out).map_err(io_error(&spec.out))?;
-    let probes: Vec<Probe> = spec
-        .probes
-        .iter()
-        .map(|path| Probe {
-            stem: path
-                .file_stem()
-                .map_or_else(String::new, |s| s.to_string_lossy().into_owned()),
-            path: path.clone(),
-            map: OnceLock::new(),
-            lightings: (0..=spec.augment.contrasts.len())
-                .map(|_| OnceLock::new())
-                .collect(),
-        })
-        .collect();
+    let probes = probes_of(spec);
     // Jobs in manifest order: probe, view, class.
     let mut jobs = Vec::new();
     for (pi, probe) in probes.iter().enumerate() {
-        let width = probe.map()?.width;
-        for variant in variants(&spec.augment, width) {
+        let views = match probe.source {
+            Source::File(_) => variants(&spec.augment, probe.map()?.width),
+            Source::Synthetic { .. } => variants(&Augment::default(), 0),
+        };
+        for variant in views {
             for (ci, class) in spec.classes.iter().enumerate() {
                 let name = format!("{}{}__{}", probe.stem, variant.suffix, class.name);
                 jobs.push(Job {

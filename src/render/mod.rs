@@ -12,6 +12,7 @@ pub mod envmap;
 pub mod fastmath;
 pub mod highlights;
 pub mod irradiance;
+pub mod synthetic;
 pub mod ward;
 
 use crate::geometry::Circle;

@@ -6,9 +6,10 @@
 //! `paper9_6`, `paper9_11`, `all_6`, `all_11` (probe set × class set). Features (with the
 //! log-domain ones) are cached as `features.csv` next to each manifest.
 //!
-//! Two protocols: the paper's (original renders only, the 117 features) for every cell of
-//! Tables 1 and 2, and ours (augmented training views, when the data sets have them) for
-//! hand6 and hand6+log.
+//! Three protocols: the paper's (original renders only, the 117 features) for every cell of
+//! Tables 1 and 2, and ours for hand6 and hand6+log: `augmented` (training views of the
+//! probes, when the data sets have them) and `synthetic` (those views and the procedural
+//! illuminations, when the data sets have them).
 
 mod plots;
 
@@ -49,8 +50,10 @@ pub const DATASETS: [(&str, &str); 4] = [
 
 /// Table 1 rows after `chance`: feature sets for the SVM.
 pub const TABLE1_ROWS: [&str; 6] = ["mean1", "hand2", "hand6", "auto6", "pca6", "all"];
-/// Our protocol: augmented training views, these feature sets (SVM).
+/// Our protocols, these feature sets (SVM).
 pub const AUGMENTED_ROWS: [&str; 2] = ["hand6", "hand6+log"];
+/// Protocols in the order of a data set's table variants.
+const PROTOCOLS: [&str; 3] = ["paper", "augmented", "synthetic"];
 /// Table 2: classifiers × feature sets.
 pub const TABLE2_CLASSIFIERS: [&str; 3] = ["svm", "nn", "knn5"];
 pub const TABLE2_SETS: [&str; 2] = ["hand6", "all"];
@@ -73,7 +76,8 @@ fn paper_figure(dataset: &str, features: &str, classifier: &str) -> Option<f64> 
 #[derive(Clone, Debug, Serialize)]
 pub struct Cell {
     pub dataset: String,
-    /// `paper` (original renders, 117 features) or `augmented` (training views added).
+    /// `paper` (original renders, 117 features), `augmented` (training views added) or
+    /// `synthetic` (training views and synthetic illuminations added).
     pub protocol: String,
     pub features: String,
     pub classifier: String,
@@ -101,6 +105,8 @@ pub struct Report {
 pub struct DatasetSummary {
     pub name: String,
     pub rows: usize,
+    /// Rows of synthetic illuminations (training only), included in `rows`.
+    pub synthetic_rows: usize,
     pub evaluated: usize,
     pub illuminations: usize,
     pub classes: usize,
@@ -168,11 +174,7 @@ pub fn run(
                 runs.push((name, "paper", set, classifier));
             }
         }
-        for set in AUGMENTED_ROWS {
-            runs.push((name, "augmented", set, "svm"));
-        }
     }
-    let bar = crate::progress::bar(runs.len() as u64, "report");
     let base_names = FeatureConfig::default().names();
     let mut tables = Vec::new();
     let mut datasets = Vec::new();
@@ -182,23 +184,35 @@ pub fn run(
             .originals()
             .with_columns(&base_names)
             .map_err(ReportError::Plot)?;
-        let (paper_ds, full_ds) = (Dataset::from_table(&paper)?, Dataset::from_table(&full)?);
+        let views = full.without_synthetic();
+        let synthetic_rows = full.samples.len() - views.samples.len();
+        let paper_ds = Dataset::from_table(&paper)?;
         datasets.push(DatasetSummary {
             name: name.to_string(),
-            rows: full_ds.n_rows(),
+            rows: full.samples.len(),
+            synthetic_rows,
             evaluated: paper_ds.n_rows(),
             illuminations: paper_ds.group_names.len(),
             classes: paper_ds.n_classes(),
         });
-        tables.push((name, [(paper, paper_ds), (full, full_ds)]));
+        let ours = PROTOCOLS[1..=1 + usize::from(synthetic_rows > 0)].iter();
+        runs.extend(ours.flat_map(|p| AUGMENTED_ROWS.map(|set| (name, *p, set, "svm"))));
+        let views_ds = Dataset::from_table(&views)?;
+        let full_ds = Dataset::from_table(&full)?;
+        tables.push((
+            name,
+            [(paper, paper_ds), (views, views_ds), (full, full_ds)],
+        ));
     }
+    let bar = crate::progress::bar(runs.len() as u64, "report");
     let mut cells = Vec::new();
     for (name, protocol, set, classifier) in runs {
         let (_, variants) = tables
             .iter()
             .find(|(n, _)| *n == name)
             .expect("loaded above");
-        let (table, ds) = &variants[usize::from(protocol == "augmented")];
+        let variant = PROTOCOLS.iter().position(|p| *p == protocol).unwrap_or(0);
+        let (table, ds) = &variants[variant];
         let spec = TrainSpec::new(
             FeatureSet::parse_with(set, &table.names)?,
             classifier.parse::<ClassifierKind>()?,
@@ -279,12 +293,15 @@ pub fn markdown(report: &Report) -> String {
          (— where the paper's figure is not available to us). Seed {}.\n",
         report.seed
     );
-    md.push_str("| data set | images (with views) | evaluated | illuminations | classes |\n|---|---|---|---|---|\n");
+    md.push_str(
+        "| data set | images (with views) | of synthetic illuminations | evaluated | illuminations | classes |\n\
+         |---|---|---|---|---|---|\n",
+    );
     for d in &report.datasets {
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} |",
-            d.name, d.rows, d.evaluated, d.illuminations, d.classes
+            "| {} | {} | {} | {} | {} | {} |",
+            d.name, d.rows, d.synthetic_rows, d.evaluated, d.illuminations, d.classes
         );
     }
     md.push_str("\n## Table 1 — SVM (RBF, C = 100, γ = 1/n), feature sets × data sets\n\n");
@@ -302,24 +319,34 @@ pub fn markdown(report: &Report) -> String {
         }
         md.push('\n');
     }
-    for set in AUGMENTED_ROWS {
-        let _ = write!(md, "| **{set}, augmented training views** |");
-        for (name, _) in DATASETS {
-            let cell = find(report, name, "augmented", set, "svm");
-            let _ = write!(
-                md,
-                " {} |",
-                format_cell(cell, paper_figure(name, "hand6", "svm"))
-            );
+    for (protocol, label) in [
+        ("augmented", "augmented training views"),
+        ("synthetic", "views + synthetic illuminations"),
+    ] {
+        if !report.cells.iter().any(|c| c.protocol == protocol) {
+            continue;
         }
-        md.push('\n');
+        for set in AUGMENTED_ROWS {
+            let _ = write!(md, "| **{set}, {label}** |");
+            for (name, _) in DATASETS {
+                let cell = find(report, name, protocol, set, "svm");
+                let _ = write!(
+                    md,
+                    " {} |",
+                    format_cell(cell, paper_figure(name, "hand6", "svm"))
+                );
+            }
+            md.push('\n');
+        }
     }
     md.push_str(
         "\nThe rows above the bold ones follow the paper's protocol: the original renders only and \
          the 117 features. The bold rows train on every rendered view of the other illuminations \
          (turns about the vertical axis and other viewer elevations; the held-out illumination's \
-         views are excluded) and are evaluated on the same original renders; hand6+log adds the \
-         log-domain pixel statistics and subband variances. Beside them: the paper's hand6 figure.\n",
+         views are excluded) and are evaluated on the same original renders; the synthetic rows \
+         also train on procedural illuminations (`render --synthetic`), in every fold. hand6+log \
+         adds the log-domain pixel statistics and subband variances. Beside them: the paper's \
+         hand6 figure.\n",
     );
     md.push_str("\n## Table 2 — classifiers × feature sets (paper protocol)\n\n");
     header(&mut md, "| classifier | features |");
