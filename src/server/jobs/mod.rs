@@ -605,6 +605,8 @@ impl JobManager {
         }))
         .unwrap_or_else(|_| Err(run::Failure::Error("the job panicked".into())));
         let finished = crate::model::now_rfc3339();
+        // Trim the history first: whoever sees this job finished sees the trimmed history.
+        self.retire(&id);
         self.update(&id, true, |record| {
             record.finished = Some(finished);
             match outcome {
@@ -629,8 +631,6 @@ impl JobManager {
             }
             tracing::info!(job = %record.id, state = record.state.as_str(), error = ?record.error, "job finished");
         });
-        self.retire(&id);
-        self.lock_cancel().remove(&id);
         self.publish_metrics();
     }
 }
