@@ -21,18 +21,25 @@ pub const HEIGHT: usize = 256;
 pub fn map(seed: u64, index: u64) -> EnvMap {
     let mut rng = Rng::fork(seed, index);
     let grid = EnvMap::from_fn(WIDTH, HEIGHT, |_| 0.0);
-    let dirs: Vec<Vec3> = (0..HEIGHT * WIDTH)
-        .map(|p| grid.direction((p / WIDTH) as f64 + 0.5, (p % WIDTH) as f64 + 0.5))
+    let pixels: Vec<Pixel> = (0..HEIGHT * WIDTH)
+        .map(|p| {
+            let d = grid.direction((p / WIDTH) as f64 + 0.5, (p % WIDTH) as f64 + 0.5);
+            Pixel {
+                d,
+                theta: d.y.clamp(-1.0, 1.0).acos(),
+                phi: d.x.atan2(-d.z),
+            }
+        })
         .collect();
     let profile = Profile::draw(&mut rng);
-    let mut log_l: Vec<f64> = dirs.iter().map(|d| profile.sky_slope_at(d.y)).collect();
-    paint_leaves(&mut rng, &profile, &dirs, &mut log_l);
-    add_texture(&mut rng, &dirs, &mut log_l);
+    let mut log_l: Vec<f64> = pixels.iter().map(|p| profile.base_at(p.d.y)).collect();
+    paint_leaves(&mut rng, &profile, &pixels, &mut log_l);
+    add_texture(&mut rng, &pixels, &mut log_l);
     let mut env = EnvMap {
         luminance: log_l.iter().map(|l| 10f64.powf(*l)).collect(),
         ..grid
     };
-    add_sources(&mut rng, &dirs, &mut env);
+    add_sources(&mut rng, &pixels, &mut env);
     env
 }
 
@@ -77,7 +84,8 @@ impl Profile {
         self.ground * (1.0 - 1.0 / (1.0 + (-(y - self.horizon) / softness).exp()))
     }
 
-    fn sky_slope_at(&self, y: f64) -> f64 {
+    /// The background: the profile with its own horizon softness, plus the sky's slope.
+    fn base_at(&self, y: f64) -> f64 {
         self.at(y, self.softness) + self.sky_slope * y.max(0.0)
     }
 }
@@ -156,15 +164,7 @@ fn leaf_radius(rng: &mut Rng, r_min: f64, r_max: f64) -> f64 {
     (r_min.powi(-2) - u * (r_min.powi(-2) - r_max.powi(-2))).powf(-0.5)
 }
 
-fn paint_leaves(rng: &mut Rng, profile: &Profile, dirs: &[Vec3], log_l: &mut [f64]) {
-    let pixels: Vec<Pixel> = dirs
-        .iter()
-        .map(|&d| Pixel {
-            d,
-            theta: d.y.clamp(-1.0, 1.0).acos(),
-            phi: d.x.atan2(-d.z),
-        })
-        .collect();
+fn paint_leaves(rng: &mut Rng, profile: &Profile, pixels: &[Pixel], log_l: &mut [f64]) {
     let spread = uniform(rng, 0.1, 0.7);
     let count = 10 + rng.below(390);
     let (r_min, r_max) = (1.5f64.to_radians(), uniform(rng, 20.0, 80.0).to_radians());
@@ -184,7 +184,7 @@ fn paint_leaves(rng: &mut Rng, profile: &Profile, dirs: &[Vec3], log_l: &mut [f6
 }
 
 /// A faint texture with a 1/f amplitude spectrum: plane waves with log-uniform frequency.
-fn add_texture(rng: &mut Rng, dirs: &[Vec3], log_l: &mut [f64]) {
+fn add_texture(rng: &mut Rng, pixels: &[Pixel], log_l: &mut [f64]) {
     const WAVES: usize = 100;
     let amplitude = uniform(rng, 0.0, 0.12);
     let waves: Vec<(Vec3, f64)> = (0..WAVES)
@@ -193,9 +193,9 @@ fn add_texture(rng: &mut Rng, dirs: &[Vec3], log_l: &mut [f64]) {
             (unit_vector(rng) * k, uniform(rng, 0.0, 2.0 * PI))
         })
         .collect();
-    let field: Vec<f64> = dirs
+    let field: Vec<f64> = pixels
         .iter()
-        .map(|d| waves.iter().map(|(k, p)| (d.dot(*k) + p).cos()).sum())
+        .map(|px| waves.iter().map(|(k, p)| (px.d.dot(*k) + p).cos()).sum())
         .collect();
     let n = field.len() as f64;
     let mean = field.iter().sum::<f64>() / n;
@@ -206,7 +206,7 @@ fn add_texture(rng: &mut Rng, dirs: &[Vec3], log_l: &mut [f64]) {
 }
 
 /// 0–3 compact sources (mostly above the horizon), each adding a share of the map's light.
-fn add_sources(rng: &mut Rng, dirs: &[Vec3], env: &mut EnvMap) {
+fn add_sources(rng: &mut Rng, pixels: &[Pixel], env: &mut EnvMap) {
     let solid_angles: Vec<f64> = (0..HEIGHT).map(|i| env.solid_angle(i)).collect();
     let flux = |values: &[f64]| -> f64 {
         values
@@ -226,10 +226,10 @@ fn add_sources(rng: &mut Rng, dirs: &[Vec3], env: &mut EnvMap) {
             .to_radians();
         let hard = rng.next_f64() < 0.5;
         let share = uniform(rng, 0.05, 0.8);
-        let shape: Vec<f64> = dirs
+        let shape: Vec<f64> = pixels
             .iter()
-            .map(|d| {
-                let angle = d.dot(centre).clamp(-1.0, 1.0).acos();
+            .map(|p| {
+                let angle = p.d.dot(centre).clamp(-1.0, 1.0).acos();
                 if hard {
                     ((radius - angle) / 0.3f64.to_radians()).clamp(0.0, 1.0)
                 } else {
