@@ -103,6 +103,15 @@ impl EnvMap {
         2.0 * PI / self.width as f64 * (top.cos() - bottom.cos())
     }
 
+    /// ∫ v dω of per-pixel values `v` on this map's grid (of the luminance: the map's power).
+    pub fn integral(&self, values: &[f64]) -> f64 {
+        values
+            .chunks_exact(self.width)
+            .enumerate()
+            .map(|(i, row)| self.solid_angle(i) * row.iter().sum::<f64>())
+            .sum()
+    }
+
     /// Bilinear lookup in direction `d` (unit), wrapping in φ and clamping in θ.
     #[inline]
     pub fn lookup(&self, d: Vec3) -> f64 {
@@ -127,16 +136,8 @@ impl EnvMap {
     /// The map with its luminance raised to the power `k`, rescaled to the same
     /// solid-angle-weighted mean: a different dynamic range of the same scene.
     pub fn with_contrast(&self, k: f64) -> EnvMap {
-        let mean = |l: &[f64]| -> f64 {
-            (0..self.height)
-                .map(|i| {
-                    self.solid_angle(i)
-                        * l[i * self.width..(i + 1) * self.width].iter().sum::<f64>()
-                })
-                .sum()
-        };
         let powered: Vec<f64> = self.luminance.iter().map(|v| v.powf(k)).collect();
-        let scale = mean(&self.luminance) / mean(&powered).max(f64::MIN_POSITIVE);
+        let scale = self.integral(&self.luminance) / self.integral(&powered).max(f64::MIN_POSITIVE);
         EnvMap {
             width: self.width,
             height: self.height,
@@ -217,11 +218,7 @@ mod tests {
     #[test]
     fn contrast_keeps_the_mean_and_changes_the_range() {
         let map = EnvMap::from_fn(64, 32, |d| 0.5 + 2.0 * d.y.max(0.0).powi(8) + 0.1 * d.x);
-        let total = |m: &EnvMap| -> f64 {
-            (0..32)
-                .map(|i| m.solid_angle(i) * m.luminance[i * 64..(i + 1) * 64].iter().sum::<f64>())
-                .sum()
-        };
+        let total = |m: &EnvMap| m.integral(&m.luminance);
         let range = |m: &EnvMap| {
             m.luminance.iter().fold(0.0f64, |a, &b| a.max(b))
                 / m.luminance.iter().fold(f64::INFINITY, |a, &b| a.min(b))

@@ -44,10 +44,7 @@ impl BrightSources {
     pub fn new(map: &EnvMap) -> BrightSources {
         let (w, h) = (map.width, map.height);
         let total_solid: f64 = (0..h).map(|i| map.solid_angle(i) * w as f64).sum();
-        let mean = (0..h)
-            .map(|i| map.solid_angle(i) * map.luminance[i * w..(i + 1) * w].iter().sum::<f64>())
-            .sum::<f64>()
-            / total_solid;
+        let mean = map.integral(&map.luminance) / total_solid;
         let mut candidates: Vec<usize> = (0..w * h)
             .filter(|&k| map.luminance[k] >= BRIGHT_RATIO * mean && map.luminance[k] > 0.0)
             .collect();

@@ -5,7 +5,8 @@
 //! much of the light (the paper's §3). A dead-leaves model gives the first two: occluding
 //! caps and lat-long boxes of scale-invariant size (density ∝ r⁻³), painted largest first,
 //! each with its own log-luminance around a sky-to-ground profile. A faint 1/f texture of
-//! random plane waves and 0–3 sources of random size and share of the light complete it.
+//! random plane waves and 0–3 sources of random size and share of the light complete it; a
+//! third of the maps are then seen as through a capture of half the resolution.
 //! Every parameter is drawn per map, so the maps spread widely rather than imitate one scene.
 
 use super::Vec3;
@@ -40,7 +41,35 @@ pub fn map(seed: u64, index: u64) -> EnvMap {
         ..grid
     };
     add_sources(&mut rng, &pixels, &mut env);
+    if rng.next_f64() < LOW_RESOLUTION_SHARE {
+        env = low_resolution(&env);
+    }
     env
+}
+
+/// Share of maps seen as through a 256 × 128 capture: light probes come at different
+/// resolutions (two of the paper9 maps were upsampled from 256 × 128), and a mirror under a
+/// blurred map must not be new to the classifier.
+const LOW_RESOLUTION_SHARE: f64 = 1.0 / 3.0;
+
+/// The map averaged over 2 × 2 pixels (by solid angle) and interpolated back to its size.
+fn low_resolution(env: &EnvMap) -> EnvMap {
+    let (width, height) = (env.width / 2, env.height / 2);
+    let mut small = EnvMap {
+        width,
+        height,
+        luminance: vec![0.0; width * height],
+    };
+    for i in 0..height {
+        let (upper, lower) = (env.solid_angle(2 * i), env.solid_angle(2 * i + 1));
+        for j in 0..width {
+            let at = |row: usize, col: usize| env.luminance[row * env.width + col];
+            let sum = upper * (at(2 * i, 2 * j) + at(2 * i, 2 * j + 1))
+                + lower * (at(2 * i + 1, 2 * j) + at(2 * i + 1, 2 * j + 1));
+            small.luminance[i * width + j] = sum / (2.0 * (upper + lower));
+        }
+    }
+    EnvMap::from_fn(env.width, env.height, |d| small.lookup(d))
 }
 
 /// Uniform in [lo, hi).
@@ -205,17 +234,11 @@ fn add_texture(rng: &mut Rng, pixels: &[Pixel], log_l: &mut [f64]) {
     }
 }
 
-/// 0–3 compact sources (mostly above the horizon), each adding a share of the map's light.
+/// 0–3 compact sources (mostly above the horizon), each carrying a share of the light of the
+/// map it is added to: up to 95 %, as a sun or a window does in real maps (a share of the
+/// light before it, at most 80 %, left the front of back-lit maps too bright).
 fn add_sources(rng: &mut Rng, pixels: &[Pixel], env: &mut EnvMap) {
-    let solid_angles: Vec<f64> = (0..HEIGHT).map(|i| env.solid_angle(i)).collect();
-    let flux = |values: &[f64]| -> f64 {
-        values
-            .iter()
-            .enumerate()
-            .map(|(p, v)| v * solid_angles[p / WIDTH])
-            .sum()
-    };
-    let total = flux(&env.luminance);
+    let mut total = env.integral(&env.luminance);
     for _ in 0..rng.below(4) {
         let mut centre = unit_vector(rng);
         if rng.next_f64() < 0.8 {
@@ -225,7 +248,7 @@ fn add_sources(rng: &mut Rng, pixels: &[Pixel], env: &mut EnvMap) {
             .powf(uniform(rng, 0.3f64.log10(), 8f64.log10()))
             .to_radians();
         let hard = rng.next_f64() < 0.5;
-        let share = uniform(rng, 0.05, 0.8);
+        let share = uniform(rng, 0.05, 0.95);
         let shape: Vec<f64> = pixels
             .iter()
             .map(|p| {
@@ -237,7 +260,9 @@ fn add_sources(rng: &mut Rng, pixels: &[Pixel], env: &mut EnvMap) {
                 }
             })
             .collect();
-        let gain = share * total / flux(&shape).max(1e-300);
+        let added = total * share / (1.0 - share);
+        let gain = added / env.integral(&shape).max(1e-300);
+        total += added;
         for (l, s) in env.luminance.iter_mut().zip(&shape) {
             *l += gain * s;
         }
@@ -262,6 +287,19 @@ mod tests {
         assert_eq!(a.luminance, map(7, 3).luminance);
         assert_ne!(a.luminance, map(7, 4).luminance);
         assert_ne!(a.luminance, map(8, 3).luminance);
+    }
+
+    #[test]
+    fn a_low_resolution_map_keeps_its_light_and_loses_its_finest_detail() {
+        let mut sharp = map(1, 0);
+        sharp.luminance[100 * WIDTH + 300] += 1e3;
+        let soft = low_resolution(&sharp);
+        let flux = |m: &EnvMap| m.integral(&m.luminance);
+        assert!((flux(&soft) / flux(&sharp) - 1.0).abs() < 0.01);
+        let neighbour_ratio =
+            |m: &EnvMap| m.luminance[100 * WIDTH + 300] / m.luminance[100 * WIDTH + 302];
+        assert!(neighbour_ratio(&sharp) > 10.0 * neighbour_ratio(&soft));
+        assert!(soft.luminance.iter().all(|v| v.is_finite() && *v > 0.0));
     }
 
     #[test]
