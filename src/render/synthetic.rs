@@ -302,9 +302,34 @@ mod tests {
         assert!(soft.luminance.iter().all(|v| v.is_finite() && *v > 0.0));
     }
 
+    /// Share of the map's light in its brightest pixels covering `area` of the sphere.
+    fn brightest_share(env: &EnvMap, area: f64) -> f64 {
+        let mut pixels: Vec<(f64, f64)> = (0..env.luminance.len())
+            .map(|p| (env.luminance[p], env.solid_angle(p / env.width)))
+            .collect();
+        pixels.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let mut covered = 0.0;
+        let bright: f64 = pixels
+            .iter()
+            .take_while(|(_, omega)| {
+                covered += omega;
+                covered <= area * 4.0 * PI
+            })
+            .map(|(l, omega)| l * omega)
+            .sum();
+        bright / env.integral(&env.luminance)
+    }
+
     #[test]
     fn maps_are_natural_looking_on_the_whole() {
         let maps: Vec<EnvMap> = (0..12).map(|i| map(1, i)).collect();
+        // Some are dominated by a compact source: in 1 % of the sphere, 93 % of the light of
+        // open3d_park, 75 % of ict_grace's (sources adding ≤ 80 % of the rest reached 70 %).
+        let dominated = maps
+            .iter()
+            .filter(|m| brightest_share(m, 0.01) > 0.9)
+            .count();
+        assert!(dominated >= 2, "{dominated} of 12");
         // Mostly brighter above than below, and high dynamic range.
         let brighter_above = maps
             .iter()
