@@ -52,11 +52,7 @@ fn single_image_json_matches_the_reference() {
         "--white",
         "0.8",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::assert_success(&out);
     let got: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(got["names"], want["names"]);
     for (g, w) in got["values"]
@@ -157,11 +153,7 @@ fn manifest_to_feature_table() {
         "--out",
         out_csv.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::assert_success(&out);
     let table = reflectance::dataset::FeatureTable::read(&out_csv).unwrap();
     assert_eq!(table.names, reflectance::features::default_names());
     assert_eq!(table.samples.len(), 3);

@@ -72,11 +72,7 @@ fn renders_a_dataset_that_resumes_and_feeds_the_features() {
         "3",
     ];
     let first = run(&args);
-    assert!(
-        first.status.success(),
-        "{}",
-        String::from_utf8_lossy(&first.stderr)
-    );
+    common::assert_success(&first);
     let manifest = std::fs::read_to_string(out.join("manifest.csv")).unwrap();
     let lines: Vec<&str> = manifest.lines().collect();
     assert_eq!(lines[0], "path,class,illumination,cx,cy,r,white");
@@ -121,11 +117,7 @@ fn renders_a_dataset_that_resumes_and_feeds_the_features() {
         "--out",
         table.to_str().unwrap(),
     ]);
-    assert!(
-        features.status.success(),
-        "{}",
-        String::from_utf8_lossy(&features.stderr)
-    );
+    common::assert_success(&features);
     let table = reflectance::dataset::FeatureTable::read(&table).unwrap();
     assert_eq!(table.samples.len(), 6);
     // The white reference normalizes: a white-ish matte sphere's mean is below ρd = 0.8.
@@ -158,11 +150,7 @@ fn augmentation_adds_views_with_suffixed_illuminations() {
         "--synthetic",
         "2",
     ]);
-    assert!(
-        result.status.success(),
-        "{}",
-        String::from_utf8_lossy(&result.stderr)
-    );
+    common::assert_success(&result);
     let manifest = std::fs::read_to_string(out.join("manifest.csv")).unwrap();
     let illuminations: std::collections::BTreeSet<&str> = manifest
         .lines()
@@ -199,11 +187,7 @@ fn augmentation_adds_views_with_suffixed_illuminations() {
         "nn",
         "--json",
     ]);
-    assert!(
-        cv.status.success(),
-        "{}",
-        String::from_utf8_lossy(&cv.stderr)
-    );
+    common::assert_success(&cv);
     let report: serde_json::Value = serde_json::from_slice(&cv.stdout).unwrap();
     assert_eq!(report["n"], 2 * 3);
     let folds = report["folds"].as_array().unwrap();

@@ -1,5 +1,7 @@
 //! `reflectance report`: Tables 1 and 2, JSON and plots, on tiny rendered data sets.
 
+mod common;
+
 use reflectance::image_io::rgbe;
 use reflectance::render::envmap::EnvMap;
 use std::path::{Path, PathBuf};
@@ -74,11 +76,7 @@ fn report_writes_both_tables_json_and_plots() {
         .args(["report", "--data", data.to_str().unwrap()])
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::assert_success(&out);
     let md = String::from_utf8(out.stdout).unwrap();
     assert!(
         md.contains("## Table 1") && md.contains("## Table 2"),

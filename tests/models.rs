@@ -150,11 +150,7 @@ fn train_and_cross_validate_through_the_binary() {
         ])
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::assert_success(&out);
     let printed = String::from_utf8(out.stdout).unwrap();
     assert_eq!(PathBuf::from(printed.trim()), models.join("demo/1"));
     assert!(models.join("demo/1/report.json").is_file());
