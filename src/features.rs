@@ -3,6 +3,10 @@
 //! Order: `pix.*` (7), `wav.s{k}.{h,v,d}.*` (7 per subband), `ratio.{h,v,d}.s{k}_s{k+1}`,
 //! `fft.b{1..4}.f{0,45,90,135}.pow`, `fft.lo.pow`. Every `*.var`, `*.kurt`, `*.pow` and
 //! `ratio.*` is log10 (argument floored at 1e-30); means, skews and percentiles are linear.
+//!
+//! Extensions (README): `radial.pix.{mean,var}`, `radial.wav.s{k}.{h,v,d}.var` after those
+//! (outer half of the annulus minus inner half), and the whole block again on the log10 image
+//! with the `log.` prefix.
 
 use crate::geometry::Circle;
 use crate::pyramid::{self, Edge};
@@ -32,6 +36,53 @@ fn log_pixels(unwrapped: &Array2<f64>) -> Array2<f64> {
 
 /// Prefix of the log-domain features' names.
 pub const LOG_PREFIX: &str = "log.";
+/// Prefix of the radial-change features' names (within a block).
+pub const RADIAL_PREFIX: &str = "radial.";
+
+/// Optional feature families beyond DESIGN.md's 117.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Extensions {
+    /// The whole block again on the log10 image (`log.*`).
+    pub log_domain: bool,
+    /// How the outer half of the annulus differs from the inner half (`radial.*`).
+    pub radial: bool,
+}
+
+impl Extensions {
+    /// Every extension.
+    pub const ALL: Extensions = Extensions {
+        log_domain: true,
+        radial: true,
+    };
+
+    /// The extensions whose features occur among `names` (a table's columns, a list).
+    pub fn of_names<'a>(names: impl IntoIterator<Item = &'a str>) -> Self {
+        names.into_iter().fold(Extensions::default(), |seen, name| {
+            let in_block = name.strip_prefix(LOG_PREFIX);
+            Extensions {
+                log_domain: seen.log_domain || in_block.is_some(),
+                radial: seen.radial || in_block.unwrap_or(name).starts_with(RADIAL_PREFIX),
+            }
+        })
+    }
+
+    /// The extensions a feature-set specification reads (a named set or a list of names).
+    pub fn of_spec(spec: &str) -> Self {
+        let spec = spec.trim();
+        match named_set(spec) {
+            Some(names) => Self::of_names(names.iter().map(String::as_str)),
+            None => Self::of_names(spec.split(',').map(str::trim)),
+        }
+    }
+
+    /// Both sets of extensions.
+    pub fn union(self, other: Extensions) -> Extensions {
+        Extensions {
+            log_domain: self.log_domain || other.log_domain,
+            radial: self.radial || other.radial,
+        }
+    }
+}
 
 /// Everything that determines the feature values: stored in every model file.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -42,6 +93,10 @@ pub struct FeatureConfig {
     /// image U, named with the `log.` prefix (an extension of the paper; see README).
     #[serde(default)]
     pub log_domain: bool,
+    /// Also compute, in each block, how the outer half of the annulus differs from the inner
+    /// half (`radial.*`; an extension, see README). Absent in older model files.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub radial: bool,
     /// Spheres larger than this radius (px) are first area-downsampled to it, so a model
     /// sees the same effective resolution as in training (see `resample`). None: no
     /// resampling (the DESIGN.md definition).
@@ -55,9 +110,14 @@ impl Default for FeatureConfig {
             unwrap: UnwrapConfig::default(),
             levels: 4,
             log_domain: false,
+            radial: false,
             working_radius: None,
         }
     }
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -121,9 +181,10 @@ impl FeatureConfig {
     }
 
     /// The default configuration with the given extensions.
-    pub fn extended(log_domain: bool, working_radius: Option<f64>) -> Self {
+    pub fn extended(extensions: Extensions, working_radius: Option<f64>) -> Self {
         FeatureConfig {
-            log_domain,
+            log_domain: extensions.log_domain,
+            radial: extensions.radial,
             working_radius,
             ..FeatureConfig::default()
         }
@@ -131,7 +192,19 @@ impl FeatureConfig {
 
     /// The default configuration with the log-domain features.
     pub fn with_log_domain() -> Self {
-        FeatureConfig::extended(true, None)
+        let log_domain = Extensions {
+            log_domain: true,
+            radial: false,
+        };
+        FeatureConfig::extended(log_domain, None)
+    }
+
+    /// The extensions this configuration computes.
+    pub fn extensions(&self) -> Extensions {
+        Extensions {
+            log_domain: self.log_domain,
+            radial: self.radial,
+        }
     }
 
     /// Canonical feature names for this configuration.
@@ -161,8 +234,19 @@ impl FeatureConfig {
             names.extend(ORIENTATIONS.iter().map(|o| format!("fft.b{b}.{o}.pow")));
         }
         names.push("fft.lo.pow".into());
+        if self.radial {
+            names.extend(radial_names(self.levels));
+        }
         names
     }
+}
+
+/// `radial.pix.{mean,var}`, `radial.wav.s{k}.{h,v,d}.var`.
+fn radial_names(levels: usize) -> impl Iterator<Item = String> {
+    let pixels = ["mean", "var"].map(|s| format!("{RADIAL_PREFIX}pix.{s}"));
+    let bands =
+        (1..=levels).flat_map(|k| BAND_NAMES.map(|b| format!("{RADIAL_PREFIX}wav.s{k}.{b}.var")));
+    pixels.into_iter().chain(bands)
 }
 
 /// The default configuration's names, computed once.
@@ -171,8 +255,9 @@ pub fn default_names() -> &'static [String] {
     NAMES.get_or_init(|| FeatureConfig::default().names())
 }
 
-/// The paper's hand-picked sets (§6.3, Fig. 7), the trivial one, and hand6 extended with
-/// the log-domain pixel statistics and subband variances (`hand6+log`, see README).
+/// The paper's hand-picked sets (§6.3, Fig. 7), the trivial one, hand6 extended with the
+/// log-domain pixel statistics and subband variances (`hand6+log`), and that with the
+/// log-domain radial changes (`hand6+log+radial`; see README).
 pub fn named_set(name: &str) -> Option<Vec<String>> {
     const HAND6: [&str; 6] = [
         "pix.mean",
@@ -187,18 +272,23 @@ pub fn named_set(name: &str) -> Option<Vec<String>> {
         "hand6" => Some(strings(&HAND6)),
         "hand2" => Some(strings(&["pix.p10", "wav.s2.v.var"])),
         "mean1" => Some(strings(&["pix.mean"])),
-        "hand6+log" => {
+        "hand6+log" | "hand6+log+radial" => {
+            let levels = FeatureConfig::default().levels;
             let pixels = STAT_NAMES.iter().map(|s| format!("{LOG_PREFIX}pix.{s}"));
-            let bands = (1..=4).flat_map(|k| {
+            let bands = (1..=levels).flat_map(|k| {
                 BAND_NAMES
                     .iter()
                     .map(move |b| format!("{LOG_PREFIX}wav.s{k}.{b}.var"))
             });
+            let radial = radial_names(levels)
+                .map(|n| format!("{LOG_PREFIX}{n}"))
+                .filter(|_| name.ends_with("+radial"));
             Some(
                 strings(&HAND6)
                     .into_iter()
                     .chain(pixels)
                     .chain(bands)
+                    .chain(radial)
                     .collect(),
             )
         }
@@ -324,6 +414,12 @@ impl Extractor {
         let powers = &stages.band_powers;
         out.extend(powers.oriented.iter().flatten().map(|&p| log10_floor(p)));
         out.push(log10_floor(powers.lo));
+        if self.config.radial {
+            out.extend(radial_change(&stages.unwrapped));
+            for level in &stages.pyramid.levels {
+                out.extend([&level.h, &level.v, &level.d].map(|band| radial_change(band)[1]));
+            }
+        }
         out
     }
 }
@@ -338,7 +434,12 @@ impl Extractor {
     /// Features of one image (the unwrapped annulus or its log10).
     fn block_len(&self) -> usize {
         let levels = self.config.levels;
-        STAT_NAMES.len() * (1 + 3 * levels) + 3 * (levels - 1) + 4 * ORIENTATIONS.len() + 1
+        let radial = if self.config.radial {
+            2 + 3 * levels
+        } else {
+            0
+        };
+        STAT_NAMES.len() * (1 + 3 * levels) + 3 * (levels - 1) + 4 * ORIENTATIONS.len() + 1 + radial
     }
 
     /// [`Extractor::extract`] computing only the features at the indices `wanted` (into the
@@ -381,7 +482,10 @@ impl Extractor {
         let band_base = |level: usize, band: usize| stats * (1 + 3 * level + band);
         let ratio_base = stats * (1 + 3 * levels);
         let fft_base = ratio_base + 3 * (levels - 1);
+        let radial_base = fft_base + 4 * ORIENTATIONS.len() + 1;
         let ratio_needed = |band: usize, pair: usize| need[ratio_base + band * (levels - 1) + pair];
+        let radial_band = |level: usize, band: usize| radial_base + 2 + 3 * level + band;
+        let radial_needed = |index: usize| self.config.radial && need[index];
         // Which subbands need their variance (for ratios) or statistics.
         let mut deepest = None;
         let mut band_var = vec![[false; 3]; levels];
@@ -391,7 +495,8 @@ impl Extractor {
                 let ratio = (level + 1 < levels && ratio_needed(band, level))
                     || (level > 0 && ratio_needed(band, level - 1));
                 *slot = ratio;
-                if ratio || need[base..base + stats].iter().any(|&b| b) {
+                let radial = radial_needed(radial_band(level, band));
+                if ratio || radial || need[base..base + stats].iter().any(|&b| b) {
                     deepest = Some(level);
                 }
             }
@@ -418,13 +523,10 @@ impl Extractor {
             }
             known.map_or(f64::NAN, |m| m.var)
         };
-        fn slice(a: &Array2<f64>) -> std::borrow::Cow<'_, [f64]> {
-            match a.as_slice() {
-                Some(s) => s.into(),
-                None => a.iter().copied().collect::<Vec<f64>>().into(),
-            }
+        fill(&values_of(unwrapped), 0, false, out);
+        if radial_needed(radial_base) || radial_needed(radial_base + 1) {
+            out[radial_base..radial_base + 2].copy_from_slice(&radial_change(unwrapped));
         }
-        fill(&slice(unwrapped), 0, false, out);
         if let Some(deepest) = deepest {
             let pyramid = pyramid::build(unwrapped.view(), deepest + 1, Edge::Periodic);
             let mut variances = vec![[f64::NAN; 3]; levels];
@@ -435,7 +537,11 @@ impl Extractor {
                         band_var[level][band] || need[base..base + stats].iter().any(|&b| b);
                     if needed {
                         variances[level][band] =
-                            fill(&slice(values), base, band_var[level][band], out);
+                            fill(&values_of(values), base, band_var[level][band], out);
+                    }
+                    let radial = radial_band(level, band);
+                    if radial_needed(radial) {
+                        out[radial] = radial_change(values)[1];
                     }
                 }
             }
@@ -449,7 +555,7 @@ impl Extractor {
                 }
             }
         }
-        if need[fft_base..].iter().any(|&b| b) {
+        if need[fft_base..radial_base].iter().any(|&b| b) {
             let powers = self.spectrum.band_powers(unwrapped.view());
             let values: Vec<f64> = powers
                 .oriented
@@ -458,9 +564,29 @@ impl Extractor {
                 .map(|&p| log10_floor(p))
                 .chain(std::iter::once(log10_floor(powers.lo)))
                 .collect();
-            out[fft_base..].copy_from_slice(&values);
+            out[fft_base..radial_base].copy_from_slice(&values);
         }
     }
+}
+
+/// The values of an array in row-major order, borrowed when it is in standard layout.
+fn values_of(a: &Array2<f64>) -> std::borrow::Cow<'_, [f64]> {
+    match a.as_slice() {
+        Some(s) => s.into(),
+        None => a.iter().copied().collect::<Vec<f64>>().into(),
+    }
+}
+
+/// `[mean, log10 variance]` of the outer half of the rows (larger radii) minus those of the
+/// inner half; the middle row of an odd height counts as outer.
+fn radial_change(a: &Array2<f64>) -> [f64; 2] {
+    let values = values_of(a);
+    let (inner, outer) = values.split_at(a.nrows() / 2 * a.ncols());
+    let (inner, outer) = (moments(inner), moments(outer));
+    [
+        outer.mean - inner.mean,
+        log10_floor(outer.var) - log10_floor(inner.var),
+    ]
 }
 
 fn push_summary(out: &mut Vec<f64>, s: &Summary) {
@@ -505,6 +631,94 @@ mod tests {
         for n in named_set("hand6+log").unwrap() {
             assert!(extended.contains(&n), "{n}");
         }
+        let every = FeatureConfig::extended(Extensions::ALL, None).names();
+        let block = FEATURE_COUNT + 14;
+        assert_eq!(every.len(), 2 * block);
+        assert_eq!(every[..FEATURE_COUNT], names[..]);
+        assert_eq!(
+            [
+                &every[FEATURE_COUNT],
+                &every[FEATURE_COUNT + 2],
+                &every[block - 1]
+            ],
+            [
+                "radial.pix.mean",
+                "radial.wav.s1.h.var",
+                "radial.wav.s4.d.var"
+            ]
+        );
+        assert_eq!(every[block], "log.pix.mean");
+        assert_eq!(every[2 * block - 1], "log.radial.wav.s4.d.var");
+        for n in named_set("hand6+log+radial").unwrap() {
+            assert!(every.contains(&n), "{n}");
+        }
+    }
+
+    #[test]
+    fn extensions_of_names_and_specs() {
+        let of_spec = |spec: &str| {
+            let e = Extensions::of_spec(spec);
+            (e.log_domain, e.radial)
+        };
+        assert_eq!(of_spec("hand6"), (false, false));
+        assert_eq!(of_spec("all"), (false, false));
+        assert_eq!(of_spec("hand6+log"), (true, false));
+        assert_eq!(of_spec("hand6+log+radial"), (true, true));
+        assert_eq!(of_spec("pix.mean, radial.wav.s1.v.var"), (false, true));
+        assert_eq!(of_spec("log.radial.pix.var"), (true, true));
+        assert_eq!(of_spec("log.pix.mean,pix.p10"), (true, false));
+        let config = FeatureConfig::extended(Extensions::ALL, Some(80.0));
+        let names = config.names();
+        assert_eq!(
+            Extensions::of_names(names.iter().map(String::as_str)),
+            config.extensions()
+        );
+    }
+
+    /// An unwrapped image with `inner` rows of `pattern(row, col)` at radii below the middle
+    /// and `outer` above.
+    fn two_halves(pattern: impl Fn(usize, usize) -> f64, inner: f64, outer: f64) -> Array2<f64> {
+        let u = UnwrapConfig::default();
+        Array2::from_shape_fn((u.rows, u.cols), |(i, j)| {
+            pattern(i, j) * if i < u.rows / 2 { inner } else { outer }
+        })
+    }
+
+    #[test]
+    fn radial_changes_compare_the_outer_half_of_the_annulus_with_the_inner_half() {
+        let extractor = Extractor::new(FeatureConfig::extended(Extensions::ALL, None)).unwrap();
+        let names = extractor.config().names();
+        let radial = |unwrapped: Array2<f64>| {
+            let values = extractor.features_of(&extractor.stages_of_unwrapped(unwrapped));
+            let first = FEATURE_COUNT;
+            names[first..first + 14]
+                .iter()
+                .cloned()
+                .zip(values[first..].iter().copied())
+                .collect::<Vec<(String, f64)>>()
+        };
+        // Angular structure only, the same at every radius: nothing changes.
+        let stripes =
+            |_: usize, j: usize| 1.0 + 0.5 * (j as f64 * 0.7).sin() + 0.1 * (j % 5) as f64;
+        for (name, value) in radial(two_halves(stripes, 1.0, 1.0)) {
+            assert!(value.abs() < 1e-9, "{name} = {value}");
+        }
+        // Outer half 3 × brighter: the mean grows by 2 × the inner mean, the variance 9 ×.
+        let u = two_halves(stripes, 1.0, 3.0);
+        let inner_mean = u.slice(ndarray::s![..48, ..]).mean().unwrap();
+        let changes = radial(u);
+        assert_eq!(changes[0].0, "radial.pix.mean");
+        assert!((changes[0].1 - 2.0 * inner_mean).abs() < 1e-12);
+        assert!((changes[1].1 - 9f64.log10()).abs() < 1e-12);
+        // Finer angular structure outside: the finest vertical subband's energy moves out.
+        let finer = |i: usize, j: usize| {
+            let period = if i < 48 { 32.0 } else { 4.0 };
+            (std::f64::consts::TAU * j as f64 / period).sin()
+        };
+        let changes = radial(two_halves(finer, 1.0, 1.0));
+        let value = |n: &str| changes.iter().find(|(m, _)| m == n).unwrap().1;
+        assert!(value("radial.wav.s1.v.var") > 2.0, "{changes:?}");
+        assert!(value("radial.wav.s4.v.var") < -1.0, "{changes:?}");
     }
 
     #[test]
@@ -608,23 +822,27 @@ mod tests {
             (0..FEATURE_COUNT).collect(),
             vec![],
         ];
-        let log_domain = Extractor::new(FeatureConfig::extended(true, Some(60.0))).unwrap();
-        let log_full = log_domain.extract(luminance.view(), &circle, 0.9);
-        assert_eq!(log_domain.feature_count(), 2 * FEATURE_COUNT);
-        let log_subsets = [
-            vec![
-                3,
-                FEATURE_COUNT + 1,
-                FEATURE_COUNT + 99,
-                2 * FEATURE_COUNT - 1,
-            ],
-            (0..2 * FEATURE_COUNT).collect::<Vec<_>>(),
+        let extended =
+            Extractor::new(FeatureConfig::extended(Extensions::ALL, Some(60.0))).unwrap();
+        let extended_full = extended.extract(luminance.view(), &circle, 0.9);
+        let block = FEATURE_COUNT + 14;
+        assert_eq!(extended.feature_count(), 2 * block);
+        let extended_subsets = [
+            vec![3, block + 1, block + 99, 2 * block - 1],
+            // radial.pix.var, radial.wav.s2.v.var; the same of the log-domain block
+            vec![FEATURE_COUNT + 1, FEATURE_COUNT + 6],
+            vec![block + FEATURE_COUNT, block + FEATURE_COUNT + 13],
+            (0..2 * block).collect::<Vec<_>>(),
         ];
-        for wanted in log_subsets {
-            let part = log_domain.extract_subset(luminance.view(), &circle, 0.9, &wanted);
-            assert_eq!(part.len(), 2 * FEATURE_COUNT);
+        for wanted in extended_subsets {
+            let part = extended.extract_subset(luminance.view(), &circle, 0.9, &wanted);
+            assert_eq!(part.len(), 2 * block);
             for &i in &wanted {
-                assert_eq!(part[i].to_bits(), log_full[i].to_bits(), "log-domain {i}");
+                assert_eq!(
+                    part[i].to_bits(),
+                    extended_full[i].to_bits(),
+                    "extended {i}"
+                );
             }
         }
         for wanted in subsets {

@@ -2,7 +2,7 @@
 //! and record provenance and a self-test vector.
 
 use crate::dataset::FeatureTable;
-use crate::features::FeatureConfig;
+use crate::features::{Extensions, FeatureConfig};
 use crate::learn::{self, CvReport, Dataset, LearnError, TrainSpec};
 use crate::model::{
     self, ClassInfo, CvSummary, Exemplar, FeatureSpec, ModelError, ModelFile, Provenance, SelfTest,
@@ -59,12 +59,9 @@ pub fn train_with(
     options: &TrainOptions,
     observer: &dyn Observer,
 ) -> Result<Trained, TrainError> {
-    // The table decides: 117 columns, or 234 with the log-domain features.
-    let log_domain = table
-        .names
-        .iter()
-        .any(|n| n.starts_with(crate::features::LOG_PREFIX));
-    let config = FeatureConfig::extended(log_domain, options.working_radius);
+    // The table decides: 117 columns, more with extensions.
+    let extensions = Extensions::of_names(table.names.iter().map(String::as_str));
+    let config = FeatureConfig::extended(extensions, options.working_radius);
     if table.names != config.names() {
         return Err(TrainError::Columns);
     }

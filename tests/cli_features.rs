@@ -209,7 +209,7 @@ fn a_bad_manifest_row_names_its_line() {
 }
 
 #[test]
-fn log_features_extend_the_canonical_ones() {
+fn extensions_extend_the_canonical_ones() {
     let img = image("sphere_rgb8.png");
     let circle = [
         "--cx", "96.5", "--cy", "94.25", "--r", "85", "--white", "0.8",
@@ -242,4 +242,27 @@ fn log_features_extend_the_canonical_ones() {
         (log_p50 - p50.max(1e-4).log10()).abs() < 1e-6,
         "{log_p50} vs log10 {p50}"
     );
+    // The radial changes close each block; the rest is unchanged.
+    let radial = run(&[
+        &[
+            "features",
+            img.as_str(),
+            "--log-features",
+            "--radial-features",
+        ][..],
+        &circle[..],
+    ]
+    .concat());
+    let radial: Value = serde_json::from_slice(&radial.stdout).unwrap();
+    let (radial_names, radial_values) = (
+        radial["names"].as_array().unwrap(),
+        radial["values"].as_array().unwrap(),
+    );
+    assert_eq!(radial_values.len(), 262);
+    assert_eq!(
+        [&radial_names[117], &radial_names[131], &radial_names[261]],
+        ["radial.pix.mean", "log.pix.mean", "log.radial.wav.s4.d.var"]
+    );
+    assert_eq!(&radial_values[..117], &values[..117]);
+    assert_eq!(&radial_values[131..248], &values[117..]);
 }

@@ -101,11 +101,12 @@ fn report_writes_both_tables_json_and_plots() {
     );
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(report_dir.join("report.json")).unwrap()).unwrap();
-    // Per data set: 6 Table 1 rows, 4 more Table 2 cells, 2 rows for each of our protocols.
-    assert_eq!(json["cells"].as_array().unwrap().len(), 4 * (6 + 4 + 2 + 2));
+    // Per data set: 6 Table 1 rows, 4 more Table 2 cells, 3 rows for each of our protocols.
+    assert_eq!(json["cells"].as_array().unwrap().len(), 4 * (6 + 4 + 3 + 3));
     for row in [
         "| **hand6+log, augmented training views** |",
         "| **hand6, views + synthetic illuminations** |",
+        "| **hand6+log+radial, views + synthetic illuminations** |",
     ] {
         assert!(md.contains(row), "{row}\n{md}");
     }

@@ -262,13 +262,13 @@ fn predict_rendered_spheres_with_a_trained_model() {
     ]);
     let manifest = data.join("manifest.csv");
     let models = dir.join("models");
-    let train = |name: &str, extra: &[&str]| {
+    let train = |name: &str, features: &str, extra: &[&str]| {
         let mut args = vec![
             "train",
             "--manifest",
             manifest.to_str().unwrap(),
             "--features",
-            "mean1",
+            features,
             "--classifier",
             "nn",
             "--models",
@@ -279,15 +279,33 @@ fn predict_rendered_spheres_with_a_trained_model() {
         args.extend_from_slice(extra);
         run(&args);
     };
-    train("tiny", &["--classes", classes.to_str().unwrap()]);
+    train("tiny", "mean1", &["--classes", classes.to_str().unwrap()]);
     let model = Registry::new(&models).load("tiny", 1).unwrap();
     assert_eq!(model.features.config.working_radius, None);
     assert_eq!(model.classes[1].name, "dark");
     assert_eq!(model.classes[1].ward.as_ref().unwrap().rho_d, 0.1);
     // A working radius given to train is recorded in the model's feature configuration.
-    train("tiny-wr", &["--working-radius", "40"]);
+    train("tiny-wr", "mean1", &["--working-radius", "40"]);
     let wr = Registry::new(&models).load("tiny-wr", 1).unwrap();
     assert_eq!(wr.features.config.working_radius, Some(40.0));
+    // Features named from an extension are extracted for training and again for predicting.
+    train("tiny-radial", "log.radial.pix.var,radial.wav.s1.v.var", &[]);
+    let radial = Registry::new(&models).load("tiny-radial", 1).unwrap();
+    let extensions = radial.features.config.extensions();
+    assert!(extensions.radial && extensions.log_domain);
+    let predicted = run(&[
+        "predict",
+        "--model",
+        models.join("tiny-radial").to_str().unwrap(),
+        "--manifest",
+        manifest.to_str().unwrap(),
+        "--out",
+        dir.join("radial.csv").to_str().unwrap(),
+    ]);
+    assert!(
+        predicted.starts_with("accuracy 100.0 % (9/9)"),
+        "{predicted}"
+    );
     let predictions = dir.join("p.csv");
     let printed = run(&[
         "predict",

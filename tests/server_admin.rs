@@ -298,16 +298,16 @@ async fn render_train_activate_roll_back_and_delete() {
     assert_eq!(done["result"]["cv"]["classifier"], "nn");
     assert!(done["result"].get("model").is_none());
 
-    // Extraction extensions: log-domain features named by the set, a working radius.
+    // Extraction extensions: log-domain and radial features named by the set, a working radius.
     let log = submit(
         &server,
         json!({"type": "cross_validate", "dataset": "renders/r96/manifest.csv",
-               "features": "hand6+log", "working_radius": 40}),
+               "features": "hand6+log+radial", "working_radius": 40}),
     )
     .await;
     let done = wait_for(&server, log["id"].as_str().unwrap(), TERMINAL).await;
     assert_eq!(done["state"], "succeeded", "{done}");
-    assert_eq!(done["result"]["cv"]["features"], "hand6+log");
+    assert_eq!(done["result"]["cv"]["features"], "hand6+log+radial");
     let bad = json!({"type": "cross_validate", "dataset": "renders/r96/manifest.csv", "working_radius": 3});
     send(&server.admin, authed(post_json("/admin/v1/jobs", &bad)))
         .await

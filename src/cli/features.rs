@@ -3,7 +3,7 @@
 use super::{CliResult, LimitArgs};
 use crate::analysis::{self, Locate, WhiteInput};
 use crate::dataset::{self, Manifest};
-use crate::features::Extractor;
+use crate::features::{Extensions, Extractor};
 use crate::geometry::Circle;
 use crate::image_io::{self, DecodeOptions, Encoding};
 use clap::Args;
@@ -61,7 +61,8 @@ struct Output<'a> {
 }
 
 pub fn run(args: FeaturesArgs) -> CliResult {
-    let extractor = Extractor::new(args.extensions.config(false)).map_err(|e| e.to_string())?;
+    let extractor =
+        Extractor::new(args.extensions.config(Extensions::default())).map_err(|e| e.to_string())?;
     let encoding = args
         .encoding
         .as_deref()

@@ -2,7 +2,7 @@
 
 use super::{CliResult, LimitArgs};
 use crate::dataset::{self, FeatureTable};
-use crate::features::{Extractor, FeatureConfig};
+use crate::features::{Extensions, Extractor, FeatureConfig};
 use crate::image_io::DecodeOptions;
 use crate::learn::{ClassifierKind, CvReport, Dataset, FeatureSet, Grid, TrainSpec};
 use crate::registry::{self, Registry};
@@ -52,12 +52,13 @@ impl DataArgs {
 /// What to fit.
 #[derive(Args, Debug)]
 pub struct SpecArgs {
-    /// hand6, hand2, mean1, hand6+log, all, auto<N>, pca<N>, or a comma-separated list of
-    /// names. `all`, `auto<N>` and `pca<N>` range over the table's columns.
+    /// hand6, hand2, mean1, hand6+log, hand6+log+radial, all, auto<N>, pca<N>, or a
+    /// comma-separated list of names. `all`, `auto<N>` and `pca<N>` range over the table's
+    /// columns.
     #[arg(long)]
     features: String,
-    /// With --manifest: extensions of the extracted features (the log-domain ones are
-    /// implied by sets that name them, such as hand6+log).
+    /// With --manifest: extensions of the extracted features (implied by sets that name
+    /// them, such as hand6+log).
     #[command(flatten)]
     extensions: super::ExtensionArgs,
     /// svm, nn (1-NN), knn5 or chance.
@@ -79,11 +80,7 @@ pub struct SpecArgs {
 impl SpecArgs {
     /// The extraction configuration for manifests.
     fn config(&self) -> FeatureConfig {
-        let named_log = self.features.split(',').any(|n| {
-            let n = n.trim();
-            n.starts_with(crate::features::LOG_PREFIX) || n == "hand6+log"
-        });
-        self.extensions.config(named_log)
+        self.extensions.config(Extensions::of_spec(&self.features))
     }
 
     fn spec(&self, names: &[String]) -> Result<TrainSpec, String> {
@@ -242,7 +239,11 @@ pub fn train(args: TrainArgs) -> CliResult {
         seed: args.spec.seed,
         cross_validate: !args.no_cv,
         classes,
-        working_radius: args.spec.extensions.config(false).working_radius,
+        working_radius: args
+            .spec
+            .extensions
+            .config(Extensions::default())
+            .working_radius,
     };
     let mut trained = train::train(&table, &label, &options).map_err(|e| e.to_string())?;
     let report = trained

@@ -6,6 +6,7 @@ mod render;
 mod report;
 mod serve;
 
+use crate::features::Extensions;
 use clap::{Args, Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -70,6 +71,10 @@ pub struct ExtensionArgs {
     /// Also compute the log-domain features (`log.*`, 117 more).
     #[arg(long)]
     log_features: bool,
+    /// Also compute the radial changes (`radial.*`: outer half of the annulus minus inner
+    /// half, 14 more per block).
+    #[arg(long)]
+    radial_features: bool,
     /// Reduce spheres larger than this radius (px) to it before extraction (area
     /// averaging), as models trained at that radius expect.
     #[arg(long)]
@@ -77,12 +82,13 @@ pub struct ExtensionArgs {
 }
 
 impl ExtensionArgs {
-    /// The configuration; `log_domain` forces the log-domain features on.
-    pub fn config(&self, log_domain: bool) -> crate::features::FeatureConfig {
-        crate::features::FeatureConfig::extended(
-            self.log_features || log_domain,
-            self.working_radius,
-        )
+    /// The configuration, with the `implied` extensions on too.
+    pub fn config(&self, implied: Extensions) -> crate::features::FeatureConfig {
+        let asked = Extensions {
+            log_domain: self.log_features,
+            radial: self.radial_features,
+        };
+        crate::features::FeatureConfig::extended(asked.union(implied), self.working_radius)
     }
 }
 

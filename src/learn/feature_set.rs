@@ -1,6 +1,7 @@
-//! Feature sets: `hand6`, `hand2`, `mean1`, `all`, `auto<N>`, `pca<N>`, or a comma-separated
-//! list of feature names. Fixed sets resolve to columns directly; `auto<N>` and `pca<N>` are
-//! fitted on training rows only (inside every cross-validation fold).
+//! Feature sets: `hand6`, `hand2`, `mean1`, `hand6+log`, `hand6+log+radial`, `all`,
+//! `auto<N>`, `pca<N>`, or a comma-separated list of feature names. Fixed sets resolve to
+//! columns directly; `auto<N>` and `pca<N>` are fitted on training rows only (inside every
+//! cross-validation fold).
 
 use super::error::LearnError;
 use crate::features::named_set;
@@ -12,6 +13,8 @@ pub enum FeatureSet {
     Hand6,
     /// hand6 plus the log-domain pixel statistics and subband variances.
     Hand6Log,
+    /// hand6+log plus the log-domain radial changes.
+    Hand6LogRadial,
     Hand2,
     Mean1,
     All,
@@ -44,6 +47,7 @@ impl FeatureSet {
         match spec {
             "hand6" => return Ok(FeatureSet::Hand6),
             "hand6+log" => return Ok(FeatureSet::Hand6Log),
+            "hand6+log+radial" => return Ok(FeatureSet::Hand6LogRadial),
             "hand2" => return Ok(FeatureSet::Hand2),
             "mean1" => return Ok(FeatureSet::Mean1),
             "all" => return Ok(FeatureSet::All),
@@ -87,6 +91,7 @@ impl FeatureSet {
         match self {
             FeatureSet::Hand6 => Some(named("hand6")),
             FeatureSet::Hand6Log => Some(named("hand6+log")),
+            FeatureSet::Hand6LogRadial => Some(named("hand6+log+radial")),
             FeatureSet::Hand2 => Some(named("hand2")),
             FeatureSet::Mean1 => Some(named("mean1")),
             FeatureSet::All => Some(names.to_vec()),
@@ -119,12 +124,10 @@ impl FeatureSet {
 impl FromStr for FeatureSet {
     type Err = LearnError;
 
-    /// Parses against the default configuration's names (with the log-domain features).
+    /// Parses against the default configuration's names with every extension.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        FeatureSet::parse_with(
-            s,
-            &crate::features::FeatureConfig::with_log_domain().names(),
-        )
+        use crate::features::{Extensions, FeatureConfig};
+        FeatureSet::parse_with(s, &FeatureConfig::extended(Extensions::ALL, None).names())
     }
 }
 
@@ -133,6 +136,7 @@ impl fmt::Display for FeatureSet {
         match self {
             FeatureSet::Hand6 => f.write_str("hand6"),
             FeatureSet::Hand6Log => f.write_str("hand6+log"),
+            FeatureSet::Hand6LogRadial => f.write_str("hand6+log+radial"),
             FeatureSet::Hand2 => f.write_str("hand2"),
             FeatureSet::Mean1 => f.write_str("mean1"),
             FeatureSet::All => f.write_str("all"),
@@ -158,6 +162,8 @@ mod tests {
             "pca12",
             "pix.mean",
             "wav.s2.v.kurt,pix.p10",
+            "hand6+log+radial",
+            "log.radial.wav.s1.v.var,radial.pix.mean",
         ] {
             let set: FeatureSet = spec.parse().unwrap();
             assert_eq!(set.to_string(), spec);
@@ -217,6 +223,16 @@ mod tests {
         assert_eq!(
             "hand6+log".parse::<FeatureSet>().unwrap().to_string(),
             "hand6+log"
+        );
+        // hand6+log+radial needs the radial columns of the log-domain block too.
+        assert!(FeatureSet::Hand6LogRadial.resolve(&extended).is_err());
+        let every =
+            crate::features::FeatureConfig::extended(crate::features::Extensions::ALL, None)
+                .names();
+        let idx = FeatureSet::Hand6LogRadial.resolve(&every).unwrap().unwrap();
+        assert_eq!(
+            (idx.len(), every[idx[25]].as_str(), every[idx[38]].as_str()),
+            (39, "log.radial.pix.mean", "log.radial.wav.s4.d.var")
         );
         let short = vec!["pix.mean".to_string()];
         assert!(matches!(

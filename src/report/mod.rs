@@ -4,17 +4,17 @@
 //!
 //! `--data DIR` holds four rendered data sets, each a folder with `manifest.csv`:
 //! `paper9_6`, `paper9_11`, `all_6`, `all_11` (probe set × class set). Features (with the
-//! log-domain ones) are cached as `features.csv` next to each manifest.
+//! log-domain and radial ones) are cached as `features.csv` next to each manifest.
 //!
 //! Three protocols: the paper's (original renders only, the 117 features) for every cell of
-//! Tables 1 and 2, and ours for hand6 and hand6+log: `augmented` (training views of the
+//! Tables 1 and 2, and ours for hand6, hand6+log and hand6+log+radial: `augmented` (training views of the
 //! probes, when the data sets have them) and `synthetic` (those views and the procedural
 //! illuminations, when the data sets have them).
 
 mod plots;
 
 use crate::dataset::{self, FeatureTable};
-use crate::features::{Extractor, FeatureConfig};
+use crate::features::{Extensions, Extractor, FeatureConfig};
 use crate::image_io::DecodeOptions;
 use crate::learn::{self, ClassifierKind, CvReport, Dataset, FeatureSet, TrainSpec};
 use serde::Serialize;
@@ -51,7 +51,7 @@ pub const DATASETS: [(&str, &str); 4] = [
 /// Table 1 rows after `chance`: feature sets for the SVM.
 pub const TABLE1_ROWS: [&str; 6] = ["mean1", "hand2", "hand6", "auto6", "pca6", "all"];
 /// Our protocols, these feature sets (SVM).
-pub const AUGMENTED_ROWS: [&str; 2] = ["hand6", "hand6+log"];
+pub const AUGMENTED_ROWS: [&str; 3] = ["hand6", "hand6+log", "hand6+log+radial"];
 /// Protocols in the order of a data set's table variants.
 const PROTOCOLS: [&str; 3] = ["paper", "augmented", "synthetic"];
 /// Table 2: classifiers × feature sets.
@@ -112,19 +112,23 @@ pub struct DatasetSummary {
     pub classes: usize,
 }
 
-/// Features of a data set, from the cache when it is newer than the manifest.
+/// Features of a data set, from the cache when it is newer than the manifest and has every
+/// column (an older version's cache may lack extensions).
 fn features_of(dir: &Path, options: &DecodeOptions) -> Result<FeatureTable, ReportError> {
     let manifest = dir.join("manifest.csv");
     if !manifest.is_file() {
         return Err(ReportError::Missing(dir.display().to_string()));
     }
+    let config = FeatureConfig::extended(Extensions::ALL, None);
     let cache = dir.join("features.csv");
     let modified = |p: &Path| std::fs::metadata(p).and_then(|m| m.modified()).ok();
     if modified(&cache).is_some_and(|c| modified(&manifest).is_some_and(|m| c >= m)) {
-        return Ok(FeatureTable::read(&cache)?);
+        let cached = FeatureTable::read(&cache)?;
+        if cached.names == config.names() {
+            return Ok(cached);
+        }
     }
-    let extractor = Extractor::new(FeatureConfig::with_log_domain())
-        .map_err(|e| ReportError::Plot(e.to_string()))?;
+    let extractor = Extractor::new(config).map_err(|e| ReportError::Plot(e.to_string()))?;
     let manifest = dataset::read_manifest(&manifest)?;
     manifest.require_labels()?;
     let table = dataset::extract_manifest(&extractor, &manifest, options)?;
@@ -352,8 +356,9 @@ pub fn markdown(report: &Report) -> String {
          (turns about the vertical axis and other viewer elevations; the held-out illumination's \
          views are excluded) and are evaluated on the same original renders; the synthetic rows \
          also train on procedural illuminations (`render --synthetic`), in every fold. hand6+log \
-         adds the log-domain pixel statistics and subband variances. Beside them: the paper's \
-         hand6 figure.\n",
+         adds the log-domain pixel statistics and subband variances, hand6+log+radial also how \
+         the log-domain pixel mean and variance and the subband variances change from the inner \
+         to the outer half of the annulus. Beside them: the paper's hand6 figure.\n",
     );
     md.push_str("\n## Table 2 — classifiers × feature sets (paper protocol)\n\n");
     header(&mut md, "| classifier | features |");

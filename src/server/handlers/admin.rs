@@ -39,6 +39,7 @@ const LEARN: &[&str] = &[
     "grid",
     "seed",
     "log_features",
+    "radial_features",
     "working_radius",
 ];
 

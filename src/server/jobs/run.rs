@@ -4,7 +4,7 @@
 use super::paths::DataDir;
 use super::{Activate, JobRequest, LearnParams};
 use crate::dataset::{self, DatasetError, FeatureTable};
-use crate::features::{Extractor, FeatureConfig};
+use crate::features::{Extensions, Extractor, FeatureConfig};
 use crate::image_io::{DecodeOptions, Limits};
 use crate::learn::{
     self, ClassifierKind, CvReport, Dataset, FeatureSet, Grid, LearnError, TrainSpec,
@@ -191,11 +191,12 @@ fn path_error(detail: String) -> ApiError {
 
 /// The extraction configuration of a learning job (as `reflectance train` chooses it).
 fn config_of(p: &LearnParams) -> Result<FeatureConfig, ApiError> {
-    let named_log = p.features.split(',').any(|n| {
-        let n = n.trim();
-        n.starts_with(crate::features::LOG_PREFIX) || n == "hand6+log"
-    });
-    let config = FeatureConfig::extended(p.log_features || named_log, p.working_radius);
+    let asked = Extensions {
+        log_domain: p.log_features,
+        radial: p.radial_features,
+    };
+    let implied = Extensions::of_spec(&p.features);
+    let config = FeatureConfig::extended(asked.union(implied), p.working_radius);
     config.validate().map_err(|e| invalid(e.to_string()))?;
     Ok(config)
 }
