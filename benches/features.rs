@@ -3,7 +3,7 @@
 
 use divan::Bencher;
 use ndarray::Array2;
-use reflectance::features::{Extractor, FeatureConfig};
+use reflectance::features::{Extensions, Extractor, FeatureConfig};
 use reflectance::geometry::Circle;
 use reflectance::image_io::{self, DecodeOptions, LinearImage};
 use reflectance::pyramid::{self, Edge};
@@ -85,6 +85,12 @@ fn features_excluding_decode(bencher: Bencher) {
 #[divan::bench]
 fn features_with_log_domain(bencher: Bencher) {
     bench_extraction(bencher, FeatureConfig::with_log_domain());
+}
+
+/// With the radial changes too (262 features, `hand6+log+radial` models).
+#[divan::bench]
+fn features_with_every_extension(bencher: Bencher) {
+    bench_extraction(bencher, FeatureConfig::extended(Extensions::ALL, None));
 }
 
 #[divan::bench]

@@ -4,14 +4,14 @@
 //! `fft.b{1..4}.f{0,45,90,135}.pow`, `fft.lo.pow`. Every `*.var`, `*.kurt`, `*.pow` and
 //! `ratio.*` is log10 (argument floored at 1e-30); means, skews and percentiles are linear.
 //!
-//! Extensions (README): `radial.pix.{mean,var}`, `radial.wav.s{k}.{h,v,d}.var` after those
-//! (outer half of the annulus minus inner half), and the whole block again on the log10 image
-//! with the `log.` prefix.
+//! Extensions (README): the radial changes `radial.r{t}_r{t+1}.pix.{mean,var}` and
+//! `radial.r{t}_r{t+1}.wav.s{k}.{h,v,d}.var` after those (ring t + 1 of the annulus minus
+//! ring t), and the whole block again on the log10 image with the `log.` prefix.
 
 use crate::geometry::Circle;
 use crate::pyramid::{self, Edge};
 use crate::spectrum::{BandPowers, ORIENTATIONS, SpectrumPlan};
-use crate::stats::{STAT_NAMES, Summary, moments, percentiles_with, summarize};
+use crate::stats::{Moments, STAT_NAMES, Summary, moments, percentiles_with, summarize};
 use crate::unwrap::{AngleTable, UnwrapConfig, angle_table, unwrap};
 use ndarray::{Array2, ArrayView2};
 use serde::{Deserialize, Serialize};
@@ -38,13 +38,16 @@ fn log_pixels(unwrapped: &Array2<f64>) -> Array2<f64> {
 pub const LOG_PREFIX: &str = "log.";
 /// Prefix of the radial-change features' names (within a block).
 pub const RADIAL_PREFIX: &str = "radial.";
+/// The radial changes cut the rows of the unwrapped annulus (and of each subband) into this
+/// many rings of equal height and compare each with the one inside it.
+pub const RADIAL_RINGS: usize = 3;
 
 /// Optional feature families beyond DESIGN.md's 117.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Extensions {
     /// The whole block again on the log10 image (`log.*`).
     pub log_domain: bool,
-    /// How the outer half of the annulus differs from the inner half (`radial.*`).
+    /// How the statistics change from ring to ring of the annulus (`radial.*`).
     pub radial: bool,
 }
 
@@ -93,8 +96,8 @@ pub struct FeatureConfig {
     /// image U, named with the `log.` prefix (an extension of the paper; see README).
     #[serde(default)]
     pub log_domain: bool,
-    /// Also compute, in each block, how the outer half of the annulus differs from the inner
-    /// half (`radial.*`; an extension, see README). Absent in older model files.
+    /// Also compute, in each block, how the statistics change from ring to ring of the
+    /// annulus (`radial.*`; an extension, see README). Absent in older model files.
     #[serde(default, skip_serializing_if = "is_false")]
     pub radial: bool,
     /// Spheres larger than this radius (px) are first area-downsampled to it, so a model
@@ -241,12 +244,23 @@ impl FeatureConfig {
     }
 }
 
-/// `radial.pix.{mean,var}`, `radial.wav.s{k}.{h,v,d}.var`.
+/// Number of radial changes between two neighbouring rings: pixel mean and variance, and the
+/// variance of every subband.
+fn radial_per_ring(levels: usize) -> usize {
+    2 + 3 * levels
+}
+
+/// `radial.r{t}_r{t+1}.pix.{mean,var}`, `radial.r{t}_r{t+1}.wav.s{k}.{h,v,d}.var`, ring
+/// pair by ring pair.
 fn radial_names(levels: usize) -> impl Iterator<Item = String> {
-    let pixels = ["mean", "var"].map(|s| format!("{RADIAL_PREFIX}pix.{s}"));
-    let bands =
-        (1..=levels).flat_map(|k| BAND_NAMES.map(|b| format!("{RADIAL_PREFIX}wav.s{k}.{b}.var")));
-    pixels.into_iter().chain(bands)
+    (1..RADIAL_RINGS).flat_map(move |t| {
+        let pair = format!("{RADIAL_PREFIX}r{t}_r{}.", t + 1);
+        let pixels = ["mean", "var"].map(|s| format!("{pair}pix.{s}"));
+        let bands = (1..=levels)
+            .flat_map(|k| BAND_NAMES.map(|b| format!("{pair}wav.s{k}.{b}.var")))
+            .collect::<Vec<_>>();
+        pixels.into_iter().chain(bands)
+    })
 }
 
 /// The default configuration's names, computed once.
@@ -415,10 +429,19 @@ impl Extractor {
         out.extend(powers.oriented.iter().flatten().map(|&p| log10_floor(p)));
         out.push(log10_floor(powers.lo));
         if self.config.radial {
-            out.extend(radial_change(&stages.unwrapped));
-            for level in &stages.pyramid.levels {
-                out.extend([&level.h, &level.v, &level.d].map(|band| radial_change(band)[1]));
+            let per = radial_per_ring(self.config.levels);
+            let mut radial = vec![f64::NAN; (RADIAL_RINGS - 1) * per];
+            for (t, change) in ring_changes(&stages.unwrapped).into_iter().enumerate() {
+                radial[t * per..t * per + 2].copy_from_slice(&change);
             }
+            for (level, bands) in stages.pyramid.levels.iter().enumerate() {
+                for (band, values) in [&bands.h, &bands.v, &bands.d].into_iter().enumerate() {
+                    for (t, [_, var]) in ring_changes(values).into_iter().enumerate() {
+                        radial[t * per + 2 + 3 * level + band] = var;
+                    }
+                }
+            }
+            out.extend(radial);
         }
         out
     }
@@ -435,7 +458,7 @@ impl Extractor {
     fn block_len(&self) -> usize {
         let levels = self.config.levels;
         let radial = if self.config.radial {
-            2 + 3 * levels
+            (RADIAL_RINGS - 1) * radial_per_ring(levels)
         } else {
             0
         };
@@ -484,8 +507,12 @@ impl Extractor {
         let fft_base = ratio_base + 3 * (levels - 1);
         let radial_base = fft_base + 4 * ORIENTATIONS.len() + 1;
         let ratio_needed = |band: usize, pair: usize| need[ratio_base + band * (levels - 1) + pair];
-        let radial_band = |level: usize, band: usize| radial_base + 2 + 3 * level + band;
-        let radial_needed = |index: usize| self.config.radial && need[index];
+        // Radial changes: [ring pair][pix mean, pix var, subbands [level][h, v, d]].
+        let radial_per = radial_per_ring(levels);
+        let radial_index = |pair: usize, j: usize| radial_base + pair * radial_per + j;
+        let radial_needed = |j: usize| {
+            self.config.radial && (0..RADIAL_RINGS - 1).any(|pair| need[radial_index(pair, j)])
+        };
         // Which subbands need their variance (for ratios) or statistics.
         let mut deepest = None;
         let mut band_var = vec![[false; 3]; levels];
@@ -495,7 +522,7 @@ impl Extractor {
                 let ratio = (level + 1 < levels && ratio_needed(band, level))
                     || (level > 0 && ratio_needed(band, level - 1));
                 *slot = ratio;
-                let radial = radial_needed(radial_band(level, band));
+                let radial = radial_needed(2 + 3 * level + band);
                 if ratio || radial || need[base..base + stats].iter().any(|&b| b) {
                     deepest = Some(level);
                 }
@@ -524,8 +551,11 @@ impl Extractor {
             known.map_or(f64::NAN, |m| m.var)
         };
         fill(&values_of(unwrapped), 0, false, out);
-        if radial_needed(radial_base) || radial_needed(radial_base + 1) {
-            out[radial_base..radial_base + 2].copy_from_slice(&radial_change(unwrapped));
+        if radial_needed(0) || radial_needed(1) {
+            for (pair, change) in ring_changes(unwrapped).into_iter().enumerate() {
+                let at = radial_index(pair, 0);
+                out[at..at + 2].copy_from_slice(&change);
+            }
         }
         if let Some(deepest) = deepest {
             let pyramid = pyramid::build(unwrapped.view(), deepest + 1, Edge::Periodic);
@@ -539,9 +569,11 @@ impl Extractor {
                         variances[level][band] =
                             fill(&values_of(values), base, band_var[level][band], out);
                     }
-                    let radial = radial_band(level, band);
-                    if radial_needed(radial) {
-                        out[radial] = radial_change(values)[1];
+                    let j = 2 + 3 * level + band;
+                    if radial_needed(j) {
+                        for (pair, [_, var]) in ring_changes(values).into_iter().enumerate() {
+                            out[radial_index(pair, j)] = var;
+                        }
                     }
                 }
             }
@@ -577,16 +609,21 @@ fn values_of(a: &Array2<f64>) -> std::borrow::Cow<'_, [f64]> {
     }
 }
 
-/// `[mean, log10 variance]` of the outer half of the rows (larger radii) minus those of the
-/// inner half; the middle row of an odd height counts as outer.
-fn radial_change(a: &Array2<f64>) -> [f64; 2] {
+/// `[mean, log10 variance]` of each ring of rows minus those of the ring inside it. Ring k
+/// (from 0, innermost) holds rows ⌊k·n/R⌋ .. ⌊(k+1)·n/R⌋ of n, R = [`RADIAL_RINGS`].
+fn ring_changes(a: &Array2<f64>) -> [[f64; 2]; RADIAL_RINGS - 1] {
     let values = values_of(a);
-    let (inner, outer) = values.split_at(a.nrows() / 2 * a.ncols());
-    let (inner, outer) = (moments(inner), moments(outer));
-    [
-        outer.mean - inner.mean,
-        log10_floor(outer.var) - log10_floor(inner.var),
-    ]
+    let (rows, cols) = a.dim();
+    let start = |k: usize| k * rows / RADIAL_RINGS * cols;
+    let rings: [Moments; RADIAL_RINGS] =
+        std::array::from_fn(|k| moments(&values[start(k)..start(k + 1)]));
+    std::array::from_fn(|t| {
+        let (inner, outer) = (&rings[t], &rings[t + 1]);
+        [
+            outer.mean - inner.mean,
+            log10_floor(outer.var) - log10_floor(inner.var),
+        ]
+    })
 }
 
 fn push_summary(out: &mut Vec<f64>, s: &Summary) {
@@ -632,23 +669,20 @@ mod tests {
             assert!(extended.contains(&n), "{n}");
         }
         let every = FeatureConfig::extended(Extensions::ALL, None).names();
-        let block = FEATURE_COUNT + 14;
+        let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14;
         assert_eq!(every.len(), 2 * block);
         assert_eq!(every[..FEATURE_COUNT], names[..]);
+        let last_pair = format!("r{}_r{RADIAL_RINGS}", RADIAL_RINGS - 1);
         assert_eq!(
-            [
-                &every[FEATURE_COUNT],
-                &every[FEATURE_COUNT + 2],
-                &every[block - 1]
-            ],
-            [
-                "radial.pix.mean",
-                "radial.wav.s1.h.var",
-                "radial.wav.s4.d.var"
-            ]
+            [&every[FEATURE_COUNT], &every[FEATURE_COUNT + 2]],
+            ["radial.r1_r2.pix.mean", "radial.r1_r2.wav.s1.h.var"]
         );
+        assert_eq!(every[block - 1], format!("radial.{last_pair}.wav.s4.d.var"));
         assert_eq!(every[block], "log.pix.mean");
-        assert_eq!(every[2 * block - 1], "log.radial.wav.s4.d.var");
+        assert_eq!(
+            every[2 * block - 1],
+            format!("log.radial.{last_pair}.wav.s4.d.var")
+        );
         for n in named_set("hand6+log+radial").unwrap() {
             assert!(every.contains(&n), "{n}");
         }
@@ -664,8 +698,11 @@ mod tests {
         assert_eq!(of_spec("all"), (false, false));
         assert_eq!(of_spec("hand6+log"), (true, false));
         assert_eq!(of_spec("hand6+log+radial"), (true, true));
-        assert_eq!(of_spec("pix.mean, radial.wav.s1.v.var"), (false, true));
-        assert_eq!(of_spec("log.radial.pix.var"), (true, true));
+        assert_eq!(
+            of_spec("pix.mean, radial.r1_r2.wav.s1.v.var"),
+            (false, true)
+        );
+        assert_eq!(of_spec("log.radial.r1_r2.pix.var"), (true, true));
         assert_eq!(of_spec("log.pix.mean,pix.p10"), (true, false));
         let config = FeatureConfig::extended(Extensions::ALL, Some(80.0));
         let names = config.names();
@@ -675,50 +712,75 @@ mod tests {
         );
     }
 
-    /// An unwrapped image with `inner` rows of `pattern(row, col)` at radii below the middle
-    /// and `outer` above.
-    fn two_halves(pattern: impl Fn(usize, usize) -> f64, inner: f64, outer: f64) -> Array2<f64> {
+    /// An unwrapped image of `pattern(row, col)` times `gain(ring)` (rings of equal height,
+    /// innermost first).
+    fn by_ring(pattern: impl Fn(usize, usize) -> f64, gain: impl Fn(usize) -> f64) -> Array2<f64> {
         let u = UnwrapConfig::default();
         Array2::from_shape_fn((u.rows, u.cols), |(i, j)| {
-            pattern(i, j) * if i < u.rows / 2 { inner } else { outer }
+            pattern(i, j) * gain(i * RADIAL_RINGS / u.rows)
         })
     }
 
     #[test]
-    fn radial_changes_compare_the_outer_half_of_the_annulus_with_the_inner_half() {
+    fn radial_changes_compare_each_ring_of_the_annulus_with_the_one_inside_it() {
         let extractor = Extractor::new(FeatureConfig::extended(Extensions::ALL, None)).unwrap();
         let names = extractor.config().names();
+        let per = radial_per_ring(4);
         let radial = |unwrapped: Array2<f64>| {
             let values = extractor.features_of(&extractor.stages_of_unwrapped(unwrapped));
-            let first = FEATURE_COUNT;
-            names[first..first + 14]
+            let range = FEATURE_COUNT..FEATURE_COUNT + (RADIAL_RINGS - 1) * per;
+            names[range.clone()]
                 .iter()
                 .cloned()
-                .zip(values[first..].iter().copied())
+                .zip(values[range].iter().copied())
                 .collect::<Vec<(String, f64)>>()
+        };
+        let value = |changes: &[(String, f64)], n: &str| {
+            changes.iter().find(|(m, _)| m == n).map(|c| c.1).unwrap()
         };
         // Angular structure only, the same at every radius: nothing changes.
         let stripes =
             |_: usize, j: usize| 1.0 + 0.5 * (j as f64 * 0.7).sin() + 0.1 * (j % 5) as f64;
-        for (name, value) in radial(two_halves(stripes, 1.0, 1.0)) {
+        for (name, value) in radial(by_ring(stripes, |_| 1.0)) {
             assert!(value.abs() < 1e-9, "{name} = {value}");
         }
-        // Outer half 3 × brighter: the mean grows by 2 × the inner mean, the variance 9 ×.
-        let u = two_halves(stripes, 1.0, 3.0);
-        let inner_mean = u.slice(ndarray::s![..48, ..]).mean().unwrap();
+        // Ring k (from 1) k × brighter: the mean grows by the ring-1 mean from ring to ring,
+        // the variance by (k + 1)² / k².
+        let u = by_ring(stripes, |k| (k + 1) as f64);
+        let ring1_mean = u
+            .slice(ndarray::s![..96 / RADIAL_RINGS, ..])
+            .mean()
+            .unwrap();
         let changes = radial(u);
-        assert_eq!(changes[0].0, "radial.pix.mean");
-        assert!((changes[0].1 - 2.0 * inner_mean).abs() < 1e-12);
-        assert!((changes[1].1 - 9f64.log10()).abs() < 1e-12);
-        // Finer angular structure outside: the finest vertical subband's energy moves out.
+        for k in 1..RADIAL_RINGS {
+            let pair = format!("radial.r{k}_r{}.pix", k + 1);
+            let mean = value(&changes, &format!("{pair}.mean"));
+            assert!((mean - ring1_mean).abs() < 1e-12, "{pair}: {mean}");
+            let var = value(&changes, &format!("{pair}.var"));
+            let ratio = ((k + 1) * (k + 1)) as f64 / (k * k) as f64;
+            assert!((var - ratio.log10()).abs() < 1e-12, "{pair}: {var}");
+        }
+        // Finer angular structure in the outermost ring: the finest vertical subband's
+        // energy moves out, the coarsest's in.
+        let outermost = RADIAL_RINGS - 1;
         let finer = |i: usize, j: usize| {
-            let period = if i < 48 { 32.0 } else { 4.0 };
+            let period = if i * RADIAL_RINGS / 96 == outermost {
+                4.0
+            } else {
+                32.0
+            };
             (std::f64::consts::TAU * j as f64 / period).sin()
         };
-        let changes = radial(two_halves(finer, 1.0, 1.0));
-        let value = |n: &str| changes.iter().find(|(m, _)| m == n).unwrap().1;
-        assert!(value("radial.wav.s1.v.var") > 2.0, "{changes:?}");
-        assert!(value("radial.wav.s4.v.var") < -1.0, "{changes:?}");
+        let changes = radial(by_ring(finer, |_| 1.0));
+        let last = format!("radial.r{outermost}_r{}.wav", outermost + 1);
+        assert!(
+            value(&changes, &format!("{last}.s1.v.var")) > 2.0,
+            "{changes:?}"
+        );
+        assert!(
+            value(&changes, &format!("{last}.s4.v.var")) < -0.5,
+            "{changes:?}"
+        );
     }
 
     #[test]
@@ -825,11 +887,11 @@ mod tests {
         let extended =
             Extractor::new(FeatureConfig::extended(Extensions::ALL, Some(60.0))).unwrap();
         let extended_full = extended.extract(luminance.view(), &circle, 0.9);
-        let block = FEATURE_COUNT + 14;
+        let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14;
         assert_eq!(extended.feature_count(), 2 * block);
         let extended_subsets = [
             vec![3, block + 1, block + 99, 2 * block - 1],
-            // radial.pix.var, radial.wav.s2.v.var; the same of the log-domain block
+            // radial.r1_r2.pix.var, radial.r1_r2.wav.s2.v.var; two of the log-domain block
             vec![FEATURE_COUNT + 1, FEATURE_COUNT + 6],
             vec![block + FEATURE_COUNT, block + FEATURE_COUNT + 13],
             (0..2 * block).collect::<Vec<_>>(),

@@ -258,11 +258,16 @@ fn extensions_extend_the_canonical_ones() {
         radial["names"].as_array().unwrap(),
         radial["values"].as_array().unwrap(),
     );
-    assert_eq!(radial_values.len(), 262);
+    // Two ring pairs × 14 per block.
+    assert_eq!(radial_values.len(), 290);
     assert_eq!(
-        [&radial_names[117], &radial_names[131], &radial_names[261]],
-        ["radial.pix.mean", "log.pix.mean", "log.radial.wav.s4.d.var"]
+        [&radial_names[117], &radial_names[145], &radial_names[289]],
+        [
+            "radial.r1_r2.pix.mean",
+            "log.pix.mean",
+            "log.radial.r2_r3.wav.s4.d.var"
+        ]
     );
     assert_eq!(&radial_values[..117], &values[..117]);
-    assert_eq!(&radial_values[131..248], &values[117..]);
+    assert_eq!(&radial_values[145..262], &values[117..]);
 }

@@ -289,7 +289,11 @@ fn predict_rendered_spheres_with_a_trained_model() {
     let wr = Registry::new(&models).load("tiny-wr", 1).unwrap();
     assert_eq!(wr.features.config.working_radius, Some(40.0));
     // Features named from an extension are extracted for training and again for predicting.
-    train("tiny-radial", "log.radial.pix.var,radial.wav.s1.v.var", &[]);
+    train(
+        "tiny-radial",
+        "log.radial.r1_r2.pix.var,radial.r2_r3.wav.s1.v.var",
+        &[],
+    );
     let radial = Registry::new(&models).load("tiny-radial", 1).unwrap();
     let extensions = radial.features.config.extensions();
     assert!(extensions.radial && extensions.log_domain);

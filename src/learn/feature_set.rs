@@ -163,7 +163,7 @@ mod tests {
             "pix.mean",
             "wav.s2.v.kurt,pix.p10",
             "hand6+log+radial",
-            "log.radial.wav.s1.v.var,radial.pix.mean",
+            "log.radial.r2_r3.wav.s1.v.var,radial.r1_r2.pix.mean",
         ] {
             let set: FeatureSet = spec.parse().unwrap();
             assert_eq!(set.to_string(), spec);
@@ -231,8 +231,12 @@ mod tests {
                 .names();
         let idx = FeatureSet::Hand6LogRadial.resolve(&every).unwrap().unwrap();
         assert_eq!(
-            (idx.len(), every[idx[25]].as_str(), every[idx[38]].as_str()),
-            (39, "log.radial.pix.mean", "log.radial.wav.s4.d.var")
+            (idx.len(), every[idx[25]].as_str(), every[idx[52]].as_str()),
+            (
+                53,
+                "log.radial.r1_r2.pix.mean",
+                "log.radial.r2_r3.wav.s4.d.var"
+            )
         );
         let short = vec!["pix.mean".to_string()];
         assert!(matches!(
