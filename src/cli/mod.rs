@@ -71,8 +71,8 @@ pub struct ExtensionArgs {
     /// Also compute the log-domain features (`log.*`, 117 more).
     #[arg(long)]
     log_features: bool,
-    /// Also compute the radial changes (`radial.*`: outer half of the annulus minus inner
-    /// half, 14 more per block).
+    /// Also compute the radial changes (`radial.*`: each of three rings of the annulus minus
+    /// the one inside it, 28 more per block).
     #[arg(long)]
     radial_features: bool,
     /// Reduce spheres larger than this radius (px) to it before extraction (area

@@ -7,9 +7,9 @@
 //! log-domain and radial ones) are cached as `features.csv` next to each manifest.
 //!
 //! Three protocols: the paper's (original renders only, the 117 features) for every cell of
-//! Tables 1 and 2, and ours for hand6, hand6+log and hand6+log+radial: `augmented` (training views of the
-//! probes, when the data sets have them) and `synthetic` (those views and the procedural
-//! illuminations, when the data sets have them).
+//! Tables 1 and 2, and ours for hand6, hand6+log and hand6+log+radial: `augmented`
+//! (training views of the probes, when the data sets have them) and `synthetic` (those views
+//! and the procedural illuminations, when the data sets have them).
 
 mod plots;
 
@@ -357,8 +357,8 @@ pub fn markdown(report: &Report) -> String {
          views are excluded) and are evaluated on the same original renders; the synthetic rows \
          also train on procedural illuminations (`render --synthetic`), in every fold. hand6+log \
          adds the log-domain pixel statistics and subband variances, hand6+log+radial also how \
-         the log-domain pixel mean and variance and the subband variances change from the inner \
-         to the outer half of the annulus. Beside them: the paper's hand6 figure.\n",
+         the log-domain pixel mean and variance and the subband variances change from ring to \
+         ring of the annulus (three rings). Beside them: the paper's hand6 figure.\n",
     );
     md.push_str("\n## Table 2 — classifiers × feature sets (paper protocol)\n\n");
     header(&mut md, "| classifier | features |");
