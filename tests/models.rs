@@ -8,7 +8,7 @@ use reflectance::learn::{ClassifierKind, FeatureSet, TrainSpec};
 use reflectance::model::{ModelError, ModelFile};
 use reflectance::registry::{Registry, RegistryError};
 use reflectance::train::{TrainOptions, train};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -279,6 +279,17 @@ fn predict_rendered_spheres_with_a_trained_model() {
         args.extend_from_slice(extra);
         run(&args);
     };
+    let predict = |model: &str, out: &Path| {
+        run(&[
+            "predict",
+            "--model",
+            models.join(model).to_str().unwrap(),
+            "--manifest",
+            manifest.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
     train("tiny", "mean1", &["--classes", classes.to_str().unwrap()]);
     let model = Registry::new(&models).load("tiny", 1).unwrap();
     assert_eq!(model.features.config.working_radius, None);
@@ -297,29 +308,13 @@ fn predict_rendered_spheres_with_a_trained_model() {
     let radial = Registry::new(&models).load("tiny-radial", 1).unwrap();
     let extensions = radial.features.config.extensions();
     assert!(extensions.radial && extensions.log_domain);
-    let predicted = run(&[
-        "predict",
-        "--model",
-        models.join("tiny-radial").to_str().unwrap(),
-        "--manifest",
-        manifest.to_str().unwrap(),
-        "--out",
-        dir.join("radial.csv").to_str().unwrap(),
-    ]);
+    let predicted = predict("tiny-radial", &dir.join("radial.csv"));
     assert!(
         predicted.starts_with("accuracy 100.0 % (9/9)"),
         "{predicted}"
     );
     let predictions = dir.join("p.csv");
-    let printed = run(&[
-        "predict",
-        "--model",
-        models.join("tiny").to_str().unwrap(),
-        "--manifest",
-        manifest.to_str().unwrap(),
-        "--out",
-        predictions.to_str().unwrap(),
-    ]);
+    let printed = predict("tiny", &predictions);
     // The training images themselves, by their nearest neighbour: all correct.
     assert!(
         printed.starts_with("accuracy 100.0 % (9/9) with tiny version 1"),
@@ -330,14 +325,6 @@ fn predict_rendered_spheres_with_a_trained_model() {
     assert_eq!(lines[0], "path,label,p_chrome,p_dark,p_matte");
     assert_eq!(lines.len(), 10);
     assert!(lines[1].starts_with("p0__matte.pfm,matte,"), "{}", lines[1]);
-    let explicit = run(&[
-        "predict",
-        "--model",
-        models.join("tiny/1").to_str().unwrap(),
-        "--manifest",
-        manifest.to_str().unwrap(),
-        "--out",
-        predictions.to_str().unwrap(),
-    ]);
+    let explicit = predict("tiny/1", &predictions);
     assert_eq!(explicit, printed);
 }
