@@ -1715,3 +1715,105 @@ async fn slow_bodies_time_out_with_408() {
     let status = slow_exchange(addr, head, body, usize::MAX, Duration::ZERO).await;
     assert_eq!(status, Some(200));
 }
+
+// ------------------------------------------------ slow headers and idle connections (sockets)
+
+/// Connect, write `pieces` with `pause` after each, then stall; how long until the server
+/// closes the connection, and what it sent before.
+async fn time_to_close(
+    addr: std::net::SocketAddr,
+    pieces: Vec<Vec<u8>>,
+    pause: Duration,
+) -> (Duration, Vec<u8>) {
+    let started = std::time::Instant::now();
+    let stream = tokio::net::TcpStream::connect(addr).await.unwrap();
+    let (mut reader, mut writer) = stream.into_split();
+    let sender = tokio::spawn(async move {
+        for piece in pieces {
+            if writer.write_all(&piece).await.is_err() {
+                return;
+            }
+            tokio::time::sleep(pause).await;
+        }
+        tokio::time::sleep(Duration::from_secs(60)).await;
+    });
+    let mut answer = Vec::new();
+    let closed = tokio::time::timeout(CASE_LIMIT, async {
+        let mut buf = [0u8; 4096];
+        while let Ok(n @ 1..) = reader.read(&mut buf).await {
+            answer.extend_from_slice(&buf[..n]);
+        }
+    })
+    .await;
+    sender.abort();
+    assert!(
+        closed.is_ok(),
+        "the connection was still open after {CASE_LIMIT:?}"
+    );
+    (started.elapsed(), answer)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn slow_headers_and_idle_connections_are_closed_at_the_header_deadline() {
+    let server = start(config(&models_copy("hostile-headers")));
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    let deadline = Duration::from_millis(500);
+    tokio::spawn(reflectance::server::listener::serve_plane(
+        listener,
+        server.data.clone(),
+        deadline,
+        std::future::pending(),
+    ));
+    let within_deadline = |what: &str, elapsed: Duration| {
+        assert!(
+            elapsed >= deadline.mul_f64(0.8) && elapsed < Duration::from_secs(5),
+            "{what}: closed after {elapsed:?}, deadline {deadline:?}"
+        );
+    };
+
+    // Headers begun, then silence.
+    let head = b"POST /v1/classify HTTP/1.1\r\nHost: x\r\n".to_vec();
+    let (elapsed, answer) = time_to_close(addr, vec![head], Duration::ZERO).await;
+    within_deadline("stalled headers", elapsed);
+    assert!(
+        !answer.starts_with(b"HTTP/1.1 2"),
+        "answered a partial request"
+    );
+
+    // A trickle of one header byte every 20 ms would take 10 s: steady progress does not
+    // extend the deadline.
+    let trickle: Vec<Vec<u8>> = format!(
+        "GET /health/live HTTP/1.1\r\nHost: x\r\nX-Pad: {}",
+        "a".repeat(450)
+    )
+    .bytes()
+    .map(|b| vec![b])
+    .collect();
+    let (elapsed, answer) = time_to_close(addr, trickle, Duration::from_millis(20)).await;
+    within_deadline("trickled headers", elapsed);
+    assert!(
+        !answer.starts_with(b"HTTP/1.1 2"),
+        "answered a partial request"
+    );
+
+    // A complete request is answered; the keep-alive connection, left idle, is closed.
+    let request = b"GET /health/live HTTP/1.1\r\nHost: x\r\n\r\n".to_vec();
+    let (elapsed, answer) = time_to_close(addr, vec![request], Duration::ZERO).await;
+    within_deadline("idle keep-alive connection", elapsed);
+    assert!(
+        answer.starts_with(b"HTTP/1.1 200"),
+        "{}",
+        String::from_utf8_lossy(&answer)
+    );
+
+    // The server is unharmed: a whole classification over a fresh connection succeeds.
+    let (content_type, body) = multipart(&with_circle(&sphere(), &[]));
+    let head = format!(
+        "POST /v1/classify HTTP/1.1\r\nHost: x\r\nContent-Type: {content_type}\r\n\
+         Content-Length: {}\r\n\r\n",
+        body.len()
+    );
+    let status = slow_exchange(addr, head, body, usize::MAX, Duration::ZERO).await;
+    assert_eq!(status, Some(200));
+}

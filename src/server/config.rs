@@ -69,6 +69,10 @@ pub struct ServeArgs {
     /// Per-request time limit in seconds (answered with 408).
     #[arg(long, env = "REFLECTANCE_REQUEST_TIMEOUT", default_value_t = 30.0)]
     pub request_timeout: f64,
+    /// Seconds a connection may take to send a request's headers, or stay idle between
+    /// requests, before it is closed (slow or stalled clients cannot hold connections).
+    #[arg(long, env = "REFLECTANCE_HEADER_TIMEOUT", default_value_t = 10.0)]
+    pub header_timeout: f64,
     /// On SIGTERM/SIGINT: seconds to let in-flight requests finish before stopping.
     #[arg(long, env = "REFLECTANCE_SHUTDOWN_GRACE", default_value_t = 30.0)]
     pub shutdown_grace: f64,
@@ -108,6 +112,7 @@ pub struct Config {
     pub max_inflight: usize,
     pub body_limit: usize,
     pub request_timeout: Duration,
+    pub header_timeout: Duration,
     pub shutdown_grace: Duration,
     pub drain_delay: Duration,
     pub model_cache: usize,
@@ -136,6 +141,7 @@ impl std::fmt::Debug for Config {
             .field("max_inflight", &self.max_inflight)
             .field("body_limit", &self.body_limit)
             .field("request_timeout", &self.request_timeout)
+            .field("header_timeout", &self.header_timeout)
             .field("shutdown_grace", &self.shutdown_grace)
             .field("drain_delay", &self.drain_delay)
             .field("model_cache", &self.model_cache)
@@ -166,6 +172,7 @@ impl Config {
             max_inflight: 64,
             body_limit: 16 * 1024 * 1024,
             request_timeout: Duration::from_secs(30),
+            header_timeout: Duration::from_secs(10),
             shutdown_grace: Duration::from_secs(30),
             drain_delay: Duration::ZERO,
             model_cache: 4,
@@ -192,6 +199,13 @@ fn seconds(what: &str, value: f64) -> Result<Duration, String> {
         Err(format!(
             "{what} must be a number of seconds ≥ 0, not {value}"
         ))
+    }
+}
+
+fn positive_seconds(what: &str, value: f64) -> Result<Duration, String> {
+    match seconds(what, value)? {
+        d if d.is_zero() => Err(format!("{what} must be > 0")),
+        d => Ok(d),
     }
 }
 
@@ -234,10 +248,8 @@ impl ServeArgs {
             .jobs_dir
             .clone()
             .unwrap_or_else(|| self.data_dir.join("jobs"));
-        let request_timeout = seconds("--request-timeout", self.request_timeout)?;
-        if request_timeout.is_zero() {
-            return Err("--request-timeout must be > 0".into());
-        }
+        let request_timeout = positive_seconds("--request-timeout", self.request_timeout)?;
+        let header_timeout = positive_seconds("--header-timeout", self.header_timeout)?;
         Ok(Config {
             models: self.models,
             default_model: self.default_model,
@@ -256,6 +268,7 @@ impl ServeArgs {
             max_inflight: positive("--max-inflight", self.max_inflight)?,
             body_limit: positive("--body-limit", self.body_limit)?,
             request_timeout,
+            header_timeout,
             shutdown_grace: seconds("--shutdown-grace", self.shutdown_grace)?,
             drain_delay: seconds("--drain-delay", self.drain_delay)?,
             model_cache: self.model_cache,

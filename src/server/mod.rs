@@ -5,6 +5,7 @@
 //! * [`router`] — the two planes and the middleware;
 //! * [`handlers`] — one module per area;
 //! * [`error`] — the one place errors become HTTP statuses and problem+json;
+//! * [`listener`] — the accept loop and its header deadline;
 //! * [`auth`], [`metrics`], [`jobs`], [`openapi`].
 
 pub mod auth;
@@ -12,6 +13,7 @@ pub mod config;
 pub mod error;
 pub mod handlers;
 pub mod jobs;
+pub mod listener;
 pub mod metrics;
 pub mod openapi;
 pub mod router;
@@ -164,13 +166,20 @@ pub async fn serve(
     let signal = |mut rx: tokio::sync::watch::Receiver<bool>| async move {
         let _ = rx.wait_for(|stop| *stop).await;
     };
-    let data_server = axum::serve(data, router::data_router(state.clone()))
-        .with_graceful_shutdown(signal(stop_rx.clone()));
-    let data_task = tokio::spawn(async move { data_server.await });
-    let admin_task = admin.map(|listener| {
-        let server = axum::serve(listener, router::admin_router(state.clone()))
-            .with_graceful_shutdown(signal(stop_rx.clone()));
-        tokio::spawn(async move { server.await })
+    let header_timeout = state.config.header_timeout;
+    let data_task = tokio::spawn(listener::serve_plane(
+        data,
+        router::data_router(state.clone()),
+        header_timeout,
+        signal(stop_rx.clone()),
+    ));
+    let admin_task = admin.map(|admin| {
+        tokio::spawn(listener::serve_plane(
+            admin,
+            router::admin_router(state.clone()),
+            header_timeout,
+            signal(stop_rx.clone()),
+        ))
     });
     shutdown.await;
     tracing::info!("shutting down: draining");
