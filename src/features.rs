@@ -250,6 +250,17 @@ fn radial_per_ring(levels: usize) -> usize {
     2 + 3 * levels
 }
 
+/// Index of a radial change within the radial features: ring pair by ring pair, and within a
+/// pair `slot` 0 the pixel mean, 1 the pixel variance, then [`radial_band`].
+fn radial_slot(levels: usize, pair: usize, slot: usize) -> usize {
+    pair * radial_per_ring(levels) + slot
+}
+
+/// The slot of subband (`level`, `band`) within a ring pair.
+fn radial_band(level: usize, band: usize) -> usize {
+    2 + 3 * level + band
+}
+
 /// `radial.r{t}_r{t+1}.pix.{mean,var}`, `radial.r{t}_r{t+1}.wav.s{k}.{h,v,d}.var`, ring
 /// pair by ring pair.
 fn radial_names(levels: usize) -> impl Iterator<Item = String> {
@@ -429,15 +440,16 @@ impl Extractor {
         out.extend(powers.oriented.iter().flatten().map(|&p| log10_floor(p)));
         out.push(log10_floor(powers.lo));
         if self.config.radial {
-            let per = radial_per_ring(self.config.levels);
-            let mut radial = vec![f64::NAN; (RADIAL_RINGS - 1) * per];
+            let levels = self.config.levels;
+            let mut radial = vec![f64::NAN; (RADIAL_RINGS - 1) * radial_per_ring(levels)];
             for (t, change) in ring_changes(&stages.unwrapped).into_iter().enumerate() {
-                radial[t * per..t * per + 2].copy_from_slice(&change);
+                radial[radial_slot(levels, t, 0)..radial_slot(levels, t, 2)]
+                    .copy_from_slice(&change);
             }
             for (level, bands) in stages.pyramid.levels.iter().enumerate() {
                 for (band, values) in [&bands.h, &bands.v, &bands.d].into_iter().enumerate() {
                     for (t, [_, var]) in ring_changes(values).into_iter().enumerate() {
-                        radial[t * per + 2 + 3 * level + band] = var;
+                        radial[radial_slot(levels, t, radial_band(level, band))] = var;
                     }
                 }
             }
@@ -507,9 +519,7 @@ impl Extractor {
         let fft_base = ratio_base + 3 * (levels - 1);
         let radial_base = fft_base + 4 * ORIENTATIONS.len() + 1;
         let ratio_needed = |band: usize, pair: usize| need[ratio_base + band * (levels - 1) + pair];
-        // Radial changes: [ring pair][pix mean, pix var, subbands [level][h, v, d]].
-        let radial_per = radial_per_ring(levels);
-        let radial_index = |pair: usize, j: usize| radial_base + pair * radial_per + j;
+        let radial_index = |pair: usize, j: usize| radial_base + radial_slot(levels, pair, j);
         let radial_needed = |j: usize| {
             self.config.radial && (0..RADIAL_RINGS - 1).any(|pair| need[radial_index(pair, j)])
         };
@@ -522,7 +532,7 @@ impl Extractor {
                 let ratio = (level + 1 < levels && ratio_needed(band, level))
                     || (level > 0 && ratio_needed(band, level - 1));
                 *slot = ratio;
-                let radial = radial_needed(2 + 3 * level + band);
+                let radial = radial_needed(radial_band(level, band));
                 if ratio || radial || need[base..base + stats].iter().any(|&b| b) {
                     deepest = Some(level);
                 }
@@ -569,7 +579,7 @@ impl Extractor {
                         variances[level][band] =
                             fill(&values_of(values), base, band_var[level][band], out);
                     }
-                    let j = 2 + 3 * level + band;
+                    let j = radial_band(level, band);
                     if radial_needed(j) {
                         for (pair, [_, var]) in ring_changes(values).into_iter().enumerate() {
                             out[radial_index(pair, j)] = var;

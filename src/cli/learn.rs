@@ -239,11 +239,7 @@ pub fn train(args: TrainArgs) -> CliResult {
         seed: args.spec.seed,
         cross_validate: !args.no_cv,
         classes,
-        working_radius: args
-            .spec
-            .extensions
-            .config(Extensions::default())
-            .working_radius,
+        working_radius: args.spec.extensions.working_radius,
     };
     let mut trained = train::train(&table, &label, &options).map_err(|e| e.to_string())?;
     let report = trained
