@@ -223,7 +223,7 @@ pub fn extract_manifest_with(
             Some(result)
         })
         .collect();
-    bar.finish_and_clear();
+    bar.finish();
     if results.iter().any(Option::is_none) {
         return Err(DatasetError::Cancelled);
     }

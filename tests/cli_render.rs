@@ -147,6 +147,8 @@ fn augmentation_adds_views_with_suffixed_illuminations() {
         "40,50",
         "--contrasts",
         "0.7",
+        "--reductions",
+        "4",
         "--synthetic",
         "2",
     ]);
@@ -161,6 +163,7 @@ fn augmentation_adds_views_with_suffixed_illuminations() {
         "probe0",
         "probe0@el40",
         "probe0@el50",
+        "probe0@lr4",
         "probe0@rot090",
         "probe0@rot180",
         "probe0@rot270",
@@ -170,24 +173,41 @@ fn augmentation_adds_views_with_suffixed_illuminations() {
     for e in expected {
         assert!(illuminations.contains(e), "{illuminations:?}");
     }
-    // Probes in 7 views, synthetic maps in the original view only.
-    assert_eq!(manifest.lines().count(), 1 + 2 * 7 * 3 + 2 * 3);
-    // A flatter dynamic range renders a different image of the same scene.
+    // Probes in 8 views, synthetic maps in the original view only.
+    assert_eq!(manifest.lines().count(), 1 + 2 * 8 * 3 + 2 * 3);
+    // A flatter dynamic range and a coarser capture render different images of the scene.
     let original = std::fs::read(out.join("probe0__shiny.pfm")).unwrap();
     let flatter = std::fs::read(out.join("probe0@c0.7__shiny.pfm")).unwrap();
+    let coarser = std::fs::read(out.join("probe0@lr4__shiny.pfm")).unwrap();
     assert_ne!(original, flatter);
+    assert_ne!(original, coarser);
     // Cross-validation trains on the synthetic maps in every fold and never tests them.
-    let cv = run(&[
-        "cv",
-        "--manifest",
-        out.join("manifest.csv").to_str().unwrap(),
-        "--features",
-        "hand2",
-        "--classifier",
-        "nn",
-        "--json",
-    ]);
+    // Its stderr is not a terminal: progress comes as plain lines (here with no interval).
+    let cv = Command::new(env!("CARGO_BIN_EXE_reflectance"))
+        .args([
+            "cv",
+            "--manifest",
+            out.join("manifest.csv").to_str().unwrap(),
+            "--features",
+            "hand2",
+            "--classifier",
+            "nn",
+            "--json",
+        ])
+        .env("REFLECTANCE_PROGRESS_SECONDS", "0")
+        .output()
+        .unwrap();
     common::assert_success(&cv);
+    let progress = String::from_utf8_lossy(&cv.stderr);
+    assert!(progress.contains("cv: 0/2 (0 %)"), "{progress}");
+    assert!(
+        progress
+            .lines()
+            .last()
+            .unwrap()
+            .starts_with("cv: 2 done in "),
+        "{progress}"
+    );
     let report: serde_json::Value = serde_json::from_slice(&cv.stdout).unwrap();
     assert_eq!(report["n"], 2 * 3);
     let folds = report["folds"].as_array().unwrap();
@@ -196,8 +216,8 @@ fn augmentation_adds_views_with_suffixed_illuminations() {
         .map(|f| f["illumination"].as_str().unwrap())
         .collect();
     assert_eq!(held_out, ["probe0", "probe1"]);
-    // The other probe's 7 views and both synthetic maps, 3 classes each.
-    assert!(folds.iter().all(|f| f["n_train"] == (7 + 2) * 3));
+    // The other probe's 8 views and both synthetic maps, 3 classes each.
+    assert!(folds.iter().all(|f| f["n_train"] == (8 + 2) * 3));
 }
 
 #[test]
@@ -212,7 +232,7 @@ fn bad_inputs_are_reported() {
     )
     .unwrap();
     let out = dir.join("out");
-    let cases: [(&[&str], &str); 4] = [
+    let cases: [(&[&str], &str); 5] = [
         (
             &[
                 "--probes",
@@ -241,6 +261,17 @@ fn bad_inputs_are_reported() {
                 "4",
             ],
             "size",
+        ),
+        (
+            &[
+                "--probes",
+                list.to_str().unwrap(),
+                "--classes",
+                classes.to_str().unwrap(),
+                "--reductions",
+                "1",
+            ],
+            "reductions within 2…16",
         ),
         (
             &[

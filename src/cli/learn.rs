@@ -5,6 +5,7 @@ use crate::dataset::{self, FeatureTable};
 use crate::features::{Extensions, Extractor, FeatureConfig};
 use crate::image_io::DecodeOptions;
 use crate::learn::{ClassifierKind, CvReport, Dataset, FeatureSet, Grid, TrainSpec};
+use crate::progress;
 use crate::registry::{self, Registry};
 use crate::render::batch::load_classes;
 use crate::train::{self, TrainOptions};
@@ -121,8 +122,10 @@ pub fn cv(args: CvArgs) -> CliResult {
     let (table, _) = args.data.load(&args.limits, args.spec.config())?;
     let spec = args.spec.spec(&table.names)?;
     let ds = Dataset::from_table(&table).map_err(|e| e.to_string())?;
-    let report =
-        crate::learn::cross_validate(&ds, &spec, args.spec.seed).map_err(|e| e.to_string())?;
+    let bar = progress::bar(0, "cv");
+    let report = crate::learn::cross_validate_with(&ds, &spec, args.spec.seed, &bar)
+        .map_err(|e| e.to_string())?;
+    bar.finish();
     if args.json {
         println!(
             "{}",
@@ -241,7 +244,10 @@ pub fn train(args: TrainArgs) -> CliResult {
         classes,
         working_radius: args.spec.extensions.working_radius,
     };
-    let mut trained = train::train(&table, &label, &options).map_err(|e| e.to_string())?;
+    let bar = progress::bar(0, "train");
+    let mut trained =
+        train::train_with(&table, &label, &options, &bar).map_err(|e| e.to_string())?;
+    bar.finish();
     let report = trained
         .report
         .as_ref()

@@ -97,6 +97,9 @@ pub type CliResult = Result<(), String>;
 
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
+    if !matches!(cli.command, Command::Serve(_) | Command::Healthcheck(_)) {
+        crate::progress::show_on_stderr();
+    }
     let result = match cli.command {
         Command::Features(args) => features::run(args),
         Command::Render(args) => render::run(args),

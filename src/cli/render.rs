@@ -32,6 +32,10 @@ pub struct RenderArgs {
     /// luminance^k, e.g. 0.7,1.4).
     #[arg(long, value_delimiter = ',')]
     contrasts: Vec<f64>,
+    /// Augmentation: extra captures of each probe this many times coarser (comma-separated
+    /// factors, e.g. 2 for 256 × 128 from 512 × 256), averaged and interpolated back.
+    #[arg(long, value_delimiter = ',')]
+    reductions: Vec<usize>,
     /// Augmentation: also render this many procedural illuminations (dead-leaves maps with
     /// compact sources; labelled `synthetic@…`, used for training only).
     #[arg(long, default_value_t = 0)]
@@ -63,6 +67,7 @@ pub fn run(args: RenderArgs) -> CliResult {
             rotations: args.rotations,
             elevations: args.elevations,
             contrasts: args.contrasts,
+            reductions: args.reductions,
             synthetic: args.synthetic,
         },
     };

@@ -126,6 +126,9 @@ pub struct Augment {
     /// Additional dynamic ranges of each probe: luminance L^k (rescaled to the same mean),
     /// k < 1 flattening and k > 1 sharpening the contrast between sources and surroundings.
     pub contrasts: Vec<f64>,
+    /// Additional captures of each probe `factor` times coarser ([`EnvMap::reduced`]): the
+    /// same scene with less fine detail, as the upsampled probes have.
+    pub reductions: Vec<usize>,
     /// Procedural illuminations ([`super::synthetic`]) rendered besides the probes, in the
     /// original view only, labelled `synthetic@s<seed>-<index>`: one group that never
     /// holds originals, so cross-validation trains on them in every fold and never tests them.
@@ -137,7 +140,7 @@ pub struct Augment {
 struct Variant {
     suffix: String,
     view: View,
-    /// Index into the probe's lightings: 0 = the map as it is, k = `contrasts[k − 1]`.
+    /// Index into the probe's lightings ([`Augment::lighting`]).
     lighting: usize,
 }
 
@@ -179,14 +182,33 @@ fn variants(augment: &Augment, map_width: usize) -> Vec<Variant> {
             lighting: 0,
         });
     }
-    for (k, &c) in augment.contrasts.iter().enumerate() {
+    let contrasts = augment.contrasts.iter().map(|&c| format!("@c{}", label(c)));
+    let reductions = augment.reductions.iter().map(|f| format!("@lr{f}"));
+    for (k, suffix) in contrasts.chain(reductions).enumerate() {
         out.push(Variant {
-            suffix: format!("@c{}", label(c)),
+            suffix,
             view: View::default(),
             lighting: k + 1,
         });
     }
     out
+}
+
+impl Augment {
+    /// Lightings of a probe: the map as it is, then one per contrast, then one per reduction.
+    fn lightings(&self) -> usize {
+        1 + self.contrasts.len() + self.reductions.len()
+    }
+
+    /// Lighting `k` of a probe whose map is `map`.
+    fn lighting(&self, map: &EnvMap, k: usize) -> EnvMap {
+        let contrasts = self.contrasts.len();
+        match k {
+            0 => map.clone(),
+            k if k <= contrasts => map.with_contrast(self.contrasts[k - 1]),
+            k => map.reduced(self.reductions[k - 1 - contrasts]),
+        }
+    }
 }
 
 /// What to render.
@@ -267,10 +289,16 @@ fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
     let a = &spec.augment;
     let bad_elevation = a.elevations.iter().any(|e| !(5.0..=85.0).contains(e));
     let bad_contrast = a.contrasts.iter().any(|c| !(0.1..=4.0).contains(c));
-    if a.rotations > 360 || bad_elevation || bad_contrast || a.synthetic > MAX_SYNTHETIC {
+    let bad_reduction = a.reductions.iter().any(|f| !(2..=16).contains(f));
+    if a.rotations > 360
+        || bad_elevation
+        || bad_contrast
+        || bad_reduction
+        || a.synthetic > MAX_SYNTHETIC
+    {
         return Err(RenderError::Options(format!(
-            "rotations must be ≤ 360, elevations within 5°…85°, contrasts within 0.1…4 and \
-             synthetic illuminations ≤ {MAX_SYNTHETIC}"
+            "rotations must be ≤ 360, elevations within 5°…85°, contrasts within 0.1…4, \
+             reductions within 2…16 and synthetic illuminations ≤ {MAX_SYNTHETIC}"
         )));
     }
     Ok(())
@@ -288,7 +316,7 @@ fn probes_of(spec: &BatchSpec) -> Vec<Probe> {
         source,
         stem,
         map: OnceLock::new(),
-        lightings: (0..=spec.augment.contrasts.len())
+        lightings: (0..spec.augment.lightings())
             .map(|_| OnceLock::new())
             .collect(),
     };
@@ -356,12 +384,8 @@ pub fn render_dataset_with(
                 let probe = &probes[job.probe];
                 let map = probe.map()?;
                 let k = job.variant.lighting;
-                let lighting = probe.lightings[k].get_or_init(|| {
-                    Lighting::new(match k {
-                        0 => map.clone(),
-                        _ => map.with_contrast(spec.augment.contrasts[k - 1]),
-                    })
-                });
+                let lighting =
+                    probe.lightings[k].get_or_init(|| Lighting::new(spec.augment.lighting(map, k)));
                 let mut rng = Rng::fork(spec.seed, stable_hash(&job.name));
                 let image = render(
                     lighting,
@@ -378,7 +402,7 @@ pub fn render_dataset_with(
             result
         })
         .collect();
-    bar.finish_and_clear();
+    bar.finish();
     let mut rendered = 0;
     for outcome in outcomes {
         rendered += usize::from(outcome?);

@@ -145,6 +145,36 @@ impl EnvMap {
         }
     }
 
+    /// The map as through a capture `factor` times coarser, interpolated back to its size:
+    /// blocks of `factor` × `factor` pixels averaged by solid angle, then looked up
+    /// bilinearly. Light probes come at different resolutions, and a mirror under a blurred
+    /// map must not be new to a classifier.
+    pub fn reduced(&self, factor: usize) -> EnvMap {
+        let factor = factor.max(1);
+        let (width, height) = (self.width.div_ceil(factor), self.height.div_ceil(factor));
+        let mut small = EnvMap {
+            width,
+            height,
+            luminance: vec![0.0; width * height],
+        };
+        for i in 0..height {
+            let rows = i * factor..((i + 1) * factor).min(self.height);
+            let weight: f64 = rows.clone().map(|r| self.solid_angle(r)).sum();
+            for j in 0..width {
+                let cols = j * factor..((j + 1) * factor).min(self.width);
+                let power: f64 = rows
+                    .clone()
+                    .map(|r| {
+                        let row = &self.luminance[r * self.width..][cols.clone()];
+                        self.solid_angle(r) * row.iter().sum::<f64>()
+                    })
+                    .sum();
+                small.luminance[i * width + j] = power / (cols.len() as f64 * weight);
+            }
+        }
+        EnvMap::from_fn(self.width, self.height, |d| small.lookup(d))
+    }
+
     /// The map with its columns rolled right by `k` (a rotation about +Y by 2πk/W).
     pub fn rolled(&self, k: usize) -> EnvMap {
         let mut luminance = self.luminance.clone();
@@ -228,6 +258,27 @@ mod tests {
             assert!((total(&c) - total(&map)).abs() < 1e-12 * total(&map));
             assert!((range(&c).ln() - k * range(&map).ln()).abs() < 1e-9, "{k}");
         }
+    }
+
+    #[test]
+    fn a_reduced_map_keeps_its_light_and_loses_its_finest_detail() {
+        let (w, h) = (128, 64);
+        let mut sharp = EnvMap::from_fn(w, h, |d| 1.0 + d.y.max(0.0));
+        sharp.luminance[20 * w + 70] += 1e3;
+        let flux = |m: &EnvMap| m.integral(&m.luminance);
+        let peak = |m: &EnvMap| m.luminance.iter().fold(0.0f64, |a, &b| a.max(b));
+        let mut previous = peak(&sharp);
+        for factor in [2, 4] {
+            let soft = sharp.reduced(factor);
+            assert_eq!((soft.width, soft.height), (w, h));
+            assert!((flux(&soft) / flux(&sharp) - 1.0).abs() < 0.01, "{factor}");
+            assert!(previous > 2.5 * peak(&soft), "{factor}");
+            previous = peak(&soft);
+        }
+        // Sizes the factor does not divide: partial blocks at the edges, still a mean.
+        let odd = EnvMap::from_fn(30, 15, |_| 2.0).reduced(4);
+        assert_eq!((odd.width, odd.height), (30, 15));
+        assert!(odd.luminance.iter().all(|v| (v - 2.0).abs() < 1e-12));
     }
 
     #[test]

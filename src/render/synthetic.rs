@@ -42,7 +42,7 @@ pub fn map(seed: u64, index: u64) -> EnvMap {
     };
     add_sources(&mut rng, &pixels, &mut env);
     if rng.next_f64() < LOW_RESOLUTION_SHARE {
-        env = low_resolution(&env);
+        env = env.reduced(2);
     }
     env
 }
@@ -51,26 +51,6 @@ pub fn map(seed: u64, index: u64) -> EnvMap {
 /// resolutions (two of the paper9 maps were upsampled from 256 × 128), and a mirror under a
 /// blurred map must not be new to the classifier.
 const LOW_RESOLUTION_SHARE: f64 = 1.0 / 3.0;
-
-/// The map averaged over 2 × 2 pixels (by solid angle) and interpolated back to its size.
-fn low_resolution(env: &EnvMap) -> EnvMap {
-    let (width, height) = (env.width / 2, env.height / 2);
-    let mut small = EnvMap {
-        width,
-        height,
-        luminance: vec![0.0; width * height],
-    };
-    for i in 0..height {
-        let (upper, lower) = (env.solid_angle(2 * i), env.solid_angle(2 * i + 1));
-        for j in 0..width {
-            let at = |row: usize, col: usize| env.luminance[row * env.width + col];
-            let sum = upper * (at(2 * i, 2 * j) + at(2 * i, 2 * j + 1))
-                + lower * (at(2 * i + 1, 2 * j) + at(2 * i + 1, 2 * j + 1));
-            small.luminance[i * width + j] = sum / (2.0 * (upper + lower));
-        }
-    }
-    EnvMap::from_fn(env.width, env.height, |d| small.lookup(d))
-}
 
 /// Uniform in [lo, hi).
 fn uniform(rng: &mut Rng, lo: f64, hi: f64) -> f64 {
@@ -287,19 +267,6 @@ mod tests {
         assert_eq!(a.luminance, map(7, 3).luminance);
         assert_ne!(a.luminance, map(7, 4).luminance);
         assert_ne!(a.luminance, map(8, 3).luminance);
-    }
-
-    #[test]
-    fn a_low_resolution_map_keeps_its_light_and_loses_its_finest_detail() {
-        let mut sharp = map(1, 0);
-        sharp.luminance[100 * WIDTH + 300] += 1e3;
-        let soft = low_resolution(&sharp);
-        let flux = |m: &EnvMap| m.integral(&m.luminance);
-        assert!((flux(&soft) / flux(&sharp) - 1.0).abs() < 0.01);
-        let neighbour_ratio =
-            |m: &EnvMap| m.luminance[100 * WIDTH + 300] / m.luminance[100 * WIDTH + 302];
-        assert!(neighbour_ratio(&sharp) > 10.0 * neighbour_ratio(&soft));
-        assert!(soft.luminance.iter().all(|v| v.is_finite() && *v > 0.0));
     }
 
     /// Share of the map's light in its brightest pixels covering `area` of the sphere.

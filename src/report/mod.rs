@@ -238,7 +238,7 @@ pub fn run(
         cells.push(cell(name, protocol, &report));
         bar.inc(1);
     }
-    bar.finish_and_clear();
+    bar.finish();
     for (name, variants) in tables.iter().filter(|(n, _)| n.ends_with("_6")) {
         let (table, ds) = &variants[0];
         plots::fig7(table, ds, seed, &out.join(format!("fig7_{name}.png")))?;
