@@ -87,7 +87,7 @@ fn features_with_log_domain(bencher: Bencher) {
     bench_extraction(bencher, FeatureConfig::with_log_domain());
 }
 
-/// With the radial changes too (262 features, `hand6+log+radial` models).
+/// Every extension: the radial changes and the orientation dependencies too (314 features).
 #[divan::bench]
 fn features_with_every_extension(bencher: Bencher) {
     bench_extraction(bencher, FeatureConfig::extended(Extensions::ALL, None));

@@ -41,6 +41,10 @@ pub const RADIAL_PREFIX: &str = "radial.";
 /// The radial changes cut the rows of the unwrapped annulus (and of each subband) into this
 /// many rings of equal height and compare each with the one inside it.
 pub const RADIAL_RINGS: usize = 3;
+/// Prefix of the orientation-dependency features' names (within a block).
+pub const DEPENDENCY_PREFIX: &str = "dep.";
+/// The pairs of orientations whose subband magnitudes the dependency features correlate.
+const ORIENTATION_PAIRS: [(usize, usize); 3] = [(0, 1), (0, 2), (1, 2)];
 
 /// Optional feature families beyond DESIGN.md's 117.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -49,6 +53,8 @@ pub struct Extensions {
     pub log_domain: bool,
     /// How the statistics change from ring to ring of the annulus (`radial.*`).
     pub radial: bool,
+    /// Correlations of subband magnitudes between orientations at each scale (`dep.*`).
+    pub dependencies: bool,
 }
 
 impl Extensions {
@@ -56,15 +62,18 @@ impl Extensions {
     pub const ALL: Extensions = Extensions {
         log_domain: true,
         radial: true,
+        dependencies: true,
     };
 
     /// The extensions whose features occur among `names` (a table's columns, a list).
     pub fn of_names<'a>(names: impl IntoIterator<Item = &'a str>) -> Self {
         names.into_iter().fold(Extensions::default(), |seen, name| {
             let in_block = name.strip_prefix(LOG_PREFIX);
+            let block_name = in_block.unwrap_or(name);
             Extensions {
                 log_domain: seen.log_domain || in_block.is_some(),
-                radial: seen.radial || in_block.unwrap_or(name).starts_with(RADIAL_PREFIX),
+                radial: seen.radial || block_name.starts_with(RADIAL_PREFIX),
+                dependencies: seen.dependencies || block_name.starts_with(DEPENDENCY_PREFIX),
             }
         })
     }
@@ -83,6 +92,7 @@ impl Extensions {
         Extensions {
             log_domain: self.log_domain || other.log_domain,
             radial: self.radial || other.radial,
+            dependencies: self.dependencies || other.dependencies,
         }
     }
 }
@@ -100,6 +110,11 @@ pub struct FeatureConfig {
     /// annulus (`radial.*`; an extension, see README). Absent in older model files.
     #[serde(default, skip_serializing_if = "is_false")]
     pub radial: bool,
+    /// Also compute, in each block, the correlations of subband magnitudes between
+    /// orientations at each scale (`dep.*`; an extension, see README). Absent in older
+    /// model files.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub dependencies: bool,
     /// Spheres larger than this radius (px) are first area-downsampled to it, so a model
     /// sees the same effective resolution as in training (see `resample`). None: no
     /// resampling (the DESIGN.md definition).
@@ -114,6 +129,7 @@ impl Default for FeatureConfig {
             levels: 4,
             log_domain: false,
             radial: false,
+            dependencies: false,
             working_radius: None,
         }
     }
@@ -188,6 +204,7 @@ impl FeatureConfig {
         FeatureConfig {
             log_domain: extensions.log_domain,
             radial: extensions.radial,
+            dependencies: extensions.dependencies,
             working_radius,
             ..FeatureConfig::default()
         }
@@ -197,7 +214,7 @@ impl FeatureConfig {
     pub fn with_log_domain() -> Self {
         let log_domain = Extensions {
             log_domain: true,
-            radial: false,
+            ..Extensions::default()
         };
         FeatureConfig::extended(log_domain, None)
     }
@@ -207,6 +224,7 @@ impl FeatureConfig {
         Extensions {
             log_domain: self.log_domain,
             radial: self.radial,
+            dependencies: self.dependencies,
         }
     }
 
@@ -239,6 +257,9 @@ impl FeatureConfig {
         names.push("fft.lo.pow".into());
         if self.radial {
             names.extend(radial_names(self.levels));
+        }
+        if self.dependencies {
+            names.extend(dependency_names(self.levels));
         }
         names
     }
@@ -274,6 +295,44 @@ fn radial_names(levels: usize) -> impl Iterator<Item = String> {
     })
 }
 
+/// `dep.s{k}.{hv,hd,vd}`, scale by scale.
+fn dependency_names(levels: usize) -> impl Iterator<Item = String> {
+    (1..=levels).flat_map(|k| {
+        ORIENTATION_PAIRS
+            .map(|(a, b)| format!("{DEPENDENCY_PREFIX}s{k}.{}{}", BAND_NAMES[a], BAND_NAMES[b]))
+    })
+}
+
+/// Pearson correlations of the coefficient magnitudes of a level's orientations, in
+/// [`ORIENTATION_PAIRS`] order (the paper's §7: neighbouring orientations depend on each
+/// other at edges, and a blur changes how much). 0 where a band is constant.
+fn orientation_dependencies(level: &pyramid::Level) -> [f64; 3] {
+    let magnitudes = [&level.h, &level.v, &level.d].map(|band| {
+        let values = values_of(band);
+        values.iter().map(|v| v.abs()).collect::<Vec<f64>>()
+    });
+    ORIENTATION_PAIRS.map(|(a, b)| correlation(&magnitudes[a], &magnitudes[b]))
+}
+
+/// Pearson correlation of two equally long samples (two passes, f64); 0 if either is
+/// constant.
+fn correlation(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().max(1) as f64;
+    let (mean_a, mean_b) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        let (dx, dy) = (x - mean_a, y - mean_b);
+        ab += dx * dy;
+        aa += dx * dx;
+        bb += dy * dy;
+    }
+    if aa > 0.0 && bb > 0.0 {
+        ab / (aa * bb).sqrt()
+    } else {
+        0.0
+    }
+}
+
 /// The default configuration's names, computed once.
 pub fn default_names() -> &'static [String] {
     static NAMES: OnceLock<Vec<String>> = OnceLock::new();
@@ -297,7 +356,7 @@ pub fn named_set(name: &str) -> Option<Vec<String>> {
         "hand6" => Some(strings(&HAND6)),
         "hand2" => Some(strings(&["pix.p10", "wav.s2.v.var"])),
         "mean1" => Some(strings(&["pix.mean"])),
-        "hand6+log" | "hand6+log+radial" => {
+        "hand6+log" | "hand6+log+radial" | "hand6+log+radial+dep" => {
             let levels = FeatureConfig::default().levels;
             let pixels = STAT_NAMES.iter().map(|s| format!("{LOG_PREFIX}pix.{s}"));
             let bands = (1..=levels).flat_map(|k| {
@@ -307,13 +366,17 @@ pub fn named_set(name: &str) -> Option<Vec<String>> {
             });
             let radial = radial_names(levels)
                 .map(|n| format!("{LOG_PREFIX}{n}"))
-                .filter(|_| name.ends_with("+radial"));
+                .filter(|_| name.contains("+radial"));
+            let dependencies = dependency_names(levels)
+                .map(|n| format!("{LOG_PREFIX}{n}"))
+                .filter(|_| name.ends_with("+dep"));
             Some(
                 strings(&HAND6)
                     .into_iter()
                     .chain(pixels)
                     .chain(bands)
                     .chain(radial)
+                    .chain(dependencies)
                     .collect(),
             )
         }
@@ -455,6 +518,15 @@ impl Extractor {
             }
             out.extend(radial);
         }
+        if self.config.dependencies {
+            out.extend(
+                stages
+                    .pyramid
+                    .levels
+                    .iter()
+                    .flat_map(orientation_dependencies),
+            );
+        }
         out
     }
 }
@@ -474,7 +546,17 @@ impl Extractor {
         } else {
             0
         };
-        STAT_NAMES.len() * (1 + 3 * levels) + 3 * (levels - 1) + 4 * ORIENTATIONS.len() + 1 + radial
+        let dependencies = if self.config.dependencies {
+            ORIENTATION_PAIRS.len() * levels
+        } else {
+            0
+        };
+        STAT_NAMES.len() * (1 + 3 * levels)
+            + 3 * (levels - 1)
+            + 4 * ORIENTATIONS.len()
+            + 1
+            + radial
+            + dependencies
     }
 
     /// [`Extractor::extract`] computing only the features at the indices `wanted` (into the
@@ -523,10 +605,25 @@ impl Extractor {
         let radial_needed = |j: usize| {
             self.config.radial && (0..RADIAL_RINGS - 1).any(|pair| need[radial_index(pair, j)])
         };
+        let radial_len = if self.config.radial {
+            (RADIAL_RINGS - 1) * radial_per_ring(levels)
+        } else {
+            0
+        };
+        let dependency_index = |level: usize, pair: usize| {
+            radial_base + radial_len + ORIENTATION_PAIRS.len() * level + pair
+        };
+        let dependencies_needed = |level: usize| {
+            self.config.dependencies
+                && (0..ORIENTATION_PAIRS.len()).any(|pair| need[dependency_index(level, pair)])
+        };
         // Which subbands need their variance (for ratios) or statistics.
         let mut deepest = None;
         let mut band_var = vec![[false; 3]; levels];
         for (level, bands) in band_var.iter_mut().enumerate() {
+            if dependencies_needed(level) {
+                deepest = Some(level);
+            }
             for (band, slot) in bands.iter_mut().enumerate() {
                 let base = band_base(level, band);
                 let ratio = (level + 1 < levels && ratio_needed(band, level))
@@ -583,6 +680,14 @@ impl Extractor {
                     if radial_needed(j) {
                         for (pair, [_, var]) in ring_changes(values).into_iter().enumerate() {
                             out[radial_index(pair, j)] = var;
+                        }
+                    }
+                }
+                if dependencies_needed(level) {
+                    let values = orientation_dependencies(bands);
+                    for (pair, value) in values.into_iter().enumerate() {
+                        if need[dependency_index(level, pair)] {
+                            out[dependency_index(level, pair)] = value;
                         }
                     }
                 }
@@ -679,7 +784,7 @@ mod tests {
             assert!(extended.contains(&n), "{n}");
         }
         let every = FeatureConfig::extended(Extensions::ALL, None).names();
-        let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14;
+        let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14 + 12;
         assert_eq!(every.len(), 2 * block);
         assert_eq!(every[..FEATURE_COUNT], names[..]);
         let last_pair = format!("r{}_r{RADIAL_RINGS}", RADIAL_RINGS - 1);
@@ -687,14 +792,24 @@ mod tests {
             [&every[FEATURE_COUNT], &every[FEATURE_COUNT + 2]],
             ["radial.r1_r2.pix.mean", "radial.r1_r2.wav.s1.h.var"]
         );
-        assert_eq!(every[block - 1], format!("radial.{last_pair}.wav.s4.d.var"));
+        assert_eq!(
+            every[block - 13],
+            format!("radial.{last_pair}.wav.s4.d.var")
+        );
+        assert_eq!(
+            [&every[block - 12], &every[block - 10], &every[block - 1]],
+            ["dep.s1.hv", "dep.s1.vd", "dep.s4.vd"]
+        );
         assert_eq!(every[block], "log.pix.mean");
         assert_eq!(
-            every[2 * block - 1],
+            every[2 * block - 13],
             format!("log.radial.{last_pair}.wav.s4.d.var")
         );
-        for n in named_set("hand6+log+radial").unwrap() {
-            assert!(every.contains(&n), "{n}");
+        assert_eq!(every[2 * block - 1], "log.dep.s4.vd");
+        for set in ["hand6+log+radial", "hand6+log+radial+dep"] {
+            for n in named_set(set).unwrap() {
+                assert!(every.contains(&n), "{n}");
+            }
         }
     }
 
@@ -897,10 +1012,13 @@ mod tests {
         let extended =
             Extractor::new(FeatureConfig::extended(Extensions::ALL, Some(60.0))).unwrap();
         let extended_full = extended.extract(luminance.view(), &circle, 0.9);
-        let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14;
+        let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14 + 12;
         assert_eq!(extended.feature_count(), 2 * block);
         let extended_subsets = [
             vec![3, block + 1, block + 99, 2 * block - 1],
+            // dep.s3.vd alone (three pyramid levels), dep.s1.hv and log.dep.s4.hd
+            vec![block - 4],
+            vec![block - 12, 2 * block - 2],
             // radial.r1_r2.pix.var, radial.r1_r2.wav.s2.v.var; two of the log-domain block
             vec![FEATURE_COUNT + 1, FEATURE_COUNT + 6],
             vec![block + FEATURE_COUNT, block + FEATURE_COUNT + 13],
@@ -925,6 +1043,59 @@ mod tests {
                     assert_eq!(a.to_bits(), b.to_bits(), "{}", names[i]);
                 }
             }
+        }
+    }
+
+    #[test]
+    fn orientation_dependencies_correlate_subband_magnitudes() {
+        let pattern = Array2::from_shape_fn((8, 16), |(i, j)| ((i * 7 + j * 3) % 5) as f64 - 2.0);
+        let level = pyramid::Level {
+            v: pattern.mapv(|x| -3.0 * x),
+            d: Array2::from_elem((8, 16), 0.5),
+            h: pattern,
+        };
+        // |v| = 3|h| exactly; d is constant, so it correlates with nothing.
+        let [hv, hd, vd] = orientation_dependencies(&level);
+        assert!((hv - 1.0).abs() < 1e-12, "{hv}");
+        assert_eq!((hd, vd), (0.0, 0.0));
+        let opposite = Array2::from_shape_fn((8, 16), |(i, _)| if i < 4 { 1.0 } else { 2.0 });
+        let level = pyramid::Level {
+            h: opposite.clone(),
+            v: opposite.mapv(|x| 3.0 - x),
+            d: opposite,
+        };
+        let [hv, hd, _] = orientation_dependencies(&level);
+        assert!(
+            (hv + 1.0).abs() < 1e-12 && (hd - 1.0).abs() < 1e-12,
+            "{hv} {hd}"
+        );
+    }
+
+    #[test]
+    fn orientation_dependencies_ignore_the_brightness_of_the_image() {
+        let config = FeatureConfig::extended(
+            Extensions {
+                dependencies: true,
+                ..Extensions::default()
+            },
+            None,
+        );
+        let extractor = Extractor::new(config).unwrap();
+        let u = config.unwrap;
+        let image = Array2::from_shape_fn((u.rows, u.cols), |(i, j)| {
+            1.0 + (0.3 * i as f64).sin() * (0.2 * j as f64).cos() + ((i * j) % 7) as f64 / 7.0
+        });
+        let deps = |scale: f64| {
+            let values =
+                extractor.features_of(&extractor.stages_of_unwrapped(image.mapv(|v| v * scale)));
+            values[FEATURE_COUNT..].to_vec()
+        };
+        let (one, three) = (deps(1.0), deps(3.0));
+        assert_eq!(one.len(), 12);
+        assert!(one.iter().all(|c| (-1.0..=1.0).contains(c)));
+        assert!(one.iter().any(|c| c.abs() > 0.01), "{one:?}");
+        for (a, b) in one.iter().zip(&three) {
+            assert!((a - b).abs() < 1e-9, "{a} {b}");
         }
     }
 

@@ -270,4 +270,34 @@ fn extensions_extend_the_canonical_ones() {
     );
     assert_eq!(&radial_values[..117], &values[..117]);
     assert_eq!(&radial_values[145..262], &values[117..]);
+    // The orientation dependencies close each block after the radial changes.
+    let every = run(&[
+        &[
+            "features",
+            img.as_str(),
+            "--log-features",
+            "--radial-features",
+            "--dependency-features",
+        ][..],
+        &circle[..],
+    ]
+    .concat());
+    let every: Value = serde_json::from_slice(&every.stdout).unwrap();
+    let (every_names, every_values) = (
+        every["names"].as_array().unwrap(),
+        every["values"].as_array().unwrap(),
+    );
+    assert_eq!(every_values.len(), 314);
+    assert_eq!(
+        [&every_names[145], &every_names[156], &every_names[157]],
+        ["dep.s1.hv", "dep.s4.vd", "log.pix.mean"]
+    );
+    assert_eq!(&every_values[..145], &radial_values[..145]);
+    assert_eq!(&every_values[157..302], &radial_values[145..]);
+    let correlations = every_values[145..157].iter().chain(&every_values[302..]);
+    assert!(
+        correlations
+            .map(|c| c.as_f64().unwrap())
+            .all(|c| (-1.0..=1.0).contains(&c))
+    );
 }

@@ -75,6 +75,10 @@ pub struct ExtensionArgs {
     /// the one inside it, 28 more per block).
     #[arg(long)]
     radial_features: bool,
+    /// Also compute the orientation dependencies (`dep.*`: correlations of subband
+    /// magnitudes between orientations at each scale, 12 more per block).
+    #[arg(long)]
+    dependency_features: bool,
     /// Reduce spheres larger than this radius (px) to it before extraction (area
     /// averaging), as models trained at that radius expect.
     #[arg(long)]
@@ -87,6 +91,7 @@ impl ExtensionArgs {
         let asked = Extensions {
             log_domain: self.log_features,
             radial: self.radial_features,
+            dependencies: self.dependency_features,
         };
         crate::features::FeatureConfig::extended(asked.union(implied), self.working_radius)
     }

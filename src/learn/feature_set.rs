@@ -1,4 +1,5 @@
-//! Feature sets: `hand6`, `hand2`, `mean1`, `hand6+log`, `hand6+log+radial`, `all`,
+//! Feature sets: `hand6`, `hand2`, `mean1`, `hand6+log`, `hand6+log+radial`,
+//! `hand6+log+radial+dep`, `all`,
 //! `auto<N>`, `pca<N>`, or a comma-separated list of feature names. Fixed sets resolve to
 //! columns directly; `auto<N>` and `pca<N>` are fitted on training rows only (inside every
 //! cross-validation fold).
@@ -15,6 +16,8 @@ pub enum FeatureSet {
     Hand6Log,
     /// hand6+log plus the log-domain radial changes.
     Hand6LogRadial,
+    /// hand6+log+radial plus the log-domain orientation dependencies.
+    Hand6LogRadialDep,
     Hand2,
     Mean1,
     All,
@@ -48,6 +51,7 @@ impl FeatureSet {
             "hand6" => return Ok(FeatureSet::Hand6),
             "hand6+log" => return Ok(FeatureSet::Hand6Log),
             "hand6+log+radial" => return Ok(FeatureSet::Hand6LogRadial),
+            "hand6+log+radial+dep" => return Ok(FeatureSet::Hand6LogRadialDep),
             "hand2" => return Ok(FeatureSet::Hand2),
             "mean1" => return Ok(FeatureSet::Mean1),
             "all" => return Ok(FeatureSet::All),
@@ -92,6 +96,7 @@ impl FeatureSet {
             FeatureSet::Hand6 => Some(named("hand6")),
             FeatureSet::Hand6Log => Some(named("hand6+log")),
             FeatureSet::Hand6LogRadial => Some(named("hand6+log+radial")),
+            FeatureSet::Hand6LogRadialDep => Some(named("hand6+log+radial+dep")),
             FeatureSet::Hand2 => Some(named("hand2")),
             FeatureSet::Mean1 => Some(named("mean1")),
             FeatureSet::All => Some(names.to_vec()),
@@ -137,6 +142,7 @@ impl fmt::Display for FeatureSet {
             FeatureSet::Hand6 => f.write_str("hand6"),
             FeatureSet::Hand6Log => f.write_str("hand6+log"),
             FeatureSet::Hand6LogRadial => f.write_str("hand6+log+radial"),
+            FeatureSet::Hand6LogRadialDep => f.write_str("hand6+log+radial+dep"),
             FeatureSet::Hand2 => f.write_str("hand2"),
             FeatureSet::Mean1 => f.write_str("mean1"),
             FeatureSet::All => f.write_str("all"),
@@ -163,7 +169,9 @@ mod tests {
             "pix.mean",
             "wav.s2.v.kurt,pix.p10",
             "hand6+log+radial",
+            "hand6+log+radial+dep",
             "log.radial.r2_r3.wav.s1.v.var,radial.r1_r2.pix.mean",
+            "log.dep.s1.hv,dep.s4.vd",
         ] {
             let set: FeatureSet = spec.parse().unwrap();
             assert_eq!(set.to_string(), spec);
@@ -237,6 +245,14 @@ mod tests {
                 "log.radial.r1_r2.pix.mean",
                 "log.radial.r2_r3.wav.s4.d.var"
             )
+        );
+        let idx = FeatureSet::Hand6LogRadialDep
+            .resolve(&every)
+            .unwrap()
+            .unwrap();
+        assert_eq!(
+            (idx.len(), every[idx[53]].as_str(), every[idx[64]].as_str()),
+            (65, "log.dep.s1.hv", "log.dep.s4.vd")
         );
         let short = vec!["pix.mean".to_string()];
         assert!(matches!(

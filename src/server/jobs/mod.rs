@@ -85,6 +85,10 @@ pub struct LearnParams {
     /// that name them, such as `hand6+log+radial`).
     #[serde(default)]
     pub radial_features: bool,
+    /// With `dataset`: also extract the orientation dependencies (`dep.*`; implied by
+    /// feature sets that name them, such as `hand6+log+radial+dep`).
+    #[serde(default)]
+    pub dependency_features: bool,
     /// With `dataset`: reduce spheres larger than this radius (px, ≥ 32) before extraction;
     /// recorded in the model so that serving does the same.
     #[serde(default, skip_serializing_if = "Option::is_none")]

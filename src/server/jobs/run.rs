@@ -194,6 +194,7 @@ fn config_of(p: &LearnParams) -> Result<FeatureConfig, ApiError> {
     let asked = Extensions {
         log_domain: p.log_features,
         radial: p.radial_features,
+        dependencies: p.dependency_features,
     };
     let implied = Extensions::of_spec(&p.features);
     let config = FeatureConfig::extended(asked.union(implied), p.working_radius);
