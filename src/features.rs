@@ -307,30 +307,28 @@ fn dependency_names(levels: usize) -> impl Iterator<Item = String> {
 /// [`ORIENTATION_PAIRS`] order (the paper's §7: neighbouring orientations depend on each
 /// other at edges, and a blur changes how much). 0 where a band is constant.
 fn orientation_dependencies(level: &pyramid::Level) -> [f64; 3] {
-    let magnitudes = [&level.h, &level.v, &level.d].map(|band| {
-        let values = values_of(band);
-        values.iter().map(|v| v.abs()).collect::<Vec<f64>>()
-    });
-    ORIENTATION_PAIRS.map(|(a, b)| correlation(&magnitudes[a], &magnitudes[b]))
-}
-
-/// Pearson correlation of two equally long samples (two passes, f64); 0 if either is
-/// constant.
-fn correlation(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len().max(1) as f64;
-    let (mean_a, mean_b) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
-    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
-    for (x, y) in a.iter().zip(b) {
-        let (dx, dy) = (x - mean_a, y - mean_b);
-        ab += dx * dy;
-        aa += dx * dx;
-        bb += dy * dy;
+    let bands = [&level.h, &level.v, &level.d].map(values_of);
+    let n = bands[0].len().max(1) as f64;
+    let means = bands
+        .each_ref()
+        .map(|band| band.iter().map(|v| v.abs()).sum::<f64>() / n);
+    // Two passes in f64: the means, then the centred products of every pair and square.
+    let (mut products, mut squares) = ([0.0; 3], [0.0; 3]);
+    for ((h, v), d) in bands[0].iter().zip(bands[1].iter()).zip(bands[2].iter()) {
+        let c = [h.abs() - means[0], v.abs() - means[1], d.abs() - means[2]];
+        for (k, (a, b)) in ORIENTATION_PAIRS.into_iter().enumerate() {
+            products[k] += c[a] * c[b];
+            squares[k] += c[k] * c[k];
+        }
     }
-    if aa > 0.0 && bb > 0.0 {
-        ab / (aa * bb).sqrt()
-    } else {
-        0.0
-    }
+    std::array::from_fn(|k| {
+        let (a, b) = ORIENTATION_PAIRS[k];
+        if squares[a] > 0.0 && squares[b] > 0.0 {
+            products[k] / (squares[a] * squares[b]).sqrt()
+        } else {
+            0.0
+        }
+    })
 }
 
 /// The default configuration's names, computed once.
