@@ -539,22 +539,28 @@ impl Extractor {
     /// Features of one image (the unwrapped annulus or its log10).
     fn block_len(&self) -> usize {
         let levels = self.config.levels;
-        let radial = if self.config.radial {
-            (RADIAL_RINGS - 1) * radial_per_ring(levels)
-        } else {
-            0
-        };
-        let dependencies = if self.config.dependencies {
-            ORIENTATION_PAIRS.len() * levels
-        } else {
-            0
-        };
         STAT_NAMES.len() * (1 + 3 * levels)
             + 3 * (levels - 1)
             + 4 * ORIENTATIONS.len()
             + 1
-            + radial
-            + dependencies
+            + self.radial_len()
+            + self.dependency_len()
+    }
+
+    /// Number of radial changes in a block (0 without the extension).
+    fn radial_len(&self) -> usize {
+        match self.config.radial {
+            true => (RADIAL_RINGS - 1) * radial_per_ring(self.config.levels),
+            false => 0,
+        }
+    }
+
+    /// Number of orientation dependencies in a block (0 without the extension).
+    fn dependency_len(&self) -> usize {
+        match self.config.dependencies {
+            true => ORIENTATION_PAIRS.len() * self.config.levels,
+            false => 0,
+        }
     }
 
     /// [`Extractor::extract`] computing only the features at the indices `wanted` (into the
@@ -603,13 +609,8 @@ impl Extractor {
         let radial_needed = |j: usize| {
             self.config.radial && (0..RADIAL_RINGS - 1).any(|pair| need[radial_index(pair, j)])
         };
-        let radial_len = if self.config.radial {
-            (RADIAL_RINGS - 1) * radial_per_ring(levels)
-        } else {
-            0
-        };
         let dependency_index = |level: usize, pair: usize| {
-            radial_base + radial_len + ORIENTATION_PAIRS.len() * level + pair
+            radial_base + self.radial_len() + ORIENTATION_PAIRS.len() * level + pair
         };
         let dependencies_needed = |level: usize| {
             self.config.dependencies
