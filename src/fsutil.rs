@@ -18,9 +18,10 @@ pub fn temp_path(path: &Path) -> PathBuf {
 
 /// Test-only crash windows: with `REFLECTANCE_TEST_PAUSE=point=ms[,point=ms…]` in the
 /// environment the calling thread sleeps at the named point, so that the crash-safety
-/// tests (`tests/crash_safety.rs`) can SIGKILL the process there deterministically. Points:
+/// tests (`tests/faults.rs`) can SIGKILL the process there deterministically. Points:
 /// `publish` (a new version's files are staged in a hidden directory, not yet renamed into
-/// place) and `activate` (a version is swapped in memory, not yet recorded in `ACTIVE`).
+/// place), `activate` (a version is swapped in memory, not yet recorded in `ACTIVE`) and
+/// `render-image` (before each image a render batch draws).
 /// Unset in production; it is read only at these rare points.
 pub fn test_pause(point: &str) {
     let Ok(spec) = std::env::var("REFLECTANCE_TEST_PAUSE") else {

@@ -381,6 +381,7 @@ pub fn render_dataset_with(
             let result = if complete(job) {
                 Ok(false)
             } else {
+                crate::fsutil::test_pause("render-image");
                 let probe = &probes[job.probe];
                 let map = probe.map()?;
                 let k = job.variant.lighting;

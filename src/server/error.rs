@@ -20,6 +20,8 @@
 //! | model file refused (schema, checksum, self-test) | 422 | `invalid-model` |
 //! | deleting the active version | 409 | `version-active` |
 //! | KServe V2 health "false" (loading, draining) | 400 | `v2-not-ready` |
+//! | writing the server's files: disk full (ENOSPC, EFBIG, EDQUOT) | 507 | `insufficient-storage` |
+//! | writing the server's files: read-only or forbidden folder | 503 | `storage-unavailable` |
 
 use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
@@ -79,11 +81,13 @@ pub enum Kind {
     BodyTooLarge,
     NotReady,
     NotReadyV2,
+    StorageFull,
+    StorageUnavailable,
     Internal,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 29] = [
+    pub const ALL: [Kind; 31] = [
         Kind::MalformedRequest,
         Kind::UnsupportedMediaType,
         Kind::MissingField,
@@ -112,6 +116,8 @@ impl Kind {
         Kind::BodyTooLarge,
         Kind::NotReady,
         Kind::NotReadyV2,
+        Kind::StorageFull,
+        Kind::StorageUnavailable,
         Kind::Internal,
     ];
 
@@ -197,6 +203,16 @@ impl Kind {
             // The Open Inference Protocol's health endpoints answer "false" with a 4xx
             // (its reference server, Triton, uses 400).
             Kind::NotReadyV2 => ("v2-not-ready", "Not ready", S::BAD_REQUEST),
+            Kind::StorageFull => (
+                "insufficient-storage",
+                "The server's disk is full",
+                S::INSUFFICIENT_STORAGE,
+            ),
+            Kind::StorageUnavailable => (
+                "storage-unavailable",
+                "The server cannot write its files",
+                S::SERVICE_UNAVAILABLE,
+            ),
             Kind::Internal => (
                 "internal",
                 "Internal server error",
@@ -265,6 +281,19 @@ impl ApiError {
             Kind::Internal,
             "internal error; the request id identifies the log entry",
         )
+    }
+
+    /// A failed write of the server's own files: a full disk (507) or a read-only or
+    /// forbidden folder (503) says so; anything else is internal.
+    pub fn storage(e: &std::io::Error, detail: impl Into<String>) -> ApiError {
+        use std::io::ErrorKind as E;
+        let kind = match e.kind() {
+            E::StorageFull | E::FileTooLarge | E::QuotaExceeded => Kind::StorageFull,
+            E::ReadOnlyFilesystem | E::PermissionDenied => Kind::StorageUnavailable,
+            _ => return ApiError::internal(detail.into()),
+        };
+        tracing::error!(error = %e, "storage failure");
+        ApiError::new(kind, detail)
     }
 
     pub fn problem(&self, request_id: String) -> Problem {
@@ -362,7 +391,7 @@ impl From<RegistryError> for ApiError {
             RegistryError::UnknownVersion { .. } => Kind::VersionNotFound,
             RegistryError::ActiveVersion { .. } => Kind::VersionActive,
             RegistryError::Model { .. } => Kind::InvalidModel,
-            RegistryError::Io { .. } => return ApiError::internal(e),
+            RegistryError::Io { source, .. } => return ApiError::storage(source, e.to_string()),
         };
         ApiError::new(kind, e.to_string())
     }
@@ -514,7 +543,16 @@ mod tests {
             );
             // Only our own failures are 5xx.
             if status.is_server_error() {
-                assert!(matches!(kind, Kind::Internal | Kind::NotReady), "{kind:?}");
+                assert!(
+                    matches!(
+                        kind,
+                        Kind::Internal
+                            | Kind::NotReady
+                            | Kind::StorageFull
+                            | Kind::StorageUnavailable
+                    ),
+                    "{kind:?}"
+                );
             }
         }
     }

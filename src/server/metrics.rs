@@ -82,6 +82,10 @@ fn describe() {
         "Models served from an older version because the active one did not load at start-up"
     );
     describe_gauge!("reflectance_jobs", "Admin jobs by state");
+    describe_counter!(
+        "reflectance_job_record_write_failures_total",
+        "Job record writes that failed (full or read-only disk); they are retried"
+    );
     describe_gauge!(
         "reflectance_job_queue_depth",
         "Admin jobs waiting for a worker"
@@ -129,6 +133,10 @@ pub fn jobs(counts: &[(&'static str, usize)], queued: usize) {
         gauge!("reflectance_jobs", "state" => *state).set(*n as f64);
     }
     gauge!("reflectance_job_queue_depth").set(queued as f64);
+}
+
+pub fn job_record_unsaved() {
+    counter!("reflectance_job_record_write_failures_total").increment(1);
 }
 
 /// The exposition text.

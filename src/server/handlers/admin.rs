@@ -40,6 +40,7 @@ const LEARN: &[&str] = &[
     "seed",
     "log_features",
     "radial_features",
+    "dependency_features",
     "working_radius",
 ];
 
@@ -67,14 +68,14 @@ fn check_keys(body: &Value) -> Result<(), ApiError> {
         }
     };
     let learn = if kind == "render" { &[][..] } else { LEARN };
-    if let Some(key) = map.keys().find(|k| {
-        !COMMON.contains(&k.as_str())
-            && !extra.contains(&k.as_str())
-            && !learn.contains(&k.as_str())
-    }) {
+    let accepted: Vec<&str> = COMMON.iter().chain(extra).chain(learn).copied().collect();
+    if let Some(key) = map.keys().find(|k| !accepted.contains(&k.as_str())) {
         return Err(ApiError::new(
             Kind::InvalidJob,
-            format!("unknown parameter {key:?} for a {kind} job"),
+            format!(
+                "unknown parameter {key:?} for a {kind} job; accepted: {}",
+                accepted.join(", ")
+            ),
         ));
     }
     Ok(())
@@ -97,6 +98,8 @@ fn check_keys(body: &Value) -> Result<(), ApiError> {
         (status = 422, description = "Invalid parameters (`invalid-job`, `invalid-field`) or a path that is missing or outside the data directory (`invalid-path`)", body = Problem, content_type = "application/problem+json"),
         (status = 429, description = "Queue full (`job-queue-full`); see Retry-After", body = Problem, content_type = "application/problem+json",
          headers(("retry-after" = u32, description = "Seconds"))),
+        (status = 503, description = "Shutting down (`not-ready`), or the job record cannot be written to a read-only or forbidden jobs folder (`storage-unavailable`)", body = Problem, content_type = "application/problem+json"),
+        (status = 507, description = "The disk is full: the job record cannot be written (`insufficient-storage`); nothing was queued", body = Problem, content_type = "application/problem+json"),
     )
 )]
 pub async fn submit(
@@ -149,9 +152,9 @@ pub async fn list(
     query: Result<Query<StateQuery>, QueryRejection>,
 ) -> Result<Json<JobList>, ApiError> {
     let Query(query) = query?;
-    Ok(Json(JobList {
-        jobs: jobs(&state)?.list(query.state),
-    }))
+    let manager = jobs(&state)?;
+    let jobs = blocking(move || Ok(manager.list(query.state))).await?;
+    Ok(Json(JobList { jobs }))
 }
 
 /// One job.
@@ -171,7 +174,8 @@ pub async fn get(
     State(state): State<SharedState>,
     Path(id): Path<String>,
 ) -> Result<Json<JobRecord>, ApiError> {
-    Ok(Json(jobs(&state)?.get(&id)?))
+    let manager = jobs(&state)?;
+    Ok(Json(blocking(move || manager.get(&id)).await?))
 }
 
 /// Cancel a job: a queued job at once, a running one between images or folds.
@@ -336,6 +340,7 @@ pub async fn activate(
         (status = 401, description = "Missing or wrong token (`unauthorized`)", body = Problem, content_type = "application/problem+json"),
         (status = 404, description = "Unknown model or version (`model-not-found`, `version-not-found`)", body = Problem, content_type = "application/problem+json"),
         (status = 409, description = "The version is active (`version-active`)", body = Problem, content_type = "application/problem+json"),
+        (status = 503, description = "The registry is read-only or forbidden (`storage-unavailable`)", body = Problem, content_type = "application/problem+json"),
     )
 )]
 pub async fn delete_version(
@@ -346,4 +351,48 @@ pub async fn delete_version(
     let worker = state.clone();
     blocking(move || worker.models.delete(&name, version)).await?;
     Ok(StatusCode::NO_CONTENT)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::server::jobs::{Activate, LearnParams};
+
+    #[test]
+    fn every_field_of_every_job_type_is_accepted() {
+        let data = LearnParams {
+            dataset: Some("m.csv".into()),
+            table: Some("t.csv".into()),
+            gamma: Some(0.1),
+            working_radius: Some(64.0),
+            ..LearnParams::default()
+        };
+        let jobs = [
+            JobRequest::Train {
+                name: "ward6".into(),
+                data: data.clone(),
+                activate: Activate::IfBetter,
+                classes: Some("classes.json".into()),
+                cross_validate: true,
+            },
+            JobRequest::CrossValidate { data },
+            JobRequest::Render {
+                probes: "probes".into(),
+                classes: "classes.json".into(),
+                out: "out".into(),
+                size: 96,
+                seed: 1,
+            },
+        ];
+        for job in jobs {
+            let body = serde_json::to_value(&job).unwrap();
+            assert!(check_keys(&body).is_ok(), "{body}");
+        }
+        let typo = serde_json::json!({"type": "train", "manifest": "m.csv"});
+        let refused = check_keys(&typo).unwrap_err().detail;
+        assert!(
+            refused.contains("\"manifest\"") && refused.contains("dataset, table"),
+            "{refused}"
+        );
+    }
 }

@@ -21,11 +21,10 @@ use crate::image_io::Limits;
 use crate::progress::Observer;
 use paths::DataDir;
 use serde::{Deserialize, Serialize};
-use std::collections::VecDeque;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Arc, Condvar, Mutex};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 use utoipa::ToSchema;
 
@@ -239,28 +238,85 @@ pub struct JobRecord {
     pub error: Option<String>,
 }
 
-/// Jobs waiting for a worker, first in first out; a job cancelled while waiting leaves it
-/// at once.
-struct Queue {
+/// Everything about the jobs that changes, behind one lock ([`JobManager::state`]).
+struct Jobs {
+    records: BTreeMap<String, JobRecord>,
+    /// Jobs waiting for a worker, first in first out; a job cancelled while waiting leaves
+    /// at once.
     waiting: VecDeque<String>,
-    capacity: usize,
+    /// Cancellation flags of unfinished jobs (a running job polls its own).
+    cancel: HashMap<String, Arc<AtomicBool>>,
+    /// Ids of finished records, oldest finish first; beyond `history` they are forgotten.
+    finished: VecDeque<String>,
+    /// Records whose latest state could not be written (e.g. a full disk); every later
+    /// write tries them again.
+    unsaved: BTreeSet<String>,
+    /// False once shutting down.
     open: bool,
 }
 
+impl Jobs {
+    fn counts(&self) -> Vec<(&'static str, usize)> {
+        JobState::ALL
+            .iter()
+            .map(|s| {
+                (
+                    s.as_str(),
+                    self.records.values().filter(|r| r.state == *s).count(),
+                )
+            })
+            .collect()
+    }
+
+    /// Count a record as finished; returns the oldest finished ones beyond `history`,
+    /// forgotten here (their files are for the caller to remove).
+    fn retire(&mut self, id: &str, history: usize) -> Vec<String> {
+        self.cancel.remove(id);
+        self.finished.push_back(id.to_string());
+        let excess = self.finished.len().saturating_sub(history);
+        let forgotten: Vec<String> = self.finished.drain(..excess).collect();
+        for old in &forgotten {
+            self.records.remove(old);
+            self.unsaved.remove(old);
+        }
+        forgotten
+    }
+}
+
 /// The job system: records, queue and workers.
+///
+/// **Locking.** All job state is behind the one `state` mutex, held only for memory
+/// updates: no I/O, no other lock taken inside it. Record files are written outside it,
+/// under `disk`, which serializes the writers; each write takes the record's *latest*
+/// state from `state` at that moment, so a file never goes back in time however the
+/// writers interleave. The only nesting is `disk` → `state`. Handlers call the blocking
+/// methods from `spawn_blocking`, so a slow disk never holds a runtime thread.
 pub struct JobManager {
     dir: PathBuf,
     data: DataDir,
     limits: Limits,
     models: Arc<ModelStore>,
-    records: Mutex<BTreeMap<String, JobRecord>>,
-    /// Ids of finished records, oldest finish first; beyond `history` they are forgotten.
-    finished: Mutex<VecDeque<String>>,
+    capacity: usize,
     history: usize,
-    cancel: Mutex<HashMap<String, Arc<AtomicBool>>>,
-    queue: Mutex<Queue>,
+    state: Mutex<Jobs>,
+    /// Workers wait on it for a queued job (with `state`).
     wake: Condvar,
+    disk: Mutex<()>,
     workers: Mutex<Vec<std::thread::JoinHandle<()>>>,
+}
+
+/// A record file that could not be written.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write the job record {path}: {source}")]
+pub struct PersistError {
+    path: String,
+    source: std::io::Error,
+}
+
+impl From<PersistError> for ApiError {
+    fn from(e: PersistError) -> ApiError {
+        ApiError::storage(&e.source, e.to_string())
+    }
 }
 
 impl JobManager {
@@ -285,16 +341,18 @@ impl JobManager {
             data,
             limits,
             models,
-            records: Mutex::new(records),
-            finished: Mutex::new(VecDeque::new()),
+            capacity,
             history,
-            cancel: Mutex::new(HashMap::new()),
-            queue: Mutex::new(Queue {
+            state: Mutex::new(Jobs {
+                records,
                 waiting: VecDeque::new(),
-                capacity,
+                cancel: HashMap::new(),
+                finished: VecDeque::new(),
+                unsaved: BTreeSet::new(),
                 open: true,
             }),
             wake: Condvar::new(),
+            disk: Mutex::new(()),
             workers: Mutex::new(Vec::new()),
         });
         manager.recover();
@@ -312,62 +370,46 @@ impl JobManager {
         Ok(manager)
     }
 
+    fn lock(&self) -> MutexGuard<'_, Jobs> {
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn lock_disk(&self) -> MutexGuard<'_, ()> {
+        self.disk.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
     /// Records a previous process left unfinished become failed ("interrupted").
     fn recover(&self) {
         let now = crate::model::now_rfc3339();
-        let mut interrupted = Vec::new();
-        {
-            let mut records = self.records.lock().unwrap_or_else(|e| e.into_inner());
-            for record in records.values_mut() {
+        let (interrupted, forgotten) = {
+            let mut jobs = self.lock();
+            let mut interrupted = Vec::new();
+            for record in jobs.records.values_mut() {
                 if !record.state.is_terminal() {
                     record.state = JobState::Failed;
                     record.error = Some("interrupted".into());
                     record.finished = Some(now.clone());
-                    interrupted.push(record.clone());
+                    interrupted.push(record.id.clone());
                 }
             }
-        }
-        for record in interrupted {
-            tracing::warn!(job = %record.id, "job interrupted by a restart: marked failed");
-            self.persist(&record);
-        }
-        let mut done: Vec<(String, String)> = self
-            .lock_records()
-            .values()
-            .map(|r| (r.finished.clone().unwrap_or_default(), r.id.clone()))
-            .collect();
-        // Finish times have one-second resolution; ids order ties by creation.
-        done.sort();
-        for (_, id) in done {
-            self.retire(&id);
-        }
-    }
-
-    /// Count a record as finished, and forget the oldest finished ones beyond the history.
-    fn retire(&self, id: &str) {
-        // A job cancelled while queued never reaches a worker, which would drop its flag.
-        self.lock_cancel().remove(id);
-        let forgotten: Vec<String> = {
-            let mut finished = self.finished.lock().unwrap_or_else(|e| e.into_inner());
-            finished.push_back(id.to_string());
-            let excess = finished.len().saturating_sub(self.history);
-            finished.drain(..excess).collect()
+            let mut done: Vec<(String, String)> = jobs
+                .records
+                .values()
+                .map(|r| (r.finished.clone().unwrap_or_default(), r.id.clone()))
+                .collect();
+            // Finish times have one-second resolution; ids order ties by creation.
+            done.sort();
+            let mut forgotten = Vec::new();
+            for (_, id) in done {
+                forgotten.extend(jobs.retire(&id, self.history));
+            }
+            (interrupted, forgotten)
         };
-        if forgotten.is_empty() {
-            return;
+        for id in &interrupted {
+            tracing::warn!(job = %id, "job interrupted by a restart: marked failed");
+            self.save(id);
         }
-        let mut records = self.lock_records();
-        for old in forgotten {
-            records.remove(&old);
-            let path = self.record_path(&old);
-            match std::fs::remove_file(&path) {
-                Ok(()) => {}
-                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-                Err(e) => {
-                    tracing::warn!(job = %old, path = %path.display(), error = %e, "cannot remove an old job record")
-                }
-            }
-        }
+        self.remove_files(&forgotten);
     }
 
     fn record_path(&self, id: &str) -> PathBuf {
@@ -378,9 +420,29 @@ impl JobManager {
         &self.data
     }
 
-    /// Validate and enqueue a job. Blocking (writes its record).
+    /// Refuse a submission while shutting down or when the queue is full.
+    fn admission(&self, jobs: &Jobs) -> Result<(), ApiError> {
+        if !jobs.open {
+            return Err(
+                ApiError::new(Kind::NotReady, "the job system is shutting down").retry_after(5),
+            );
+        }
+        if jobs.waiting.len() >= self.capacity {
+            return Err(ApiError::new(
+                Kind::JobQueueFull,
+                "the job queue is full; retry when running jobs have finished",
+            )
+            .retry_after(10));
+        }
+        Ok(())
+    }
+
+    /// Validate and enqueue a job. Blocking: its record is on disk before it is queued, so
+    /// an accepted job survives a crash (as `interrupted`), and a job whose record cannot
+    /// be written (a full or read-only disk) is refused with that reason.
     pub fn submit(&self, request: JobRequest) -> Result<JobRecord, ApiError> {
         run::validate(&request, &self.data)?;
+        self.admission(&self.lock())?;
         let id = new_id();
         let record = JobRecord {
             id: id.clone(),
@@ -399,25 +461,20 @@ impl JobManager {
             error: None,
         };
         {
-            let mut queue = self.lock_queue();
-            if !queue.open {
-                return Err(
-                    ApiError::new(Kind::NotReady, "the job system is shutting down").retry_after(5),
-                );
+            // Nobody else knows the id yet; `disk` is held until the record is queued so
+            // that no other write of it can come first.
+            let _disk = self.lock_disk();
+            self.write(&record)?;
+            let mut jobs = self.lock();
+            if let Err(refused) = self.admission(&jobs) {
+                drop(jobs);
+                self.delete(std::slice::from_ref(&id));
+                return Err(refused);
             }
-            if queue.waiting.len() >= queue.capacity {
-                return Err(ApiError::new(
-                    Kind::JobQueueFull,
-                    "the job queue is full; retry when running jobs have finished",
-                )
-                .retry_after(10));
-            }
-            self.lock_records().insert(id.clone(), record.clone());
-            self.lock_cancel()
+            jobs.records.insert(id.clone(), record.clone());
+            jobs.cancel
                 .insert(id.clone(), Arc::new(AtomicBool::new(false)));
-            // Persisted before a worker can see it, so a record never goes back in time.
-            self.persist(&record);
-            queue.waiting.push_back(id.clone());
+            jobs.waiting.push_back(id.clone());
         }
         self.wake.notify_one();
         self.publish_metrics();
@@ -426,16 +483,18 @@ impl JobManager {
     }
 
     pub fn get(&self, id: &str) -> Result<JobRecord, ApiError> {
-        self.lock_records()
+        self.lock()
+            .records
             .get(id)
             .cloned()
-            .ok_or_else(|| ApiError::new(Kind::JobNotFound, format!("unknown job {id:?}")))
+            .ok_or_else(|| unknown_job(id))
     }
 
     /// Jobs, newest first, optionally in one state.
     pub fn list(&self, state: Option<JobState>) -> Vec<JobRecord> {
-        let records = self.lock_records();
-        let mut out: Vec<JobRecord> = records
+        let mut out: Vec<JobRecord> = self
+            .lock()
+            .records
             .values()
             .filter(|r| state.is_none_or(|s| r.state == s))
             .cloned()
@@ -447,11 +506,9 @@ impl JobManager {
     /// Request cancellation: a queued job is cancelled at once, a running one at its next
     /// check (between images or folds). Blocking (writes the record).
     pub fn cancel(&self, id: &str) -> Result<JobRecord, ApiError> {
-        let record = {
-            let mut records = self.lock_records();
-            let record = records
-                .get_mut(id)
-                .ok_or_else(|| ApiError::new(Kind::JobNotFound, format!("unknown job {id:?}")))?;
+        let (record, forgotten) = {
+            let mut jobs = self.lock();
+            let record = jobs.records.get_mut(id).ok_or_else(|| unknown_job(id))?;
             if record.state.is_terminal() {
                 return Err(ApiError::new(
                     Kind::JobFinished,
@@ -459,21 +516,26 @@ impl JobManager {
                 ));
             }
             record.cancel_requested = true;
-            if record.state == JobState::Queued {
-                self.lock_queue().waiting.retain(|q| q != id);
+            let queued = record.state == JobState::Queued;
+            if queued {
                 record.state = JobState::Cancelled;
                 record.finished = Some(crate::model::now_rfc3339());
                 record.error = Some("cancelled before it started".into());
             }
-            record.clone()
+            let record = record.clone();
+            if let Some(flag) = jobs.cancel.get(id) {
+                flag.store(true, Ordering::SeqCst);
+            }
+            let forgotten = if queued {
+                jobs.waiting.retain(|q| q != id);
+                jobs.retire(id, self.history)
+            } else {
+                Vec::new()
+            };
+            (record, forgotten)
         };
-        if let Some(flag) = self.lock_cancel().get(id) {
-            flag.store(true, Ordering::SeqCst);
-        }
-        self.persist(&record);
-        if record.state.is_terminal() {
-            self.retire(id);
-        }
+        self.save(id);
+        self.remove_files(&forgotten);
         self.publish_metrics();
         tracing::info!(job = %id, "job cancellation requested");
         Ok(record)
@@ -481,11 +543,14 @@ impl JobManager {
 
     /// Stop taking jobs; running jobs are asked to stop. Idempotent.
     pub fn shutdown(&self) {
-        self.lock_queue().open = false;
-        self.wake.notify_all();
-        for flag in self.lock_cancel().values() {
-            flag.store(true, Ordering::SeqCst);
+        {
+            let mut jobs = self.lock();
+            jobs.open = false;
+            for flag in jobs.cancel.values() {
+                flag.store(true, Ordering::SeqCst);
+            }
         }
+        self.wake.notify_all();
     }
 
     /// Wait (up to `timeout`) for the workers to finish after [`JobManager::shutdown`].
@@ -508,104 +573,134 @@ impl JobManager {
     }
 
     pub fn queue_depth(&self) -> usize {
-        self.lock_queue().waiting.len()
+        self.lock().waiting.len()
     }
 
-    fn lock_queue(&self) -> std::sync::MutexGuard<'_, Queue> {
-        self.queue.lock().unwrap_or_else(|e| e.into_inner())
-    }
-
-    /// The next job, waiting for one; `None` once shut down.
-    fn next_job(&self) -> Option<String> {
-        let mut queue = self.lock_queue();
+    /// The next job, marked running, with its request and cancellation flag; waits for
+    /// one; `None` once shut down.
+    fn next_job(&self) -> Option<(String, JobRequest, Arc<AtomicBool>)> {
+        let mut jobs = self.lock();
         loop {
-            if !queue.open {
+            if !jobs.open {
                 return None;
             }
-            if let Some(id) = queue.waiting.pop_front() {
-                return Some(id);
+            while let Some(id) = jobs.waiting.pop_front() {
+                let Some(flag) = jobs.cancel.get(&id).cloned() else {
+                    continue;
+                };
+                let queued = jobs.records.get_mut(&id);
+                let Some(record) = queued.filter(|r| r.state == JobState::Queued) else {
+                    continue;
+                };
+                record.state = JobState::Running;
+                record.started = Some(crate::model::now_rfc3339());
+                record.progress.stage = "starting".into();
+                return Some((id, record.request.clone(), flag));
             }
-            queue = self.wake.wait(queue).unwrap_or_else(|e| e.into_inner());
+            jobs = self.wake.wait(jobs).unwrap_or_else(|e| e.into_inner());
         }
     }
 
-    fn lock_records(&self) -> std::sync::MutexGuard<'_, BTreeMap<String, JobRecord>> {
-        self.records.lock().unwrap_or_else(|e| e.into_inner())
-    }
-
-    fn lock_cancel(&self) -> std::sync::MutexGuard<'_, HashMap<String, Arc<AtomicBool>>> {
-        self.cancel.lock().unwrap_or_else(|e| e.into_inner())
-    }
-
-    fn persist(&self, record: &JobRecord) {
+    /// Write one record file (the caller holds `disk`).
+    fn write(&self, record: &JobRecord) -> Result<(), PersistError> {
         let path = self.record_path(&record.id);
-        let written = serde_json::to_vec_pretty(record)
+        serde_json::to_vec_pretty(record)
             .map_err(std::io::Error::other)
-            .and_then(|bytes| write_atomic(&path, &bytes));
-        if let Err(e) = written {
-            tracing::error!(job = %record.id, path = %path.display(), error = %e, "cannot persist job record");
+            .and_then(|bytes| write_atomic(&path, &bytes))
+            .map_err(|source| PersistError {
+                path: path.display().to_string(),
+                source,
+            })
+    }
+
+    /// Write the latest state of `id`, and of every record a failed write left unsaved.
+    /// A failure is logged and retried at the next write: the record in memory stays
+    /// right, and a restart marks a job whose final state never reached the disk as
+    /// interrupted.
+    fn save(&self, id: &str) {
+        let _disk = self.lock_disk();
+        let pending: Vec<JobRecord> = {
+            let mut jobs = self.lock();
+            let mut ids = std::mem::take(&mut jobs.unsaved);
+            ids.insert(id.to_string());
+            ids.iter()
+                .filter_map(|id| jobs.records.get(id).cloned())
+                .collect()
+        };
+        let failed: Vec<String> = pending
+            .iter()
+            .filter_map(|record| match self.write(record) {
+                Ok(()) => None,
+                Err(e) => {
+                    tracing::error!(job = %record.id, error = %e, "job record not saved; will retry");
+                    metrics::job_record_unsaved();
+                    Some(record.id.clone())
+                }
+            })
+            .collect();
+        if !failed.is_empty() {
+            let mut jobs = self.lock();
+            for id in failed {
+                if jobs.records.contains_key(&id) {
+                    jobs.unsaved.insert(id);
+                }
+            }
+        }
+    }
+
+    /// Delete the files of forgotten records.
+    fn remove_files(&self, ids: &[String]) {
+        if !ids.is_empty() {
+            let _disk = self.lock_disk();
+            self.delete(ids);
+        }
+    }
+
+    /// Delete record files (the caller holds `disk`).
+    fn delete(&self, ids: &[String]) {
+        for id in ids {
+            let path = self.record_path(id);
+            match std::fs::remove_file(&path) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                Err(e) => {
+                    tracing::warn!(job = %id, path = %path.display(), error = %e, "cannot remove an old job record")
+                }
+            }
         }
     }
 
     /// Update a record in memory (and on disk when `persist`).
     fn update(&self, id: &str, persist: bool, f: impl FnOnce(&mut JobRecord)) {
-        let record = {
-            let mut records = self.lock_records();
-            let Some(record) = records.get_mut(id) else {
+        {
+            let mut jobs = self.lock();
+            let Some(record) = jobs.records.get_mut(id) else {
                 return;
             };
             f(record);
-            record.clone()
-        };
+        }
         if persist {
-            self.persist(&record);
+            self.save(id);
         }
     }
 
     fn publish_metrics(&self) {
-        let counts: Vec<(&'static str, usize)> = {
-            let records = self.lock_records();
-            JobState::ALL
-                .iter()
-                .map(|s| {
-                    (
-                        s.as_str(),
-                        records.values().filter(|r| r.state == *s).count(),
-                    )
-                })
-                .collect()
+        let (counts, queued) = {
+            let jobs = self.lock();
+            (jobs.counts(), jobs.waiting.len())
         };
-        metrics::jobs(&counts, self.queue_depth());
+        metrics::jobs(&counts, queued);
     }
 
-    /// Run one job from the queue.
-    fn execute(self: &Arc<Self>, id: String) {
-        let flag = self.lock_cancel().get(&id).cloned();
-        let Some(flag) = flag else { return };
-        let request = {
-            let mut records = self.lock_records();
-            let Some(record) = records.get_mut(&id) else {
-                return;
-            };
-            if record.state != JobState::Queued {
-                // Cancelled while queued.
-                drop(records);
-                self.lock_cancel().remove(&id);
-                self.publish_metrics();
-                return;
-            }
-            record.state = JobState::Running;
-            record.started = Some(crate::model::now_rfc3339());
-            record.progress.stage = "starting".into();
-            record.request.clone()
-        };
-        self.update(&id, true, |_| {});
+    /// Run one job taken from the queue.
+    fn execute(self: &Arc<Self>, id: String, request: JobRequest, flag: Arc<AtomicBool>) {
+        self.save(&id);
         self.publish_metrics();
         tracing::info!(job = %id, kind = request.kind(), "job started");
         let observer = JobObserver {
             manager: self.clone(),
             id: id.clone(),
-            flag: flag.clone(),
+            flag,
             last_persist: Mutex::new(Instant::now()),
         };
         let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
@@ -613,33 +708,47 @@ impl JobManager {
         }))
         .unwrap_or_else(|_| Err(run::Failure::Error("the job panicked".into())));
         let finished = crate::model::now_rfc3339();
-        // Trim the history first: whoever sees this job finished sees the trimmed history.
-        self.retire(&id);
-        self.update(&id, true, |record| {
-            record.finished = Some(finished);
-            match outcome {
-                Ok(result) => {
-                    record.state = JobState::Succeeded;
-                    record.progress.stage = "done".into();
-                    record.result = Some(result);
-                }
-                Err(run::Failure::Cancelled) => {
-                    record.state = JobState::Cancelled;
-                    record.error = Some("cancelled".into());
-                }
-                Err(run::Failure::Error(message)) => {
-                    record.state = JobState::Failed;
-                    record.error = Some(message);
-                }
-                Err(run::Failure::Partial(message, result)) => {
-                    record.state = JobState::Failed;
-                    record.error = Some(message);
-                    record.result = Some(*result);
-                }
+        // One step: whoever sees this job finished sees the trimmed history.
+        let forgotten = {
+            let mut jobs = self.lock();
+            if let Some(record) = jobs.records.get_mut(&id) {
+                finish(record, finished, outcome);
+                tracing::info!(job = %record.id, state = record.state.as_str(), error = record.error.as_deref().unwrap_or(""), "job finished");
             }
-            tracing::info!(job = %record.id, state = record.state.as_str(), error = ?record.error, "job finished");
-        });
+            jobs.retire(&id, self.history)
+        };
+        self.save(&id);
+        self.remove_files(&forgotten);
         self.publish_metrics();
+    }
+}
+
+fn unknown_job(id: &str) -> ApiError {
+    ApiError::new(Kind::JobNotFound, format!("unknown job {id:?}"))
+}
+
+/// Record how a job ended.
+fn finish(record: &mut JobRecord, finished: String, outcome: Result<JobResult, run::Failure>) {
+    record.finished = Some(finished);
+    match outcome {
+        Ok(result) => {
+            record.state = JobState::Succeeded;
+            record.progress.stage = "done".into();
+            record.result = Some(result);
+        }
+        Err(run::Failure::Cancelled) => {
+            record.state = JobState::Cancelled;
+            record.error = Some("cancelled".into());
+        }
+        Err(run::Failure::Error(message)) => {
+            record.state = JobState::Failed;
+            record.error = Some(message);
+        }
+        Err(run::Failure::Partial(message, result)) => {
+            record.state = JobState::Failed;
+            record.error = Some(message);
+            record.result = Some(*result);
+        }
     }
 }
 
@@ -648,8 +757,10 @@ fn worker(manager: std::sync::Weak<JobManager>) {
         let Some(manager) = manager.upgrade() else {
             return;
         };
-        let Some(id) = manager.next_job() else { return };
-        manager.execute(id);
+        let Some((id, request, flag)) = manager.next_job() else {
+            return;
+        };
+        manager.execute(id, request, flag);
     }
 }
 

@@ -58,9 +58,23 @@ impl DataDir {
 
     /// A directory inside the data directory, created if missing.
     pub fn output_dir(&self, what: &str, rel: &str) -> Result<PathBuf, String> {
+        self.check_output(what, rel)?;
+        let full = self.root.join(rel);
+        std::fs::create_dir_all(&full).map_err(|e| format!("{what} {rel:?}: {e}"))?;
+        let canonical = full
+            .canonicalize()
+            .map_err(|e| format!("{what} {rel:?}: {e}"))?;
+        if !canonical.is_dir() {
+            return Err(format!("{what} {rel:?}: not a directory"));
+        }
+        self.inside(what, rel, canonical)
+    }
+
+    /// Whether [`DataDir::output_dir`] may create (or reuse) `rel`, without creating it:
+    /// the deepest existing ancestor must resolve inside the data directory, so that
+    /// creating the rest cannot follow a symlink out of it.
+    pub fn check_output(&self, what: &str, rel: &str) -> Result<(), String> {
         let path = self.relative(what, rel)?;
-        // Check the deepest existing ancestor first, so that creating the directory cannot
-        // follow a symlink out of the data directory.
         let mut existing = self.root.join(path);
         while !existing.exists() {
             match existing.parent() {
@@ -71,16 +85,11 @@ impl DataDir {
         let canonical = existing
             .canonicalize()
             .map_err(|e| format!("{what} {rel:?}: {e}"))?;
-        self.inside(what, rel, canonical)?;
-        let full = self.root.join(path);
-        std::fs::create_dir_all(&full).map_err(|e| format!("{what} {rel:?}: {e}"))?;
-        let canonical = full
-            .canonicalize()
-            .map_err(|e| format!("{what} {rel:?}: {e}"))?;
-        if !canonical.is_dir() {
+        let canonical = self.inside(what, rel, canonical)?;
+        if canonical == self.root.join(path) && !canonical.is_dir() {
             return Err(format!("{what} {rel:?}: not a directory"));
         }
-        self.inside(what, rel, canonical)
+        Ok(())
     }
 
     /// A path found inside a dataset (a manifest row, a probe list entry) must also stay
@@ -146,8 +155,12 @@ mod tests {
                 .unwrap_err()
                 .contains("outside")
         );
+        assert!(dir.check_output("out", "renders/a").is_ok());
+        assert!(!data.join("renders").exists(), "checking creates nothing");
+        assert!(dir.check_output("out", "sets/m.csv").is_err());
         assert!(dir.output_dir("out", "renders/a").unwrap().is_dir());
         assert!(dir.output_dir("out", "../renders").is_err());
+        assert!(dir.check_output("out", "../renders").is_err());
         let _ = std::fs::remove_dir_all(&base);
     }
 }

@@ -273,14 +273,8 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
             crate::render::check_size(*size).map_err(invalid)?;
             data.existing("probes", probes).map_err(path_error)?;
             data.existing("classes", classes).map_err(path_error)?;
-            // The output folder is created when the job runs; check where it would be now.
-            let probe = data.root().join(out);
-            if probe.exists() {
-                data.existing("out", out).map_err(path_error)?;
-            } else {
-                data.output_dir("out", out).map_err(path_error)?;
-            }
-            Ok(())
+            // The output folder is created when the job runs.
+            data.check_output("out", out).map_err(path_error)
         }
     }
 }
@@ -384,7 +378,7 @@ pub fn execute(
                 }
                 let (version, _) = registry
                     .publish(&mut trained.model, &extra)
-                    .map_err(|e| Failure::Error(e.to_string()))?;
+                    .map_err(|e| Failure::Error(format!("cannot publish a new version: {e}")))?;
                 version
             };
             let new_accuracy = trained.model.training.cv.as_ref().map(|c| c.accuracy);
