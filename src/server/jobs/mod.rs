@@ -707,19 +707,44 @@ impl JobManager {
             run::execute(&request, &self.data, &self.limits, &self.models, &observer)
         }))
         .unwrap_or_else(|_| Err(run::Failure::Error("the job panicked".into())));
-        let finished = crate::model::now_rfc3339();
-        // One step: whoever sees this job finished sees the trimmed history.
-        let forgotten = {
-            let mut jobs = self.lock();
-            if let Some(record) = jobs.records.get_mut(&id) {
-                finish(record, finished, outcome);
-                tracing::info!(job = %record.id, state = record.state.as_str(), error = record.error.as_deref().unwrap_or(""), "job finished");
-            }
-            jobs.retire(&id, self.history)
-        };
-        self.save(&id);
-        self.remove_files(&forgotten);
+        self.conclude(&id, outcome);
         self.publish_metrics();
+    }
+
+    /// Record how a job ended. The final record is on disk, and the records the history
+    /// forgets are gone from it, before anyone can see the job finished: `disk` is held
+    /// throughout, so no other write comes between.
+    fn conclude(&self, id: &str, outcome: Result<JobResult, run::Failure>) {
+        let _disk = self.lock_disk();
+        let Some(mut record) = self.lock().records.get(id).cloned() else {
+            return;
+        };
+        finish(&mut record, crate::model::now_rfc3339(), outcome);
+        tracing::info!(job = %id, state = record.state.as_str(), error = record.error.as_deref().unwrap_or(""), "job finished");
+        let mut saved = self.write(&record).is_ok();
+        let (forgotten, latest) = {
+            let mut jobs = self.lock();
+            let latest = jobs.records.get_mut(id).map(|current| {
+                let mut latest = record.clone();
+                // A cancellation may have been asked for meanwhile.
+                latest.cancel_requested |= current.cancel_requested;
+                *current = latest.clone();
+                latest
+            });
+            (jobs.retire(id, self.history), latest)
+        };
+        if let Some(latest) = latest.filter(|latest| !saved || *latest != record) {
+            saved = self.write(&latest).is_ok();
+        }
+        if !saved {
+            metrics::job_record_unsaved();
+            tracing::error!(job = %id, "the final job record was not saved; will retry");
+            let mut jobs = self.lock();
+            if jobs.records.contains_key(id) {
+                jobs.unsaved.insert(id.to_string());
+            }
+        }
+        self.delete(&forgotten);
     }
 }
 
