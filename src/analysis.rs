@@ -152,10 +152,9 @@ pub fn analyze_subset(
     warnings.extend(geometry_warnings);
     warnings.extend(white_warning);
     let (luminance, circle) = (image.luminance.view(), geometry.circle());
-    let values = match wanted {
-        Some(wanted) => extractor.extract_subset(luminance, &circle, white.value, wanted),
-        None => extractor.extract(luminance, &circle, white.value),
-    };
+    // Integer samples clip at 1 once decoded; floating-point ones do not clip.
+    let full_scale = (!image.is_float).then_some(1.0);
+    let values = extractor.extract_with(luminance, &circle, white.value, full_scale, wanted);
     Ok(Analysis {
         values,
         geometry,

@@ -1,5 +1,5 @@
-//! Dataset manifests (`path,class,illumination[,cx,cy,r,white]`, paths relative to the
-//! manifest's folder) and feature tables (`path,class,illumination,<feature names>`).
+//! Dataset manifests (`path,class,illumination[,cx,cy,r,white,encoding]`, paths relative
+//! to the manifest's folder) and feature tables (`path,class,illumination,<feature names>`).
 
 use crate::analysis::{self, AnalysisError, Locate, WhiteInput};
 use crate::features::Extractor;
@@ -53,6 +53,9 @@ pub struct Entry {
     pub illumination: Option<String>,
     pub circle: Option<Circle>,
     pub white: Option<f64>,
+    /// How the file's integer samples decode (`srgb`, `linear`, `gamma:<g>`); unset: the
+    /// extraction's default.
+    pub encoding: Option<image_io::Encoding>,
 }
 
 #[derive(Clone, Debug)]
@@ -100,7 +103,16 @@ pub fn read_manifest(path: &Path) -> Result<Manifest, DatasetError> {
         path: display(path),
         column: "path".into(),
     })?;
-    let cols = ["class", "illumination", "cx", "cy", "r", "white"].map(column);
+    let cols = [
+        "class",
+        "illumination",
+        "cx",
+        "cy",
+        "r",
+        "white",
+        "encoding",
+    ]
+    .map(column);
     let base = path.parent().unwrap_or(Path::new("."));
     let mut entries = Vec::new();
     for record in reader.records() {
@@ -121,7 +133,16 @@ pub fn read_manifest(path: &Path) -> Result<Manifest, DatasetError> {
                 .transpose()
         };
         let rel = text(Some(path_col)).ok_or_else(|| bad("empty path".into()))?;
-        let [class, illumination, cx, cy, r, white] = cols;
+        let [class, illumination, cx, cy, r, white, encoding] = cols;
+        let encoding = text(encoding)
+            .map(|e| {
+                image_io::Encoding::parse(e).ok_or_else(|| {
+                    bad(format!(
+                        "encoding must be srgb, linear or gamma:<g>, not {e:?}"
+                    ))
+                })
+            })
+            .transpose()?;
         let circle = match (number("cx", cx)?, number("cy", cy)?, number("r", r)?) {
             (Some(cx), Some(cy), Some(r)) => Some(Circle { cx, cy, r }),
             (None, None, None) => None,
@@ -135,6 +156,7 @@ pub fn read_manifest(path: &Path) -> Result<Manifest, DatasetError> {
             illumination: text(illumination).map(str::to_string),
             circle,
             white: number("white", white)?,
+            encoding,
         });
     }
     Ok(Manifest {
@@ -184,7 +206,11 @@ pub fn extract_entry(
     entry: &Entry,
     options: &DecodeOptions,
 ) -> Result<Vec<f64>, AnalysisError> {
-    let image = image_io::decode_file(&entry.file, options)?;
+    let options = DecodeOptions {
+        encoding: entry.encoding.or(options.encoding),
+        ..*options
+    };
+    let image = image_io::decode_file(&entry.file, &options)?;
     let locate = entry.circle.map_or(Locate::Auto, Locate::Circle);
     let white = WhiteInput::Value(entry.white.unwrap_or(1.0));
     Ok(analysis::analyze(extractor, &image, &locate, &white)?.values)

@@ -43,6 +43,13 @@ pub const RADIAL_PREFIX: &str = "radial.";
 pub const RADIAL_RINGS: usize = 3;
 /// Prefix of the orientation-dependency features' names (within a block).
 pub const DEPENDENCY_PREFIX: &str = "dep.";
+/// Prefix of the capture measurements' names.
+pub const CAPTURE_PREFIX: &str = "cap.";
+/// The capture measurements: log10 of the noise at white (a fraction of white, floored at
+/// 1e-4) and the clipped fraction of the annulus.
+pub const CAPTURE_NAMES: [&str; 2] = ["cap.noise", "cap.clipped"];
+/// Floor of the noise at white before its log10 (and its value when it cannot be told).
+const NOISE_FLOOR: f64 = 1e-4;
 /// The pairs of orientations whose subband magnitudes the dependency features correlate.
 const ORIENTATION_PAIRS: [(usize, usize); 3] = [(0, 1), (0, 2), (1, 2)];
 
@@ -55,6 +62,9 @@ pub struct Extensions {
     pub radial: bool,
     /// Correlations of subband magnitudes between orientations at each scale (`dep.*`).
     pub dependencies: bool,
+    /// What the camera added, measured on the sphere (`cap.*`: [`crate::noise`]), after
+    /// every block.
+    pub capture: bool,
 }
 
 impl Extensions {
@@ -63,6 +73,7 @@ impl Extensions {
         log_domain: true,
         radial: true,
         dependencies: true,
+        capture: true,
     };
 
     /// The extensions whose features occur among `names` (a table's columns, a list).
@@ -74,6 +85,7 @@ impl Extensions {
                 log_domain: seen.log_domain || in_block.is_some(),
                 radial: seen.radial || block_name.starts_with(RADIAL_PREFIX),
                 dependencies: seen.dependencies || block_name.starts_with(DEPENDENCY_PREFIX),
+                capture: seen.capture || name.starts_with(CAPTURE_PREFIX),
             }
         })
     }
@@ -93,6 +105,7 @@ impl Extensions {
             log_domain: self.log_domain || other.log_domain,
             radial: self.radial || other.radial,
             dependencies: self.dependencies || other.dependencies,
+            capture: self.capture || other.capture,
         }
     }
 }
@@ -115,6 +128,10 @@ pub struct FeatureConfig {
     /// model files.
     #[serde(default, skip_serializing_if = "is_false")]
     pub dependencies: bool,
+    /// Also compute the capture measurements `cap.noise` and `cap.clipped` (after every
+    /// block; an extension, see README). Absent in older model files.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub capture: bool,
     /// Spheres larger than this radius (px) are first area-downsampled to it, so a model
     /// sees the same effective resolution as in training (see `resample`). None: no
     /// resampling (the DESIGN.md definition).
@@ -130,6 +147,7 @@ impl Default for FeatureConfig {
             log_domain: false,
             radial: false,
             dependencies: false,
+            capture: false,
             working_radius: None,
         }
     }
@@ -205,6 +223,7 @@ impl FeatureConfig {
             log_domain: extensions.log_domain,
             radial: extensions.radial,
             dependencies: extensions.dependencies,
+            capture: extensions.capture,
             working_radius,
             ..FeatureConfig::default()
         }
@@ -225,20 +244,23 @@ impl FeatureConfig {
             log_domain: self.log_domain,
             radial: self.radial,
             dependencies: self.dependencies,
+            capture: self.capture,
         }
     }
 
     /// Canonical feature names for this configuration.
     pub fn names(&self) -> Vec<String> {
         let base = self.base_names();
-        if !self.log_domain {
-            return base;
-        }
         let log = base
             .iter()
+            .filter(|_| self.log_domain)
             .map(|n| format!("{LOG_PREFIX}{n}"))
             .collect::<Vec<_>>();
-        base.into_iter().chain(log).collect()
+        let capture = CAPTURE_NAMES
+            .iter()
+            .filter(|_| self.capture)
+            .map(|n| n.to_string());
+        base.into_iter().chain(log).chain(capture).collect()
     }
 
     fn base_names(&self) -> Vec<String> {
@@ -337,9 +359,23 @@ pub fn default_names() -> &'static [String] {
     NAMES.get_or_init(|| FeatureConfig::default().names())
 }
 
+/// The named feature sets: the paper's hand-picked ones, the trivial one, and hand6 with
+/// our extensions ([`named_set`] lists their features).
+pub const NAMED_SETS: [&str; 8] = [
+    "hand6",
+    "hand2",
+    "mean1",
+    "hand6+log",
+    "hand6+log+radial",
+    "hand6+log+radial+dep",
+    "hand6+cap",
+    "hand6+log+cap",
+];
+
 /// The paper's hand-picked sets (§6.3, Fig. 7), the trivial one, hand6 extended with the
 /// log-domain pixel statistics and subband variances (`hand6+log`), and that with the
-/// log-domain radial changes (`hand6+log+radial`; see README).
+/// log-domain radial changes (`hand6+log+radial`; see README), and hand6 and hand6+log with
+/// the capture measurements (`hand6+cap`, `hand6+log+cap`).
 pub fn named_set(name: &str) -> Option<Vec<String>> {
     const HAND6: [&str; 6] = [
         "pix.mean",
@@ -354,6 +390,17 @@ pub fn named_set(name: &str) -> Option<Vec<String>> {
         "hand6" => Some(strings(&HAND6)),
         "hand2" => Some(strings(&["pix.p10", "wav.s2.v.var"])),
         "mean1" => Some(strings(&["pix.mean"])),
+        "hand6+log+cap" => {
+            let mut names = named_set("hand6+log")?;
+            names.extend(CAPTURE_NAMES.iter().map(|n| n.to_string()));
+            Some(names)
+        }
+        "hand6+cap" => Some(
+            strings(&HAND6)
+                .into_iter()
+                .chain(CAPTURE_NAMES.iter().map(|n| n.to_string()))
+                .collect(),
+        ),
         "hand6+log" | "hand6+log+radial" | "hand6+log+radial+dep" => {
             let levels = FeatureConfig::default().levels;
             let pixels = STAT_NAMES.iter().map(|s| format!("{LOG_PREFIX}pix.{s}"));
@@ -424,17 +471,26 @@ impl Extractor {
         }
     }
 
+    /// The image the features see: the sphere reduced to the working radius, when the
+    /// configuration has one and the sphere is larger (`None`: the image as it is).
+    fn reduce(&self, luminance: ArrayView2<f64>, circle: &Circle) -> Option<(Array2<f64>, Circle)> {
+        self.config
+            .working_radius
+            .and_then(|target| crate::resample::to_radius(luminance, circle, target))
+    }
+
     /// The unwrapped, white-normalized annulus (after reduction to the working radius, if
     /// the configuration has one and the sphere is larger).
     pub fn unwrap(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Array2<f64> {
-        let reduced = self
-            .config
-            .working_radius
-            .and_then(|target| crate::resample::to_radius(luminance, circle, target));
+        let reduced = self.reduce(luminance, circle);
         let (luminance, circle) = match &reduced {
             Some((image, moved)) => (image.view(), moved),
             None => (luminance, circle),
         };
+        self.unwrap_as_is(luminance, circle, white)
+    }
+
+    fn unwrap_as_is(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Array2<f64> {
         let angles = self.angles(self.config.unwrap.supersampling(circle.r));
         let gain = 1.0 / white;
         if gain.is_finite() {
@@ -449,11 +505,52 @@ impl Extractor {
     /// Feature values (canonical order, transformed) of a sphere in a luminance image.
     /// The circle must already be validated against the image.
     pub fn extract(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Vec<f64> {
-        let stages = self.stages(luminance, circle, white);
-        let mut values = self.features_of(&stages);
-        if self.config.log_domain {
-            let log = log_pixels(&stages.unwrapped);
-            values.extend(self.features_of(&self.stages_of_unwrapped(log)));
+        self.extract_with(luminance, circle, white, None, None)
+    }
+
+    /// [`Extractor::extract`], or [`Extractor::extract_subset`] when `wanted` is given, of an
+    /// image whose samples clip at `full_scale` (`None`: they do not, as in floating-point
+    /// files). The clipping point matters to the capture measurements only.
+    pub fn extract_with(
+        &self,
+        luminance: ArrayView2<f64>,
+        circle: &Circle,
+        white: f64,
+        full_scale: Option<f64>,
+        wanted: Option<&[usize]>,
+    ) -> Vec<f64> {
+        let reduced = self.reduce(luminance, circle);
+        let (seen, seen_circle) = match &reduced {
+            Some((image, moved)) => (image.view(), moved),
+            None => (luminance, circle),
+        };
+        let unwrapped = self.unwrap_as_is(seen, seen_circle, white);
+        let mut values = match wanted {
+            None => {
+                let stages = self.stages_of_unwrapped(unwrapped);
+                let mut values = self.features_of(&stages);
+                if self.config.log_domain {
+                    let log = log_pixels(&stages.unwrapped);
+                    values.extend(self.features_of(&self.stages_of_unwrapped(log)));
+                }
+                values
+            }
+            Some(wanted) => self.subset_of_blocks(&unwrapped, wanted),
+        };
+        if self.config.capture {
+            let blocks = values.len();
+            let needed = wanted.is_none_or(|w| w.iter().any(|&i| i >= blocks));
+            values.extend(match needed {
+                true => {
+                    let ceiling = full_scale.unwrap_or(f64::INFINITY);
+                    let noise = crate::noise::noise_at_white(seen, seen_circle, white, ceiling);
+                    let clipped = full_scale.map_or(0.0, |f| {
+                        crate::noise::clipped_fraction(luminance, circle, f)
+                    });
+                    [noise.unwrap_or(0.0).max(NOISE_FLOOR).log10(), clipped]
+                }
+                false => [f64::NAN; 2],
+            });
         }
         values
     }
@@ -533,7 +630,12 @@ impl Extractor {
     /// Number of features of this configuration (117 with the default one).
     pub fn feature_count(&self) -> usize {
         let blocks = if self.config.log_domain { 2 } else { 1 };
-        blocks * self.block_len()
+        let capture = if self.config.capture {
+            CAPTURE_NAMES.len()
+        } else {
+            0
+        };
+        blocks * self.block_len() + capture
     }
 
     /// Features of one image (the unwrapped annulus or its log10).
@@ -576,7 +678,17 @@ impl Extractor {
         white: f64,
         wanted: &[usize],
     ) -> Vec<f64> {
-        let n = self.feature_count();
+        self.extract_with(luminance, circle, white, None, Some(wanted))
+    }
+
+    /// The wanted features of the blocks (the unwrapped image's, then its log10's).
+    fn subset_of_blocks(&self, unwrapped: &Array2<f64>, wanted: &[usize]) -> Vec<f64> {
+        let block = self.block_len();
+        let n = if self.config.log_domain {
+            2 * block
+        } else {
+            block
+        };
         let mut need = vec![false; n];
         for &i in wanted {
             if let Some(slot) = need.get_mut(i) {
@@ -584,11 +696,9 @@ impl Extractor {
             }
         }
         let mut out = vec![f64::NAN; n];
-        let block = self.block_len();
-        let unwrapped = self.unwrap(luminance, circle, white);
-        self.subset_of(&unwrapped, &need[..block], &mut out[..block]);
+        self.subset_of(unwrapped, &need[..block], &mut out[..block]);
         if self.config.log_domain && need[block..].iter().any(|&b| b) {
-            let log = log_pixels(&unwrapped);
+            let log = log_pixels(unwrapped);
             self.subset_of(&log, &need[block..], &mut out[block..]);
         }
         out
@@ -784,7 +894,8 @@ mod tests {
         }
         let every = FeatureConfig::extended(Extensions::ALL, None).names();
         let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14 + 12;
-        assert_eq!(every.len(), 2 * block);
+        assert_eq!(every.len(), 2 * block + 2);
+        assert_eq!(every[2 * block..], CAPTURE_NAMES);
         assert_eq!(every[..FEATURE_COUNT], names[..]);
         let last_pair = format!("r{}_r{RADIAL_RINGS}", RADIAL_RINGS - 1);
         assert_eq!(
@@ -1012,7 +1123,8 @@ mod tests {
             Extractor::new(FeatureConfig::extended(Extensions::ALL, Some(60.0))).unwrap();
         let extended_full = extended.extract(luminance.view(), &circle, 0.9);
         let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14 + 12;
-        assert_eq!(extended.feature_count(), 2 * block);
+        assert_eq!(extended.feature_count(), 2 * block + 2);
+        assert_eq!(extended_full.len(), 2 * block + 2);
         let extended_subsets = [
             vec![3, block + 1, block + 99, 2 * block - 1],
             // dep.s3.vd alone (three pyramid levels), dep.s1.hv and log.dep.s4.hd
@@ -1021,11 +1133,14 @@ mod tests {
             // radial.r1_r2.pix.var, radial.r1_r2.wav.s2.v.var; two of the log-domain block
             vec![FEATURE_COUNT + 1, FEATURE_COUNT + 6],
             vec![block + FEATURE_COUNT, block + FEATURE_COUNT + 13],
-            (0..2 * block).collect::<Vec<_>>(),
+            // The capture measurements, alone and with a block feature.
+            vec![2 * block + 1],
+            vec![5, 2 * block],
+            (0..2 * block + 2).collect::<Vec<_>>(),
         ];
         for wanted in extended_subsets {
             let part = extended.extract_subset(luminance.view(), &circle, 0.9, &wanted);
-            assert_eq!(part.len(), 2 * block);
+            assert_eq!(part.len(), 2 * block + 2);
             for &i in &wanted {
                 assert_eq!(
                     part[i].to_bits(),

@@ -196,7 +196,7 @@ fn edge_points(mask: ArrayView2<bool>) -> Vec<(f64, f64)> {
 }
 
 /// Algebraic (Kåsa) fit, in coordinates centred on the points' mean for conditioning.
-fn fit_circle(points: &[(f64, f64)]) -> Option<Circle> {
+pub(crate) fn fit_circle(points: &[(f64, f64)]) -> Option<Circle> {
     let n = points.len() as f64;
     let mx = points.iter().map(|p| p.0).sum::<f64>() / n;
     let my = points.iter().map(|p| p.1).sum::<f64>() / n;
@@ -224,7 +224,7 @@ fn fit_circle(points: &[(f64, f64)]) -> Option<Circle> {
 }
 
 /// Gaussian elimination with partial pivoting; None when singular.
-fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
+pub(crate) fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
     for col in 0..3 {
         let pivot = (col..3).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
         if a[pivot][col].abs() < 1e-12 {
@@ -257,6 +257,16 @@ fn rms_residual(points: &[(f64, f64)], c: &Circle) -> f64 {
     (points.iter().map(|p| residual(p, c).powi(2)).sum::<f64>() / points.len() as f64).sqrt()
 }
 
+/// Find the sphere in a photograph ([`crate::detect`]: table tops, scenes, JPEG), with the
+/// circle a clean background gives ([`detect_clean`]) as one more candidate. The
+/// confidence is the fraction of the rim with a clear edge on the circle.
+pub fn detect(luminance: ArrayView2<f64>) -> Result<Geometry, GeometryError> {
+    let clean = detect_clean(luminance).ok().map(|g| g.circle());
+    crate::detect::find_sphere(luminance, clean)
+        .map(|found| Geometry::new(found.circle, Method::Auto, Some(found.confidence)))
+        .map_err(|crate::detect::NotFound(reason)| GeometryError::DetectionFailed { reason })
+}
+
 /// Find a sphere on a clean background.
 ///
 /// The background level and noise come from the image border (median and MAD); pixels far
@@ -264,7 +274,7 @@ fn rms_residual(points: &[(f64, f64)], c: &Circle) -> f64 {
 /// inside the sphere do not make holes. A circle is fitted to the largest foreground
 /// component's edge with outlier rejection. Confidence = fraction of edge points on the
 /// circle × agreement between the component's area and the circle's.
-pub fn detect(luminance: ArrayView2<f64>) -> Result<Geometry, GeometryError> {
+pub fn detect_clean(luminance: ArrayView2<f64>) -> Result<Geometry, GeometryError> {
     let fail = |reason: String| GeometryError::DetectionFailed { reason };
     let (h, w) = luminance.dim();
     if h < 2 * MIN_RADIUS as usize || w < 2 * MIN_RADIUS as usize {

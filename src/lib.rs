@@ -4,16 +4,20 @@
 //! features → learn → model/registry → server.
 
 pub mod analysis;
+pub mod capture;
 pub mod cli;
 pub mod dataset;
+pub mod detect;
 pub mod features;
 pub mod fsutil;
 pub mod geometry;
 pub mod heap;
 pub mod image_io;
+pub mod inference;
 pub mod learn;
 pub mod log10;
 pub mod model;
+pub mod noise;
 pub mod progress;
 pub mod pyramid;
 pub mod registry;

@@ -26,7 +26,7 @@ fn table() -> FeatureTable {
 fn trained(name: &str) -> ModelFile {
     let options = TrainOptions {
         name: name.into(),
-        spec: TrainSpec::new(FeatureSet::Hand6, ClassifierKind::Svm),
+        spec: TrainSpec::new(FeatureSet::Named("hand6"), ClassifierKind::Svm),
         seed: 1,
         cross_validate: false,
         classes: None,

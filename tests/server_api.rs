@@ -607,3 +607,58 @@ async fn kserve_v2_protocol() {
         .await
         .problem(415, "unsupported-media-type");
 }
+
+/// `reflectance classify IMAGE --model …` answers exactly as `POST /v1/classify` does
+/// (but for the request id and the timings), with a summary for people by default.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_command_line_answers_as_the_service_does() {
+    let models = models_copy("cli-classify");
+    let server = start(config(&models));
+    let (image, class, white) = &fixture().held_out[2];
+    let path = models.parent().unwrap().join("sphere.pfm");
+    std::fs::write(&path, image).unwrap();
+    let white = white.to_string();
+    let mut fields = classify_fields(image, &white);
+    fields.push(("include", Part::Text("features,explain")));
+    let served = send(&server.data, post_multipart("/v1/classify", &fields))
+        .await
+        .json();
+    let run = |extra: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_reflectance"))
+            .arg("classify")
+            .arg(&path)
+            .arg("--model")
+            .arg(models.join("ward6"))
+            .args(["--white", &white, "--cx", CX, "--cy", CX, "--r", R])
+            .args(extra)
+            .output()
+            .unwrap();
+        common::assert_success(&out);
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let mut local: Value =
+        serde_json::from_str(&run(&["--json", "--all-features", "--explain"])).unwrap();
+    let mut served = served;
+    for doc in [&mut local, &mut served] {
+        let object = doc.as_object_mut().unwrap();
+        object.remove("request_id");
+        object.remove("timing_ms");
+    }
+    assert_eq!(local, served);
+    assert_eq!(local["label"], class.as_str());
+    let summary = run(&[]);
+    assert!(summary.starts_with(&format!("{class}  (p = ")), "{summary}");
+    assert!(summary.contains("warning: sphere radius"), "{summary}");
+    // Mistakes are one line on stderr and a failure status.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_reflectance"))
+        .args(["classify", "missing.png", "--model"])
+        .arg(models.join("ward6"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.starts_with("reflectance: image missing.png:"),
+        "{stderr}"
+    );
+}

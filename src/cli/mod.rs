@@ -1,9 +1,11 @@
 //! The command line (DESIGN.md §6 is the contract: extend it, never rename).
 
+mod classify;
 mod features;
 mod learn;
 mod render;
 mod report;
+mod robustness;
 mod serve;
 
 use crate::features::Extensions;
@@ -33,8 +35,12 @@ enum Command {
     Train(learn::TrainArgs),
     /// Classify the images of a manifest with a trained model.
     Predict(learn::PredictArgs),
+    /// Classify one photograph with a trained model (the answer of `POST /v1/classify`).
+    Classify(classify::ClassifyArgs),
     /// Reproduce the structure of the paper's Tables 1 and 2 (Markdown, JSON, plots).
     Report(report::ReportArgs),
+    /// Accuracy of models on renders captured as photographs, one capture factor at a time.
+    Robustness(robustness::RobustnessArgs),
     /// Run the classification service (data plane, and the admin plane when a token is set).
     Serve(crate::server::config::ServeArgs),
     /// Exit 0 when a server answers GET /health/ready with 200 (for container health checks).
@@ -79,6 +85,10 @@ pub struct ExtensionArgs {
     /// magnitudes between orientations at each scale, 12 more per block).
     #[arg(long)]
     dependency_features: bool,
+    /// Also compute the capture measurements (`cap.noise`: the noise at white estimated on
+    /// the sphere, `cap.clipped`: its clipped fraction).
+    #[arg(long)]
+    capture_features: bool,
     /// Reduce spheres larger than this radius (px) to it before extraction (area
     /// averaging), as models trained at that radius expect.
     #[arg(long)]
@@ -92,6 +102,7 @@ impl ExtensionArgs {
             log_domain: self.log_features,
             radial: self.radial_features,
             dependencies: self.dependency_features,
+            capture: self.capture_features,
         };
         crate::features::FeatureConfig::extended(asked.union(implied), self.working_radius)
     }
@@ -111,7 +122,9 @@ pub fn main() -> ExitCode {
         Command::Cv(args) => learn::cv(args),
         Command::Train(args) => learn::train(args),
         Command::Predict(args) => learn::predict(args),
+        Command::Classify(args) => classify::run(args),
         Command::Report(args) => report::run(args),
+        Command::Robustness(args) => robustness::run(args),
         Command::Serve(args) => serve::run(args),
         Command::Healthcheck(args) => serve::healthcheck(args),
     };

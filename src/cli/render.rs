@@ -40,6 +40,12 @@ pub struct RenderArgs {
     /// compact sources; labelled `synthetic@…`, used for training only).
     #[arg(long, default_value_t = 0)]
     synthetic: usize,
+    /// Augmentation: this many photograph-like captures of every image (`@cap<k>`, used
+    /// for training only): radius, exposure and clipping, shot and read noise, lens blur,
+    /// 8-bit sRGB, JPEG or 16-bit linear files, and the white and circle errors a user
+    /// makes, each drawn anew within the capture ranges.
+    #[arg(long, default_value_t = 0)]
+    captures: usize,
     /// Sub-pixel samples per side.
     #[arg(long, default_value_t = Quality::default().pixel_samples)]
     pixel_samples: usize,
@@ -69,6 +75,8 @@ pub fn run(args: RenderArgs) -> CliResult {
             contrasts: args.contrasts,
             reductions: args.reductions,
             synthetic: args.synthetic,
+            captures: args.captures,
+            capture_ranges: Default::default(),
         },
     };
     let start = std::time::Instant::now();

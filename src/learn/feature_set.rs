@@ -1,25 +1,17 @@
-//! Feature sets: `hand6`, `hand2`, `mean1`, `hand6+log`, `hand6+log+radial`,
-//! `hand6+log+radial+dep`, `all`,
-//! `auto<N>`, `pca<N>`, or a comma-separated list of feature names. Fixed sets resolve to
+//! Feature sets: a named set ([`crate::features::NAMED_SETS`]: `hand6`, `hand2`, `mean1`,
+//! `hand6+log`, …), `all`, `auto<N>`, `pca<N>`, or a comma-separated list of feature names. Fixed sets resolve to
 //! columns directly; `auto<N>` and `pca<N>` are fitted on training rows only (inside every
 //! cross-validation fold).
 
 use super::error::LearnError;
-use crate::features::named_set;
+use crate::features::{NAMED_SETS, named_set};
 use std::fmt;
 use std::str::FromStr;
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum FeatureSet {
-    Hand6,
-    /// hand6 plus the log-domain pixel statistics and subband variances.
-    Hand6Log,
-    /// hand6+log plus the log-domain radial changes.
-    Hand6LogRadial,
-    /// hand6+log+radial plus the log-domain orientation dependencies.
-    Hand6LogRadialDep,
-    Hand2,
-    Mean1,
+    /// One of [`NAMED_SETS`] (the paper's hand-picked sets and our extensions of hand6).
+    Named(&'static str),
     All,
     /// Automatic selection of N features (DESIGN.md §3 "Automatic selection").
     Auto(usize),
@@ -47,13 +39,10 @@ impl FeatureSet {
     /// Parses a specification, checking explicit names against `names` (the table's columns).
     pub fn parse_with(spec: &str, names: &[String]) -> Result<FeatureSet, LearnError> {
         let spec = spec.trim();
+        if let Some(&name) = NAMED_SETS.iter().find(|&&n| n == spec) {
+            return Ok(FeatureSet::Named(name));
+        }
         match spec {
-            "hand6" => return Ok(FeatureSet::Hand6),
-            "hand6+log" => return Ok(FeatureSet::Hand6Log),
-            "hand6+log+radial" => return Ok(FeatureSet::Hand6LogRadial),
-            "hand6+log+radial+dep" => return Ok(FeatureSet::Hand6LogRadialDep),
-            "hand2" => return Ok(FeatureSet::Hand2),
-            "mean1" => return Ok(FeatureSet::Mean1),
             "all" => return Ok(FeatureSet::All),
             "" => return Err(bad(spec, "empty feature set")),
             _ => {}
@@ -91,14 +80,8 @@ impl FeatureSet {
     /// The names of a fixed set (`None` for the fitted `auto<N>` and `pca<N>`), `all` being
     /// every column of `names`.
     pub fn fixed_names(&self, names: &[String]) -> Option<Vec<String>> {
-        let named = |set: &str| named_set(set).unwrap_or_default();
         match self {
-            FeatureSet::Hand6 => Some(named("hand6")),
-            FeatureSet::Hand6Log => Some(named("hand6+log")),
-            FeatureSet::Hand6LogRadial => Some(named("hand6+log+radial")),
-            FeatureSet::Hand6LogRadialDep => Some(named("hand6+log+radial+dep")),
-            FeatureSet::Hand2 => Some(named("hand2")),
-            FeatureSet::Mean1 => Some(named("mean1")),
+            FeatureSet::Named(set) => Some(named_set(set).unwrap_or_default()),
             FeatureSet::All => Some(names.to_vec()),
             FeatureSet::List(list) => Some(list.clone()),
             FeatureSet::Auto(_) | FeatureSet::Pca(_) => None,
@@ -139,12 +122,7 @@ impl FromStr for FeatureSet {
 impl fmt::Display for FeatureSet {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            FeatureSet::Hand6 => f.write_str("hand6"),
-            FeatureSet::Hand6Log => f.write_str("hand6+log"),
-            FeatureSet::Hand6LogRadial => f.write_str("hand6+log+radial"),
-            FeatureSet::Hand6LogRadialDep => f.write_str("hand6+log+radial+dep"),
-            FeatureSet::Hand2 => f.write_str("hand2"),
-            FeatureSet::Mean1 => f.write_str("mean1"),
+            FeatureSet::Named(set) => f.write_str(set),
             FeatureSet::All => f.write_str("all"),
             FeatureSet::Auto(n) => write!(f, "auto{n}"),
             FeatureSet::Pca(n) => write!(f, "pca{n}"),
@@ -218,26 +196,36 @@ mod tests {
     #[test]
     fn resolves_columns() {
         let names = crate::features::default_names();
-        let idx = FeatureSet::Hand6.resolve(names).unwrap().unwrap();
+        let idx = FeatureSet::Named("hand6").resolve(names).unwrap().unwrap();
         assert_eq!(idx[0], 0);
         assert_eq!(names[idx[2]], "wav.s1.v.var");
         assert_eq!(FeatureSet::All.resolve(names).unwrap().unwrap().len(), 117);
         assert_eq!(FeatureSet::Auto(3).resolve(names).unwrap(), None);
         // hand6+log needs the log-domain columns.
-        assert!(FeatureSet::Hand6Log.resolve(names).is_err());
+        assert!(FeatureSet::Named("hand6+log").resolve(names).is_err());
         let extended = crate::features::FeatureConfig::with_log_domain().names();
-        let idx = FeatureSet::Hand6Log.resolve(&extended).unwrap().unwrap();
+        let idx = FeatureSet::Named("hand6+log")
+            .resolve(&extended)
+            .unwrap()
+            .unwrap();
         assert_eq!((idx.len(), extended[idx[6]].as_str()), (25, "log.pix.mean"));
         assert_eq!(
             "hand6+log".parse::<FeatureSet>().unwrap().to_string(),
             "hand6+log"
         );
         // hand6+log+radial needs the radial columns of the log-domain block too.
-        assert!(FeatureSet::Hand6LogRadial.resolve(&extended).is_err());
+        assert!(
+            FeatureSet::Named("hand6+log+radial")
+                .resolve(&extended)
+                .is_err()
+        );
         let every =
             crate::features::FeatureConfig::extended(crate::features::Extensions::ALL, None)
                 .names();
-        let idx = FeatureSet::Hand6LogRadial.resolve(&every).unwrap().unwrap();
+        let idx = FeatureSet::Named("hand6+log+radial")
+            .resolve(&every)
+            .unwrap()
+            .unwrap();
         assert_eq!(
             (idx.len(), every[idx[25]].as_str(), every[idx[52]].as_str()),
             (
@@ -246,7 +234,7 @@ mod tests {
                 "log.radial.r2_r3.wav.s4.d.var"
             )
         );
-        let idx = FeatureSet::Hand6LogRadialDep
+        let idx = FeatureSet::Named("hand6+log+radial+dep")
             .resolve(&every)
             .unwrap()
             .unwrap();
@@ -256,7 +244,7 @@ mod tests {
         );
         let short = vec!["pix.mean".to_string()];
         assert!(matches!(
-            FeatureSet::Hand2.resolve(&short),
+            FeatureSet::Named("hand2").resolve(&short),
             Err(LearnError::UnknownFeatures(m)) if m.len() == 2
         ));
     }

@@ -6,6 +6,7 @@
 use super::envmap::{EnvMap, EnvMapError};
 use super::ward::{Material, MaterialError};
 use super::{Lighting, Quality, View, render};
+use crate::capture::{self, CaptureRanges, CaptureSettings};
 use crate::dataset::{SYNTHETIC_ILLUMINATION, format_f64};
 use crate::fsutil::write_atomic;
 use crate::image_io::pfm;
@@ -133,6 +134,11 @@ pub struct Augment {
     /// original view only, labelled `synthetic@s<seed>-<index>`: one group that never
     /// holds originals, so cross-validation trains on them in every fold and never tests them.
     pub synthetic: usize,
+    /// Photograph-like captures of every rendered image ([`crate::capture`]), each with its
+    /// own settings drawn from `capture_ranges`: `@cap<k>` views (8-bit PNG, JPEG or 16-bit
+    /// linear PNG files, with the white and circle a user would report).
+    pub captures: usize,
+    pub capture_ranges: CaptureRanges,
 }
 
 /// One view of a probe: the illumination label suffix and the camera.
@@ -274,6 +280,8 @@ fn stable_hash(text: &str) -> u64 {
 
 /// The index of a synthetic illumination has four digits.
 const MAX_SYNTHETIC: usize = 9999;
+/// Captures per image.
+pub const MAX_CAPTURES: usize = 64;
 
 fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
     super::check_size(spec.size).map_err(RenderError::Options)?;
@@ -290,7 +298,11 @@ fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
     let bad_elevation = a.elevations.iter().any(|e| !(5.0..=85.0).contains(e));
     let bad_contrast = a.contrasts.iter().any(|c| !(0.1..=4.0).contains(c));
     let bad_reduction = a.reductions.iter().any(|f| !(2..=16).contains(f));
+    a.capture_ranges
+        .validate()
+        .map_err(|e| RenderError::Options(e.to_string()))?;
     if a.rotations > 360
+        || a.captures > MAX_CAPTURES
         || bad_elevation
         || bad_contrast
         || bad_reduction
@@ -298,7 +310,8 @@ fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
     {
         return Err(RenderError::Options(format!(
             "rotations must be ≤ 360, elevations within 5°…85°, contrasts within 0.1…4, \
-             reductions within 2…16 and synthetic illuminations ≤ {MAX_SYNTHETIC}"
+             reductions within 2…16, synthetic illuminations ≤ {MAX_SYNTHETIC} and captures \
+             ≤ {MAX_CAPTURES}"
         )));
     }
     Ok(())
@@ -378,26 +391,7 @@ pub fn render_dataset_with(
             if counter.cancelled() {
                 return Err(RenderError::Cancelled);
             }
-            let result = if complete(job) {
-                Ok(false)
-            } else {
-                crate::fsutil::test_pause("render-image");
-                let probe = &probes[job.probe];
-                let map = probe.map()?;
-                let k = job.variant.lighting;
-                let lighting =
-                    probe.lightings[k].get_or_init(|| Lighting::new(spec.augment.lighting(map, k)));
-                let mut rng = Rng::fork(spec.seed, stable_hash(&job.name));
-                let image = render(
-                    lighting,
-                    &spec.classes[job.class],
-                    spec.size,
-                    &job.variant.view,
-                    &spec.quality,
-                    &mut rng,
-                );
-                write_image(&spec.out, &job.name, &image).map(|()| true)
-            };
+            let result = render_job(spec, &probes[job.probe], job, complete(job));
             bar.inc(1);
             counter.tick();
             result
@@ -415,6 +409,94 @@ pub fn render_dataset_with(
         skipped: jobs.len() - rendered,
         manifest,
     })
+}
+
+/// Render one image unless it is `complete`, then write whichever of its captures are
+/// missing; whether the image was rendered.
+fn render_job(
+    spec: &BatchSpec,
+    probe: &Probe,
+    job: &Job,
+    complete: bool,
+) -> Result<bool, RenderError> {
+    let captures: Vec<CaptureView> = (1..=spec.augment.captures)
+        .map(|k| CaptureView::new(spec, probe, job, k))
+        .filter(|c| !spec.out.join(&c.file).is_file())
+        .collect();
+    let rendering = if complete {
+        None
+    } else {
+        crate::fsutil::test_pause("render-image");
+        let map = probe.map()?;
+        let k = job.variant.lighting;
+        let lighting =
+            probe.lightings[k].get_or_init(|| Lighting::new(spec.augment.lighting(map, k)));
+        let mut rng = Rng::fork(spec.seed, stable_hash(&job.name));
+        let image = render(
+            lighting,
+            &spec.classes[job.class],
+            spec.size,
+            &job.variant.view,
+            &spec.quality,
+            &mut rng,
+        );
+        write_image(&spec.out, &job.name, &image)?;
+        Some(image)
+    };
+    if captures.is_empty() {
+        return Ok(!complete);
+    }
+    let luminance = match &rendering {
+        Some(image) => ndarray::Array2::from_shape_fn((spec.size, spec.size), |(y, x)| {
+            f64::from(image.luminance[y * spec.size + x])
+        }),
+        None => {
+            let path = spec.out.join(format!("{}.pfm", job.name));
+            crate::image_io::decode_file(&path, &Default::default())
+                .map_err(|e| RenderError::Options(format!("{}: {e}", path.display())))?
+                .luminance
+        }
+    };
+    let white = super::white(probe.map()?, &job.variant.view);
+    for view in captures {
+        let mut rng = view.rng.clone();
+        let shot = capture::capture(
+            luminance.view(),
+            &super::circle(spec.size),
+            white,
+            &view.settings,
+            &mut rng,
+        )
+        .map_err(|e| RenderError::Options(e.to_string()))?;
+        let path = spec.out.join(&view.file);
+        write_atomic(&path, &shot.bytes).map_err(io_error(&path))?;
+    }
+    Ok(!complete)
+}
+
+/// A capture of one rendered image: `<probe><view>@cap<k>__<class>.<png|jpg>`, its
+/// settings drawn from the ranges by a stream of its own name.
+struct CaptureView {
+    illumination: String,
+    file: String,
+    settings: CaptureSettings,
+    /// The stream after the settings were drawn: the capture's noise continues it.
+    rng: Rng,
+}
+
+impl CaptureView {
+    fn new(spec: &BatchSpec, probe: &Probe, job: &Job, k: usize) -> CaptureView {
+        let illumination = format!("{}{}@cap{k}", probe.stem, job.variant.suffix);
+        let stem = format!("{illumination}__{}", spec.classes[job.class].name);
+        let mut rng = Rng::fork(spec.seed, stable_hash(&stem));
+        let settings = spec.augment.capture_ranges.sample(&mut rng);
+        CaptureView {
+            file: format!("{stem}.{}", settings.quantization.extension()),
+            illumination,
+            settings,
+            rng,
+        }
+    }
 }
 
 /// Luminance as PFM and coverage as an 8-bit PNG mask, each written atomically (the PFM
@@ -446,7 +528,10 @@ fn write_manifest(
     jobs: &[Job],
 ) -> Result<PathBuf, RenderError> {
     let circle = super::circle(spec.size);
-    let mut text = String::from("path,class,illumination,cx,cy,r,white\n");
+    let with_captures = spec.augment.captures > 0;
+    let mut text = String::from("path,class,illumination,cx,cy,r,white");
+    text.push_str(if with_captures { ",encoding\n" } else { "\n" });
+    let mut settings = String::from(CAPTURE_COLUMNS);
     let mut white_cache: std::collections::HashMap<String, f64> = Default::default();
     for job in jobs {
         let illumination = format!("{}{}", probes[job.probe].stem, job.variant.suffix);
@@ -458,18 +543,54 @@ fn write_manifest(
                 w
             }
         };
-        text.push_str(&format!(
-            "{}.pfm,{},{},{},{},{},{}\n",
-            job.name,
-            spec.classes[job.class].name,
-            illumination,
-            format_f64(circle.cx),
-            format_f64(circle.cy),
-            format_f64(circle.r),
-            format_f64(white)
+        let class = &spec.classes[job.class].name;
+        let row = |path: &str, illumination: &str, c: &super::Circle, white: f64| {
+            let numbers = [c.cx, c.cy, c.r, white].map(format_f64).join(",");
+            format!("{path},{class},{illumination},{numbers}")
+        };
+        text.push_str(&row(
+            &format!("{}.pfm", job.name),
+            &illumination,
+            &circle,
+            white,
         ));
+        text.push_str(if with_captures { ",\n" } else { "\n" });
+        for k in 1..=spec.augment.captures {
+            let view = CaptureView::new(spec, &probes[job.probe], job, k);
+            let (reported, white) = capture::reported(&circle, &view.settings);
+            let encoding = view.settings.quantization.encoding();
+            text.push_str(&row(&view.file, &view.illumination, &reported, white));
+            text.push_str(&format!(",{encoding}\n"));
+            settings.push_str(&capture_row(&view.file, &view.settings));
+        }
+    }
+    if with_captures {
+        let path = spec.out.join("captures.csv");
+        write_atomic(&path, settings.as_bytes()).map_err(io_error(&path))?;
     }
     let path = spec.out.join("manifest.csv");
     write_atomic(&path, text.as_bytes()).map_err(io_error(&path))?;
     Ok(path)
+}
+
+/// Header of `captures.csv`: each capture's settings.
+const CAPTURE_COLUMNS: &str = "path,radius,exposure,noise,shot_share,blur,format,background,\
+                               white_error,centre_error_x,centre_error_y,radius_error\n";
+
+fn capture_row(path: &str, s: &CaptureSettings) -> String {
+    let numbers = |values: &[f64]| values.iter().map(|&v| format_f64(v)).collect::<Vec<_>>();
+    let head = numbers(&[s.radius, s.exposure, s.noise, s.shot_share, s.blur]);
+    let tail = numbers(&[
+        s.background,
+        s.white_error,
+        s.centre_error[0],
+        s.centre_error[1],
+        s.radius_error,
+    ]);
+    format!(
+        "{path},{},{},{}\n",
+        head.join(","),
+        s.quantization,
+        tail.join(",")
+    )
 }

@@ -12,6 +12,7 @@
 //! and the procedural illuminations, when the data sets have them).
 
 mod plots;
+pub mod robustness;
 
 use crate::dataset::{self, FeatureTable};
 use crate::features::{Extensions, Extractor, FeatureConfig};
@@ -38,6 +39,8 @@ pub enum ReportError {
     Missing(String),
     #[error("plot: {0}")]
     Plot(String),
+    #[error("{0}")]
+    Input(String),
 }
 
 /// The four data sets of Table 1, in column order.

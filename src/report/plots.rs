@@ -159,7 +159,7 @@ pub fn confusion(report: &CvReport, path: &Path) -> Result<(), ReportError> {
 /// The paper's Fig. 7: each image at (pix.p10, wav.s2.v.var), coloured by class, over the
 /// decision regions of an SVM trained on those two features.
 pub fn fig7(table: &FeatureTable, ds: &Dataset, seed: u64, path: &Path) -> Result<(), ReportError> {
-    let spec = TrainSpec::new(FeatureSet::Hand2, ClassifierKind::Svm);
+    let spec = TrainSpec::new(FeatureSet::Named("hand2"), ClassifierKind::Svm);
     let model = learn::fit(ds, &spec, seed)?;
     let column = |name: &str| {
         table
@@ -242,6 +242,98 @@ pub fn fig7(table: &FeatureTable, ds: &Dataset, seed: u64, path: &Path) -> Resul
             .border_style(BLACK)
             .draw()
             .map_err(plot_error)?;
+        root.present().map_err(plot_error)
+    })
+}
+
+/// Accuracy against each capture factor ([`super::robustness::FACTORS`]), a panel per
+/// factor and a line per model.
+pub fn robustness(
+    cells: &[super::robustness::Cell],
+    models: &[String],
+    path: &Path,
+) -> Result<(), ReportError> {
+    use super::robustness::FACTORS;
+    let lowest = cells.iter().map(|c| c.accuracy).fold(1.0f64, f64::min);
+    let floor = ((lowest * 100.0 / 10.0).floor() * 10.0).clamp(0.0, 90.0);
+    render_png(path, (1200, 760), |root| {
+        root.fill(&WHITE).map_err(plot_error)?;
+        let (title, body) = root.split_vertically(40);
+        title
+            .draw(&Text::new(
+                "Accuracy through the capture model (one factor at a time)",
+                (10, 10),
+                ("sans-serif", 20),
+            ))
+            .map_err(plot_error)?;
+        let panels = body.split_evenly((2, 3));
+        for ((factor, axis), panel) in FACTORS.iter().zip(panels.iter()) {
+            let values: Vec<&str> = cells
+                .iter()
+                .filter(|c| c.factor == *factor && c.model == models[0])
+                .map(|c| c.value.as_str())
+                .collect();
+            let n = values.len().max(1);
+            let mut chart = ChartBuilder::on(panel)
+                .caption(*factor, ("sans-serif", 16))
+                .margin(10)
+                .x_label_area_size(40)
+                .y_label_area_size(45)
+                .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), floor..100.5f64)
+                .map_err(plot_error)?;
+            let label = |x: &f64| {
+                let k = x.round();
+                if (x - k).abs() < 1e-6 && k >= 0.0 {
+                    values
+                        .get(k as usize)
+                        .map_or(String::new(), |v| v.to_string())
+                } else {
+                    String::new()
+                }
+            };
+            chart
+                .configure_mesh()
+                .x_labels(n)
+                .x_label_formatter(&label)
+                .x_desc(*axis)
+                .y_desc("accuracy (%)")
+                .draw()
+                .map_err(plot_error)?;
+            for (m, model) in models.iter().enumerate() {
+                let points: Vec<(f64, f64)> = values
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, v)| {
+                        cells
+                            .iter()
+                            .find(|c| c.factor == *factor && c.value == *v && &c.model == model)
+                            .map(|c| (k as f64, 100.0 * c.accuracy))
+                    })
+                    .collect();
+                chart
+                    .draw_series(LineSeries::new(points.clone(), colour(m).stroke_width(2)))
+                    .map_err(plot_error)?
+                    .label(model.clone())
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 18, y)], colour(m).stroke_width(2))
+                    });
+                chart
+                    .draw_series(
+                        points
+                            .iter()
+                            .map(|&p| Circle::new(p, 3, colour(m).filled())),
+                    )
+                    .map_err(plot_error)?;
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::LowerLeft)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 11))
+                .draw()
+                .map_err(plot_error)?;
+        }
         root.present().map_err(plot_error)
     })
 }

@@ -378,6 +378,22 @@ impl From<AnalysisError> for ApiError {
     }
 }
 
+impl From<crate::inference::InferenceError> for ApiError {
+    fn from(e: crate::inference::InferenceError) -> ApiError {
+        use crate::inference::InferenceError as E;
+        match e {
+            E::Decode { part, source } => {
+                let mut e = ApiError::from(source);
+                e.detail = format!("{part}{}", e.detail);
+                e
+            }
+            E::Analysis(e) => e.into(),
+            E::Model(e) => e.into(),
+            E::Learn(e) => e.into(),
+        }
+    }
+}
+
 impl From<ModelError> for ApiError {
     fn from(e: ModelError) -> ApiError {
         ApiError::new(Kind::InvalidModel, e.to_string())

@@ -77,7 +77,7 @@ impl Modify for Extras {
     components(schemas(
         Problem,
         classify::ClassifyForm,
-        classify::ClassifyResponse,
+        crate::inference::ClassifyResponse,
         jobs::JobRequest,
         jobs::JobRecord,
         jobs::JobState,

@@ -5,8 +5,7 @@ use super::config::Config;
 use super::error::{ApiError, Kind};
 use super::jobs::JobManager;
 use super::metrics;
-use crate::features::Extractor;
-use crate::model::ModelFile;
+pub use crate::inference::LoadedModel;
 use crate::registry::{Registry, RegistryError};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -34,45 +33,6 @@ impl Readiness {
     }
     pub fn set(&self, phase: Phase) {
         self.0.store(phase as u8, Ordering::Release);
-    }
-}
-
-/// A verified model version, ready to classify: the file and its feature extractor.
-#[derive(Debug)]
-pub struct LoadedModel {
-    pub file: ModelFile,
-    pub extractor: Extractor,
-    /// The canonical feature names of the model's extraction configuration.
-    pub feature_names: Vec<String>,
-    /// The features the classifier reads (`None`: all of them, e.g. for PCA): a request
-    /// that does not ask for every feature extracts only these.
-    pub needed: Option<Vec<usize>>,
-}
-
-impl LoadedModel {
-    /// Build the extractor for a verified model file.
-    pub fn new(file: ModelFile) -> Result<LoadedModel, ApiError> {
-        let extractor = Extractor::new(file.features.config)
-            .map_err(|e| ApiError::new(Kind::InvalidModel, e.to_string()))?;
-        let feature_names = file.features.config.names();
-        let classifier = &file.classifier;
-        let needed = (classifier.pca.is_none()
-            && classifier.selected_indices.len() < feature_names.len())
-        .then(|| classifier.selected_indices.clone());
-        Ok(LoadedModel {
-            file,
-            extractor,
-            feature_names,
-            needed,
-        })
-    }
-
-    pub fn name(&self) -> &str {
-        &self.file.name
-    }
-
-    pub fn version(&self) -> u32 {
-        self.file.version
     }
 }
 
@@ -121,7 +81,9 @@ impl ModelStore {
                 tracing::warn!(model = name, version, error = %e, "model version refused");
             }
         })?;
-        LoadedModel::new(file).inspect_err(|_| metrics::model_load_failure(name))
+        LoadedModel::new(file)
+            .inspect_err(|_| metrics::model_load_failure(name))
+            .map_err(ApiError::from)
     }
 
     /// Load the active version of every model in the registry. Blocking. When the active

@@ -125,7 +125,7 @@ pub fn fixture() -> &'static Fixture {
             dataset::extract_manifest(&extractor, &manifest, &DecodeOptions::default()).unwrap();
         let options = TrainOptions {
             name: "ward6".into(),
-            spec: TrainSpec::new(FeatureSet::Hand6, ClassifierKind::Svm),
+            spec: TrainSpec::new(FeatureSet::Named("hand6"), ClassifierKind::Svm),
             seed: 1,
             cross_validate: true,
             classes: None,

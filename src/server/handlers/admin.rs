@@ -41,6 +41,7 @@ const LEARN: &[&str] = &[
     "log_features",
     "radial_features",
     "dependency_features",
+    "capture_features",
     "working_radius",
 ];
 
@@ -56,7 +57,7 @@ fn check_keys(body: &Value) -> Result<(), ApiError> {
     let extra: &[&str] = match kind {
         "train" => &["name", "activate", "classes", "cross_validate"],
         "cross_validate" => &[],
-        "render" => &["probes", "classes", "out", "size", "seed"],
+        "render" => &["probes", "classes", "out", "size", "seed", "captures"],
         _ => {
             return Err(ApiError::new(
                 Kind::InvalidJob,
@@ -382,6 +383,7 @@ mod tests {
                 out: "out".into(),
                 size: 96,
                 seed: 1,
+                captures: 2,
             },
         ];
         for job in jobs {

@@ -2,13 +2,12 @@
 //! out. The CPU work (decode, locate, features, predict) runs on the CPU pool behind the
 //! admission semaphore (429 when saturated); the async side only moves bytes.
 
-use crate::analysis::{self, Locate, WhiteInput};
-use crate::geometry::{self, Method as GeometryMethod};
-use crate::image_io::{self, DecodeOptions, Encoding};
+use crate::geometry;
+use crate::image_io::Encoding;
+use crate::inference::{self, Classified, ClassifyResponse, Input, LocateSpec, WhiteSpec};
 use crate::server::error::{ApiError, Kind, Problem};
 use crate::server::metrics;
-use crate::server::state::{LoadedModel, SharedState};
-use crate::white::Method as WhiteMethod;
+use crate::server::state::SharedState;
 use axum::Json;
 use axum::body::Bytes;
 use axum::extract::multipart::{Multipart, MultipartRejection};
@@ -16,8 +15,7 @@ use axum::extract::rejection::QueryRejection;
 use axum::extract::{Path, Query, State};
 use axum::http::{HeaderMap, HeaderValue};
 use axum::response::{IntoResponse, Response};
-use serde::{Deserialize, Serialize};
-use std::sync::Arc;
+use serde::Deserialize;
 use std::time::Instant;
 use utoipa::{IntoParams, ToSchema};
 
@@ -67,229 +65,6 @@ pub struct VersionQuery {
     pub version: Option<u32>,
 }
 
-/// The served model version.
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
-pub struct ModelId {
-    pub name: String,
-    pub version: u32,
-}
-
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
-pub struct LabelProbability {
-    pub label: String,
-    pub p: f64,
-}
-
-/// Names and values, index by index.
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
-pub struct NamedValues {
-    pub names: Vec<String>,
-    pub values: Vec<f64>,
-}
-
-/// The classifier's inputs (the model's selected features, raw; for `pca<N>` models the
-/// standardized principal components `pc1…`), and with `include=features` every extracted
-/// feature in canonical order (117 with the default configuration).
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
-pub struct FeaturesOut {
-    pub names: Vec<String>,
-    pub values: Vec<f64>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub all: Option<NamedValues>,
-}
-
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
-pub struct GeometryOut {
-    pub cx: f64,
-    pub cy: f64,
-    pub r: f64,
-    /// `given`, `mask` (mask image), `alpha` (the image's alpha channel) or `auto`.
-    #[schema(value_type = String, example = "given")]
-    pub method: GeometryMethod,
-    /// Automatic detection only.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub confidence: Option<f64>,
-}
-
-#[derive(Clone, Debug, Serialize, ToSchema)]
-pub struct WhiteOut {
-    pub value: f64,
-    /// `given`, `white_image` or `none` (no reference: the image is taken as normalized).
-    #[schema(value_type = String, example = "given")]
-    pub method: WhiteMethod,
-}
-
-/// Milliseconds per stage.
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
-pub struct TimingMs {
-    pub decode: f64,
-    pub features: f64,
-    pub predict: f64,
-    pub total: f64,
-}
-
-/// A training image near the classified one, in the classifier's standardized input space.
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
-pub struct Neighbour {
-    pub path: String,
-    pub class: String,
-    pub illumination: String,
-    pub distance: f64,
-}
-
-#[derive(Clone, Debug, Serialize, ToSchema)]
-pub struct ClassifyResponse {
-    pub request_id: String,
-    pub model: ModelId,
-    /// The predicted class.
-    pub label: String,
-    /// Every class, most probable first.
-    pub probabilities: Vec<LabelProbability>,
-    pub features: FeaturesOut,
-    pub geometry: GeometryOut,
-    pub white: WhiteOut,
-    pub warnings: Vec<String>,
-    pub timing_ms: TimingMs,
-    /// With `include=explain`: the 3 nearest training images, nearest first.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub explain: Option<Vec<Neighbour>>,
-}
-
-/// How white is given, before decoding.
-pub enum WhiteSpec {
-    Value(f64),
-    Card { bytes: Bytes, reflectance: f64 },
-    Missing,
-}
-
-/// Where the sphere is, before decoding.
-pub enum LocateSpec {
-    Circle(geometry::Circle),
-    Mask(Bytes),
-    Auto,
-}
-
-/// A validated classification request.
-pub struct ClassifyInput {
-    pub image: Bytes,
-    pub white: WhiteSpec,
-    pub locate: LocateSpec,
-    pub encoding: Option<Encoding>,
-    pub include_features: bool,
-    pub include_explain: bool,
-}
-
-/// The result of the CPU work.
-pub struct Classified {
-    pub model: Arc<LoadedModel>,
-    pub class: usize,
-    pub probabilities: Vec<f64>,
-    pub analysis: analysis::Analysis,
-    pub selected: Vec<f64>,
-    pub explain: Option<Vec<Neighbour>>,
-    pub decode_ms: f64,
-    pub features_ms: f64,
-    pub predict_ms: f64,
-}
-
-fn ms(since: Instant) -> f64 {
-    since.elapsed().as_secs_f64() * 1e3
-}
-
-/// Decode, locate, extract and classify (blocking; runs on the CPU pool).
-pub fn classify_blocking(
-    model: Arc<LoadedModel>,
-    input: ClassifyInput,
-    limits: image_io::Limits,
-) -> Result<Classified, ApiError> {
-    let t = Instant::now();
-    let options = DecodeOptions {
-        encoding: input.encoding,
-        limits,
-    };
-    let image = image_io::decode(&input.image, &options)?;
-    drop(input.image);
-    let white = match input.white {
-        WhiteSpec::Value(v) => WhiteInput::Value(v),
-        WhiteSpec::Card { bytes, reflectance } => WhiteInput::Card {
-            image: image_io::decode(&bytes, &options).map_err(|e| {
-                let mut e = ApiError::from(e);
-                e.detail = format!("white_image: {}", e.detail);
-                e
-            })?,
-            reflectance,
-        },
-        WhiteSpec::Missing => WhiteInput::Missing,
-    };
-    let locate = match input.locate {
-        LocateSpec::Circle(c) => Locate::Circle(c),
-        LocateSpec::Mask(bytes) => {
-            let mask = image_io::decode(&bytes, &options).map_err(|e| {
-                let mut e = ApiError::from(e);
-                e.detail = format!("mask: {}", e.detail);
-                e
-            })?;
-            Locate::Mask(analysis::mask_from_image(&mask))
-        }
-        LocateSpec::Auto => Locate::Auto,
-    };
-    let decode_s = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    // Unless every feature is asked for, extract only those the classifier reads.
-    let wanted = match &model.needed {
-        Some(needed) if !input.include_features => Some(needed.as_slice()),
-        _ => None,
-    };
-    let analysis = analysis::analyze_subset(&model.extractor, &image, &locate, &white, wanted)?;
-    drop(image);
-    let features_s = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let classifier = &model.file.classifier;
-    let z = classifier.transform(&analysis.values)?;
-    let output = classifier.classify_transformed(&z);
-    let selected = if classifier.pca.is_some() {
-        z.clone()
-    } else {
-        classifier
-            .selected_indices
-            .iter()
-            .map(|&i| analysis.values[i])
-            .collect()
-    };
-    let explain = if input.include_explain {
-        Some(
-            model
-                .file
-                .nearest(&analysis.values, 3)?
-                .into_iter()
-                .map(|(e, distance)| Neighbour {
-                    path: e.path.clone(),
-                    class: e.class.clone(),
-                    illumination: e.illumination.clone(),
-                    distance,
-                })
-                .collect(),
-        )
-    } else {
-        None
-    };
-    let predict_s = t.elapsed().as_secs_f64();
-    metrics::stage("decode", decode_s);
-    metrics::stage("features", features_s);
-    metrics::stage("predict", predict_s);
-    Ok(Classified {
-        class: output.class,
-        probabilities: output.probabilities,
-        analysis,
-        selected,
-        explain,
-        decode_ms: decode_s * 1e3,
-        features_ms: features_s * 1e3,
-        predict_ms: predict_s * 1e3,
-        model,
-    })
-}
-
 /// Parse a finite number field.
 fn number(field: &str, text: &str) -> Result<f64, ApiError> {
     text.trim()
@@ -328,7 +103,7 @@ pub struct RawInput {
 
 impl RawInput {
     /// Check the combination of fields and parse the numbers (before any decoding).
-    pub fn validate(self) -> Result<ClassifyInput, ApiError> {
+    pub fn validate(self) -> Result<Input, ApiError> {
         let image = self
             .image
             .ok_or_else(|| ApiError::new(Kind::MissingField, "the image field is required"))?;
@@ -422,7 +197,7 @@ impl RawInput {
                 }
             }
         }
-        Ok(ClassifyInput {
+        Ok(Input {
             image,
             white,
             locate,
@@ -506,7 +281,7 @@ pub async fn run(
     state: &SharedState,
     name: &str,
     version: Option<u32>,
-    input: ClassifyInput,
+    input: Input,
 ) -> Result<Classified, ApiError> {
     if !state.models.is_served(name) {
         return Err(ApiError::new(
@@ -522,65 +297,22 @@ pub async fn run(
         .cpu
         .run(permit, move || {
             let model = worker_state.models.get(&name, version)?;
-            classify_blocking(model, input, limits)
+            let classified = inference::classify(model, input, limits)?;
+            metrics::stage("decode", classified.decode_ms / 1e3);
+            metrics::stage("features", classified.features_ms / 1e3);
+            metrics::stage("predict", classified.predict_ms / 1e3);
+            Ok(classified)
         })
         .await
 }
 
-fn response(c: Classified, include_features: bool, started: Instant) -> Response {
+fn response(c: Classified, started: Instant) -> Response {
     let request_id = crate::server::error::current_request_id();
-    let model = &c.model;
-    let classes = &model.file.classifier.classes;
-    let mut probabilities: Vec<LabelProbability> = classes
-        .iter()
-        .zip(&c.probabilities)
-        .map(|(label, &p)| LabelProbability {
-            label: label.clone(),
-            p,
-        })
-        .collect();
-    probabilities.sort_by(|a, b| b.p.total_cmp(&a.p));
-    let g = c.analysis.geometry;
-    let total = ms(started);
-    let timing = TimingMs {
-        decode: c.decode_ms,
-        features: c.features_ms,
-        predict: c.predict_ms,
-        total,
-    };
-    let body = ClassifyResponse {
-        request_id,
-        model: ModelId {
-            name: model.name().to_string(),
-            version: model.version(),
-        },
-        label: classes[c.class].clone(),
-        probabilities,
-        features: FeaturesOut {
-            names: model.file.classifier.selected.clone(),
-            values: c.selected,
-            all: include_features.then(|| NamedValues {
-                names: model.feature_names.clone(),
-                values: c.analysis.values.clone(),
-            }),
-        },
-        geometry: GeometryOut {
-            cx: g.cx,
-            cy: g.cy,
-            r: g.r,
-            method: g.method,
-            confidence: g.confidence,
-        },
-        white: WhiteOut {
-            value: c.analysis.white.value,
-            method: c.analysis.white.method,
-        },
-        warnings: c.analysis.warnings,
-        timing_ms: timing.clone(),
-        explain: c.explain,
-    };
+    let version = c.model.version();
+    let body = c.response(request_id, started.elapsed().as_secs_f64() * 1e3);
     let mut headers = HeaderMap::new();
-    headers.insert("x-model-version", HeaderValue::from(model.version()));
+    headers.insert("x-model-version", HeaderValue::from(version));
+    let timing = &body.timing_ms;
     let server_timing = format!(
         "decode;dur={:.3}, features;dur={:.3}, predict;dur={:.3}, total;dur={:.3}",
         timing.decode, timing.features, timing.predict, timing.total
@@ -606,9 +338,8 @@ async fn handle(
         ));
     }
     let input = read_form(multipart?).await?.validate()?;
-    let include_features = input.include_features;
     let classified = run(&state, name, version, input).await?;
-    Ok(response(classified, include_features, started))
+    Ok(response(classified, started))
 }
 
 /// Classify with the default model's active version.

@@ -88,6 +88,10 @@ pub struct LearnParams {
     /// feature sets that name them, such as `hand6+log+radial+dep`).
     #[serde(default)]
     pub dependency_features: bool,
+    /// With `dataset`: also compute the capture measurements (`cap.*`; implied by feature
+    /// sets that name them).
+    #[serde(default)]
+    pub capture_features: bool,
     /// With `dataset`: reduce spheres larger than this radius (px, ≥ 32) before extraction;
     /// recorded in the model so that serving does the same.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -155,6 +159,11 @@ pub enum JobRequest {
         #[serde(default = "default_seed")]
         #[schema(default = 1)]
         seed: u64,
+        /// Photograph-like captures of every image (`@cap<k>` training views; see
+        /// `reflectance render --captures`).
+        #[serde(default)]
+        #[schema(default = 0, maximum = 64)]
+        captures: usize,
     },
 }
 

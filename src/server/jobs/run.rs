@@ -195,6 +195,7 @@ fn config_of(p: &LearnParams) -> Result<FeatureConfig, ApiError> {
         log_domain: p.log_features,
         radial: p.radial_features,
         dependencies: p.dependency_features,
+        capture: p.capture_features,
     };
     let implied = Extensions::of_spec(&p.features);
     let config = FeatureConfig::extended(asked.union(implied), p.working_radius);
@@ -268,9 +269,16 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
             classes,
             out,
             size,
+            captures,
             ..
         } => {
             crate::render::check_size(*size).map_err(invalid)?;
+            if *captures > batch::MAX_CAPTURES {
+                return Err(invalid(format!(
+                    "captures must be at most {}",
+                    batch::MAX_CAPTURES
+                )));
+            }
             data.existing("probes", probes).map_err(path_error)?;
             data.existing("classes", classes).map_err(path_error)?;
             // The output folder is created when the job runs.
@@ -467,6 +475,7 @@ pub fn execute(
             out,
             size,
             seed,
+            captures,
         } => {
             let probes_path = data.existing("probes", probes).map_err(Failure::Error)?;
             let classes_path = data.existing("classes", classes).map_err(Failure::Error)?;
@@ -483,7 +492,10 @@ pub fn execute(
                 size: *size,
                 seed: *seed,
                 quality: Quality::default(),
-                augment: Augment::default(),
+                augment: Augment {
+                    captures: *captures,
+                    ..Augment::default()
+                },
             };
             observer.stage("render");
             let summary = batch::render_dataset_with(&spec, observer)?;

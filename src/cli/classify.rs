@@ -1,0 +1,168 @@
+//! `reflectance classify IMAGE --model DIR/NAME[/VERSION] [--white W | --white-image F]
+//! [--cx X --cy Y --r R | --mask F] [--json]`: one photograph, without a server or a
+//! manifest; the same pipeline and, with `--json`, the same JSON as `POST /v1/classify`.
+
+use super::{CliResult, LimitArgs};
+use crate::geometry::{Circle, GeometryError, MIN_RADIUS};
+use crate::image_io::Encoding;
+use crate::inference::{self, ClassifyResponse, Input, LoadedModel, LocateSpec, WhiteSpec};
+use crate::registry;
+use clap::Args;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+#[derive(Args, Debug)]
+pub struct ClassifyArgs {
+    /// The photograph or rendering (PNG, JPEG, TIFF, PNM, Radiance HDR, PFM or OpenEXR).
+    image: PathBuf,
+    /// The model: `DIR/NAME` (its active version) or `DIR/NAME/VERSION`, e.g. `models/ward6`.
+    #[arg(long)]
+    model: PathBuf,
+    /// Linear luminance of an ideal white surface at the sphere.
+    #[arg(long, conflicts_with = "white_image")]
+    white: Option<f64>,
+    /// A crop of a white card photographed with the sphere: its median is the white reference.
+    #[arg(long)]
+    white_image: Option<PathBuf>,
+    /// Reflectance of the white card in (0, 1].
+    #[arg(long, requires = "white_image", default_value_t = 1.0)]
+    white_reflectance: f64,
+    /// Sphere centre x (column) in pixels; give --cx, --cy and --r together, or none of them
+    /// (then the image's alpha channel, else automatic detection).
+    #[arg(long, requires_all = ["cy", "r"], allow_negative_numbers = true)]
+    cx: Option<f64>,
+    /// Sphere centre y (row) in pixels.
+    #[arg(long, requires_all = ["cx", "r"], allow_negative_numbers = true)]
+    cy: Option<f64>,
+    /// Sphere radius in pixels (≥ 32).
+    #[arg(long, requires_all = ["cx", "cy"], allow_negative_numbers = true)]
+    r: Option<f64>,
+    /// A mask image of the sphere (same size: alpha, or luminance ≥ 0.5).
+    #[arg(long, conflicts_with_all = ["cx", "cy", "r"])]
+    mask: Option<PathBuf>,
+    /// How integer samples are linearized: srgb (default), linear or gamma:<g>.
+    #[arg(long)]
+    encoding: Option<Encoding>,
+    /// Also report every extracted feature (with --json).
+    #[arg(long)]
+    all_features: bool,
+    /// Also report the 3 nearest training images.
+    #[arg(long)]
+    explain: bool,
+    /// Print the JSON answer of `POST /v1/classify` instead of a summary.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    limits: LimitArgs,
+}
+
+fn read(path: &Path, what: &str) -> Result<bytes::Bytes, String> {
+    std::fs::read(path)
+        .map(bytes::Bytes::from)
+        .map_err(|e| format!("{what} {}: {e}", path.display()))
+}
+
+fn load_model(path: &Path) -> Result<LoadedModel, String> {
+    let (registry, name, version) = registry::parse_model_path(path).map_err(|e| e.to_string())?;
+    let version = match version {
+        Some(v) => v,
+        None => registry.active(&name).map_err(|e| e.to_string())?,
+    };
+    let file = registry.load(&name, version).map_err(|e| e.to_string())?;
+    LoadedModel::new(file).map_err(|e| e.to_string())
+}
+
+fn input(args: &ClassifyArgs) -> Result<Input, String> {
+    let white = match (&args.white, &args.white_image) {
+        (Some(v), _) => {
+            crate::white::given(*v).map_err(|e| e.to_string())?;
+            WhiteSpec::Value(*v)
+        }
+        (None, Some(path)) => {
+            if !(args.white_reflectance > 0.0 && args.white_reflectance <= 1.0) {
+                return Err(
+                    crate::white::WhiteError::BadReflectance(args.white_reflectance).to_string(),
+                );
+            }
+            WhiteSpec::Card {
+                bytes: read(path, "white image")?,
+                reflectance: args.white_reflectance,
+            }
+        }
+        (None, None) => WhiteSpec::Missing,
+    };
+    let locate = match (args.cx, args.cy, args.r, &args.mask) {
+        (Some(cx), Some(cy), Some(r), _) => {
+            if !(cx.is_finite() && cy.is_finite() && r.is_finite()) {
+                return Err(GeometryError::NotFinite { cx, cy, r }.to_string());
+            }
+            if r < MIN_RADIUS {
+                return Err(GeometryError::TooSmall { r, min: MIN_RADIUS }.to_string());
+            }
+            LocateSpec::Circle(Circle { cx, cy, r })
+        }
+        (_, _, _, Some(mask)) => LocateSpec::Mask(read(mask, "mask")?),
+        _ => LocateSpec::Auto,
+    };
+    Ok(Input {
+        image: read(&args.image, "image")?,
+        white,
+        locate,
+        encoding: args.encoding,
+        include_features: args.all_features,
+        include_explain: args.explain,
+    })
+}
+
+pub fn run(args: ClassifyArgs) -> CliResult {
+    let started = Instant::now();
+    let model = Arc::new(load_model(&args.model)?);
+    let input = input(&args)?;
+    let classified =
+        inference::classify(model, input, args.limits.limits()).map_err(|e| e.to_string())?;
+    let answer = classified.response(String::new(), started.elapsed().as_secs_f64() * 1e3);
+    if args.json {
+        let text = serde_json::to_string_pretty(&answer).map_err(|e| e.to_string())?;
+        println!("{text}");
+    } else {
+        print!("{}", summary(&answer));
+    }
+    Ok(())
+}
+
+/// The answer for a person: the label, every probability, the circle, the warnings.
+fn summary(answer: &ClassifyResponse) -> String {
+    let mut out = format!(
+        "{}  (p = {:.3}; model {} version {})\n",
+        answer.label,
+        answer.probabilities.first().map_or(0.0, |p| p.p),
+        answer.model.name,
+        answer.model.version
+    );
+    for p in &answer.probabilities {
+        out.push_str(&format!("  {:<14} {:.3}\n", p.label, p.p));
+    }
+    let g = &answer.geometry;
+    out.push_str(&format!(
+        "sphere: cx {:.2}, cy {:.2}, r {:.2} ({:?}{}); white {} ({:?})\n",
+        g.cx,
+        g.cy,
+        g.r,
+        g.method,
+        g.confidence
+            .map_or(String::new(), |c| format!(", confidence {c:.2}")),
+        crate::dataset::format_f64(answer.white.value),
+        answer.white.method
+    ));
+    for warning in &answer.warnings {
+        out.push_str(&format!("warning: {warning}\n"));
+    }
+    for n in answer.explain.iter().flatten() {
+        out.push_str(&format!(
+            "near: {} ({}, {}), distance {:.3}\n",
+            n.path, n.class, n.illumination, n.distance
+        ));
+    }
+    out
+}

@@ -1,0 +1,58 @@
+//! `reflectance robustness --manifest M --model DIR/NAME [--model …] [--out DIR]`: accuracy
+//! of models on a manifest's renders captured as photographs, one capture factor at a time
+//! (Markdown, JSON and a PNG plot).
+
+use super::{CliResult, LimitArgs};
+use crate::capture::CaptureRanges;
+use crate::dataset;
+use crate::image_io::DecodeOptions;
+use crate::report::robustness;
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct RobustnessArgs {
+    /// Test renders (a manifest with class, illumination, circle and white; views with an
+    /// `@` suffix are skipped).
+    #[arg(long)]
+    manifest: PathBuf,
+    /// A model, `DIR/NAME` or `DIR/NAME/VERSION`; repeat to compare models.
+    #[arg(long, required = true)]
+    model: Vec<PathBuf>,
+    /// Output folder for robustness.md, robustness.json and robustness.png (default: the
+    /// manifest's folder).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    #[command(flatten)]
+    limits: LimitArgs,
+}
+
+pub fn run(args: RobustnessArgs) -> CliResult {
+    let manifest = dataset::read_manifest(&args.manifest).map_err(|e| e.to_string())?;
+    let options = DecodeOptions {
+        encoding: None,
+        limits: args.limits.limits(),
+    };
+    let images = robustness::test_images(&manifest, &options).map_err(|e| e.to_string())?;
+    let mut radii: Vec<f64> = images.iter().map(|i| i.circle.r).collect();
+    radii.sort_by(f64::total_cmp);
+    let radius = *radii
+        .get(radii.len() / 2)
+        .ok_or("the manifest has no original renders")?;
+    let models = robustness::load_models(&args.model).map_err(|e| e.to_string())?;
+    let names: Vec<String> = models.iter().map(|(n, _)| n.clone()).collect();
+    let settings = robustness::sweep(&CaptureRanges::default(), radius);
+    let cells =
+        robustness::evaluate(&models, &images, &settings, args.seed).map_err(|e| e.to_string())?;
+    let out = args.out.unwrap_or_else(|| {
+        args.manifest
+            .parent()
+            .map_or_else(|| PathBuf::from("."), PathBuf::from)
+    });
+    robustness::write(&cells, &names, &out).map_err(|e| e.to_string())?;
+    print!("{}", robustness::markdown(&cells, &names));
+    eprintln!("written to {}", out.display());
+    Ok(())
+}

@@ -1,0 +1,476 @@
+//! Finding a sphere in a photograph: on a table top, in front of a scene, in a JPEG.
+//!
+//! 1. **Candidates** (on a copy at most [`WORK_SIZE`] px across, gamma-encoded so that
+//!    edges in the shadows count as much as in the light, lightly smoothed against noise
+//!    and JPEG blocks): Sobel gradients, thinned to their ridges; every edge point votes for
+//!    the centres along its gradient line, on both sides and at every radius (a sphere can
+//!    be brighter than its background on one side and darker on the other); the strongest
+//!    peaks of the vote map are candidate centres, and each takes the radius at which the
+//!    most of its circumference has an edge pointing at it.
+//! 2. **Sub-pixel fit** (on the full-resolution linear image): along 360 rays through the
+//!    candidate's rim, the position of the steepest luminance change, interpolated between
+//!    samples; a circle fitted to those positions with outliers (highlights and shadows
+//!    near the rim, gaps in the contrast) down-weighted; twice, with a narrower window.
+//! 3. **Confidence**: the fraction of the rim along which a clear edge lies on the fitted
+//!    circle. The best candidate is taken when it is confident enough.
+
+use crate::geometry::{Circle, MIN_RADIUS};
+use ndarray::{Array2, ArrayView2};
+
+/// The candidate search runs on a copy at most this many pixels across.
+pub const WORK_SIZE: usize = 640;
+/// Rays along the rim of a candidate.
+const RAYS: usize = 360;
+/// Candidate centres examined, and radii per centre.
+const CANDIDATES: usize = 16;
+const RADII_PER_CENTRE: usize = 3;
+/// A detection below this confidence is refused.
+pub const MIN_CONFIDENCE: f64 = 0.5;
+
+/// A circle found, and the fraction of its rim with a clear edge on it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Found {
+    pub circle: Circle,
+    pub confidence: f64,
+}
+
+/// Why no sphere was found: a sentence for the user.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NotFound(pub String);
+
+/// Find the sphere in `luminance` (linear); `hint` is a circle found otherwise (e.g. by
+/// segmenting a clean background), examined with the candidates.
+pub fn find_sphere(luminance: ArrayView2<f64>, hint: Option<Circle>) -> Result<Found, NotFound> {
+    let (h, w) = luminance.dim();
+    if h < 2 * MIN_RADIUS as usize || w < 2 * MIN_RADIUS as usize {
+        return Err(NotFound(format!(
+            "the image ({w}×{h}) is too small to hold a sphere"
+        )));
+    }
+    let (work, scale) = working_copy(luminance);
+    let edges = edge_points(work.view());
+    if edges.len() < 32 {
+        return Err(NotFound("the image has almost no edges".into()));
+    }
+    let min_r = (MIN_RADIUS * scale).max(6.0);
+    let (wh, ww) = work.dim();
+    let max_r = 0.5 * wh.min(ww) as f64;
+    if max_r <= min_r {
+        return Err(NotFound("the image is too small to hold a sphere".into()));
+    }
+    let mut candidates: Vec<(Circle, f64)> = hint.map(|c| (c, 2.0)).into_iter().collect();
+    for (cx, cy, r_bin) in vote(&edges, (wh, ww), min_r, max_r) {
+        for r in radii(&edges, cx, cy, r_bin / RADIUS_RATIO, r_bin * RADIUS_RATIO) {
+            let rough = Circle {
+                cx: (cx + 0.5) / scale - 0.5,
+                cy: (cy + 0.5) / scale - 0.5,
+                r: r / scale,
+            };
+            candidates.push((rough, 2.5 / scale));
+        }
+    }
+    let mut best: Option<Found> = None;
+    for (rough, slack) in candidates {
+        if let Some(found) = refine(luminance, rough, slack)
+            && best.is_none_or(|b| found.confidence > b.confidence)
+        {
+            best = Some(found);
+        }
+    }
+    match best {
+        Some(found) if found.confidence >= MIN_CONFIDENCE => Ok(found),
+        Some(found) => Err(NotFound(format!(
+            "the roundest edge found (centre {:.0}, {:.0}, radius {:.0}) has a clear rim along \
+             only {:.0} % of its circumference",
+            found.circle.cx,
+            found.circle.cy,
+            found.circle.r,
+            100.0 * found.confidence
+        ))),
+        None => Err(NotFound("no round edge stands out".into())),
+    }
+}
+
+/// A gamma-encoded copy at most [`WORK_SIZE`] across, smoothed (σ = 1 px), and its scale.
+fn working_copy(luminance: ArrayView2<f64>) -> (Array2<f64>, f64) {
+    let (h, w) = luminance.dim();
+    let scale = (WORK_SIZE as f64 / h.max(w) as f64).min(1.0);
+    let small = if scale < 1.0 {
+        crate::resample::downsample(luminance, scale)
+    } else {
+        luminance.to_owned()
+    };
+    let p99 = quantile(small.iter().copied().collect(), 0.99);
+    let norm = if p99 > 0.0 { 1.0 / p99 } else { 1.0 };
+    let encoded = small.mapv(|v| (v * norm).clamp(0.0, 4.0).powf(1.0 / 2.2));
+    (crate::capture::gaussian_blur(encoded.view(), 1.0), scale)
+}
+
+/// The `q` quantile of non-empty `values`.
+fn quantile(mut values: Vec<f64>, q: f64) -> f64 {
+    let k = ((values.len() as f64 * q) as usize).min(values.len().saturating_sub(1));
+    let (_, v, _) = values.select_nth_unstable_by(k, f64::total_cmp);
+    *v
+}
+
+/// An edge point: position and unit gradient direction.
+#[derive(Clone, Copy, Debug)]
+struct Edge {
+    x: f64,
+    y: f64,
+    ux: f64,
+    uy: f64,
+}
+
+/// Sobel gradients thinned to ridges along their direction, above a threshold set by the
+/// image's own gradient statistics.
+fn edge_points(image: ArrayView2<f64>) -> Vec<Edge> {
+    let (h, w) = image.dim();
+    if h < 3 || w < 3 {
+        return Vec::new();
+    }
+    let mut gx = Array2::<f64>::zeros((h, w));
+    let mut gy = Array2::<f64>::zeros((h, w));
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let p = |dy: usize, dx: usize| image[[y + dy - 1, x + dx - 1]];
+            gx[[y, x]] = (p(0, 2) + 2.0 * p(1, 2) + p(2, 2)) - (p(0, 0) + 2.0 * p(1, 0) + p(2, 0));
+            gy[[y, x]] = (p(2, 0) + 2.0 * p(2, 1) + p(2, 2)) - (p(0, 0) + 2.0 * p(0, 1) + p(0, 2));
+        }
+    }
+    let magnitude = Array2::from_shape_fn((h, w), |p| gx[p].hypot(gy[p]));
+    let positive: Vec<f64> = magnitude.iter().copied().filter(|&m| m > 0.0).collect();
+    if positive.is_empty() {
+        return Vec::new();
+    }
+    let threshold = 0.15 * quantile(positive, 0.98);
+    let mut edges = Vec::new();
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let m = magnitude[[y, x]];
+            if m <= threshold {
+                continue;
+            }
+            let (ux, uy) = (gx[[y, x]] / m, gy[[y, x]] / m);
+            // Neighbours along the gradient: keep local maxima only.
+            let (sx, sy) = (ux.round() as isize, uy.round() as isize);
+            let at = |dx: isize, dy: isize| {
+                magnitude[[(y as isize + dy) as usize, (x as isize + dx) as usize]]
+            };
+            if m < at(sx, sy) || m < at(-sx, -sy) {
+                continue;
+            }
+            edges.push(Edge {
+                x: x as f64,
+                y: y as f64,
+                ux,
+                uy,
+            });
+        }
+    }
+    edges
+}
+
+/// Consecutive radius bins of the vote differ by this factor.
+const RADIUS_RATIO: f64 = 1.08;
+/// Vote cells are this many working pixels across.
+const CELL: f64 = 2.0;
+/// Gradient directions are told apart in this many sectors.
+const SECTORS: f64 = 16.0;
+
+/// Every edge point votes, at every radius between `min_r` and `max_r`, for the centre
+/// that far along its gradient line, on both sides, in a map per radius bin; each cell
+/// also records from which directions its votes came. A texture's straight edges spread
+/// their votes over every bin and come from few directions; a circle's gather in one bin
+/// and come from all around. Returns the [`CANDIDATES`] best peaks as (x, y, radius),
+/// scored by votes per unit of circumference times the share of directions seen.
+fn vote(edges: &[Edge], (h, w): (usize, usize), min_r: f64, max_r: f64) -> Vec<(f64, f64, f64)> {
+    let bins = ((max_r / min_r).ln() / RADIUS_RATIO.ln()).ceil() as usize + 1;
+    let (ch, cw) = (
+        (h as f64 / CELL).ceil() as usize,
+        (w as f64 / CELL).ceil() as usize,
+    );
+    let mut votes = vec![Array2::<f32>::zeros((ch, cw)); bins];
+    let mut directions = vec![Array2::<u16>::zeros((ch, cw)); bins];
+    for e in edges {
+        for side in [-1.0, 1.0] {
+            // The direction from the centre to the edge point.
+            let angle = (-side * e.uy).atan2(-side * e.ux) + std::f64::consts::PI;
+            let sector = ((angle / std::f64::consts::TAU * SECTORS) as u16).min(SECTORS as u16 - 1);
+            let mut r = min_r;
+            while r <= max_r {
+                let (x, y) = (e.x + side * r * e.ux, e.y + side * r * e.uy);
+                if x < 0.0 || y < 0.0 || x >= w as f64 || y >= h as f64 {
+                    break;
+                }
+                let bin = (((r / min_r).ln() / RADIUS_RATIO.ln()) as usize).min(bins - 1);
+                let cell = [(y / CELL) as usize, (x / CELL) as usize];
+                votes[bin][cell] += 1.0;
+                directions[bin][cell] |= 1 << sector;
+                r += 1.0;
+            }
+        }
+    }
+    let mut found: Vec<(f64, f64, f64, f64)> = Vec::new();
+    for (bin, (map, seen)) in votes.iter().zip(&directions).enumerate() {
+        let r = min_r * RADIUS_RATIO.powf(bin as f64 + 0.5);
+        let smooth = crate::capture::gaussian_blur(map.mapv(f64::from).view(), 1.0);
+        let circumference = std::f64::consts::TAU * r;
+        for (y, x) in peaks(&smooth, CANDIDATES, (0.5 * r / CELL).max(2.0)) {
+            let (y, x) = (y as usize, x as usize);
+            let mut around = 0u16;
+            for yy in y.saturating_sub(1)..(y + 2).min(ch) {
+                for xx in x.saturating_sub(1)..(x + 2).min(cw) {
+                    around |= seen[[yy, xx]];
+                }
+            }
+            let share = f64::from(around.count_ones()) / SECTORS;
+            let score = smooth[[y, x]] / circumference * share * share;
+            let centre = |c: usize| (c as f64 + 0.5) * CELL - 0.5;
+            found.push((score, centre(x), centre(y), r));
+        }
+    }
+    found.sort_by(|a, b| b.0.total_cmp(&a.0));
+    found.truncate(CANDIDATES);
+    found.into_iter().map(|(_, x, y, r)| (x, y, r)).collect()
+}
+
+/// The `n` strongest local maxima of a vote map, at least `spacing` apart, as (y, x).
+fn peaks(acc: &Array2<f64>, n: usize, spacing: f64) -> Vec<(f64, f64)> {
+    let (h, w) = acc.dim();
+    let mut maxima: Vec<(f64, usize, usize)> = Vec::new();
+    for y in 1..h.saturating_sub(1) {
+        for x in 1..w.saturating_sub(1) {
+            let v = acc[[y, x]];
+            if v <= 0.0 {
+                continue;
+            }
+            let is_max = (0..3).all(|dy| {
+                (0..3).all(|dx| (dy == 1 && dx == 1) || acc[[y + dy - 1, x + dx - 1]] <= v)
+            });
+            if is_max {
+                maxima.push((v, y, x));
+            }
+        }
+    }
+    maxima.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let mut chosen: Vec<(f64, f64)> = Vec::new();
+    for (_, y, x) in maxima {
+        let (y, x) = (y as f64, x as f64);
+        if chosen
+            .iter()
+            .all(|&(cy, cx)| (cy - y).hypot(cx - x) >= spacing)
+        {
+            chosen.push((y, x));
+            if chosen.len() == n {
+                break;
+            }
+        }
+    }
+    chosen
+}
+
+/// The radii around (cx, cy) at which the largest fractions of the circumference have an
+/// edge point pointing at the centre: the best [`RADII_PER_CENTRE`] local maxima.
+fn radii(edges: &[Edge], cx: f64, cy: f64, min_r: f64, max_r: f64) -> Vec<f64> {
+    let bins = max_r.ceil() as usize + 2;
+    // Per radius bin, which of 90 angular sectors have an aligned edge.
+    let mut sectors = vec![0u128; bins];
+    for e in edges {
+        let (dx, dy) = (e.x - cx, e.y - cy);
+        let d = dx.hypot(dy);
+        if d < min_r - 1.0 || d > max_r + 1.0 {
+            continue;
+        }
+        let alignment = (dx * e.ux + dy * e.uy).abs() / d;
+        if alignment < 0.92 {
+            continue;
+        }
+        let sector = (((dy.atan2(dx) + std::f64::consts::PI) / std::f64::consts::TAU * 90.0)
+            as usize)
+            .min(89);
+        sectors[d.round() as usize] |= 1u128 << sector;
+    }
+    let coverage = |r: usize| {
+        let merged = sectors[r.saturating_sub(1)] | sectors[r] | sectors[(r + 1).min(bins - 1)];
+        merged.count_ones()
+    };
+    let profile: Vec<(u32, usize)> = (min_r.ceil() as usize..=max_r.floor() as usize)
+        .map(|r| (coverage(r), r))
+        .collect();
+    let mut maxima: Vec<(u32, usize)> = profile
+        .iter()
+        .enumerate()
+        .filter(|&(i, &(c, _))| {
+            c >= 12
+                && profile[i.saturating_sub(1)].0 <= c
+                && profile.get(i + 1).is_none_or(|next| next.0 <= c)
+        })
+        .map(|(_, &p)| p)
+        .collect();
+    maxima.sort_by(|a, b| b.cmp(a));
+    let mut chosen: Vec<f64> = Vec::new();
+    for (_, r) in maxima {
+        let r = r as f64;
+        if chosen.iter().all(|&c| (c - r).abs() > 0.05 * c + 1.0) {
+            chosen.push(r);
+            if chosen.len() == RADII_PER_CENTRE {
+                break;
+            }
+        }
+    }
+    chosen
+}
+
+/// Bilinear sample of the image at (x, y) (clamped to the image).
+fn sample(image: ArrayView2<f64>, x: f64, y: f64) -> f64 {
+    let (h, w) = image.dim();
+    let x = x.clamp(0.0, (w - 1) as f64);
+    let y = y.clamp(0.0, (h - 1) as f64);
+    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+    let (fx, fy) = (x - x0 as f64, y - y0 as f64);
+    let top = image[[y0, x0]] * (1.0 - fx) + image[[y0, x1]] * fx;
+    let bottom = image[[y1, x0]] * (1.0 - fx) + image[[y1, x1]] * fx;
+    top * (1.0 - fy) + bottom * fy
+}
+
+/// Where along each ray through the rim of `circle` the luminance changes fastest, within
+/// `window` px of the rim: (x, y, contrast) per ray that has a clear edge. Slopes are taken
+/// over one pixel every quarter pixel, and the steepest is interpolated between samples:
+/// for a step blurred by any symmetric lens, the step itself.
+fn rim_points(image: ArrayView2<f64>, circle: &Circle, window: f64) -> Vec<(f64, f64, f64)> {
+    const STEP: f64 = 0.25;
+    // Slopes over one pixel: four steps.
+    const BASE: usize = 4;
+    let steps = (2.0 * window / STEP).ceil() as usize + 1;
+    let mut out = Vec::with_capacity(RAYS);
+    for k in 0..RAYS {
+        let theta = std::f64::consts::TAU * k as f64 / RAYS as f64;
+        let (ux, uy) = (theta.cos(), theta.sin());
+        let rho = |s: f64| circle.r - window + s * STEP;
+        let profile: Vec<f64> = (0..steps + BASE)
+            .map(|s| {
+                let d = rho(s as f64);
+                sample(image, circle.cx + d * ux, circle.cy + d * uy)
+            })
+            .collect();
+        let slope: Vec<f64> = profile.windows(BASE + 1).map(|p| p[BASE] - p[0]).collect();
+        let Some((i, peak)) = slope
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (i, v.abs()))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+        else {
+            continue;
+        };
+        if peak <= 0.0 {
+            continue;
+        }
+        // Parabolic interpolation of the peak between samples.
+        let magnitude = |j: usize| slope[j].abs();
+        let offset = if i > 0 && i + 1 < slope.len() {
+            let (a, c) = (magnitude(i - 1), magnitude(i + 1));
+            let denominator = a - 2.0 * peak + c;
+            if denominator < 0.0 {
+                (0.5 * (a - c) / denominator).clamp(-0.5, 0.5)
+            } else {
+                0.0
+            }
+        } else {
+            0.0
+        };
+        let at = rho(i as f64 + offset + BASE as f64 / 2.0);
+        out.push((circle.cx + at * ux, circle.cy + at * uy, peak));
+    }
+    // A clear edge: at least a third of the median ray's.
+    let mut contrasts: Vec<f64> = out.iter().map(|p| p.2).collect();
+    if contrasts.is_empty() {
+        return out;
+    }
+    let mid = contrasts.len() / 2;
+    let (_, median, _) = contrasts.select_nth_unstable_by(mid, f64::total_cmp);
+    let floor = *median / 3.0;
+    out.retain(|p| p.2 > floor);
+    out
+}
+
+/// Fit a circle to rim points (x, y, contrast): a geometric least-squares fit weighted by
+/// contrast, with Tukey's biweight on the distances to the circle so that points off the
+/// rim (highlights, shadows, clutter) stop counting; from `start`.
+fn robust_fit(points: &[(f64, f64, f64)], start: &Circle) -> Option<Circle> {
+    if points.len() < RAYS / 8 {
+        return None;
+    }
+    let mut c = *start;
+    for round in 0..8 {
+        let tolerance = if round < 2 { 3.0 } else { 1.5 } * (0.01 * c.r).max(1.0);
+        // Normal equations of the linearized distances, in (cx, cy, r).
+        let mut a = [[0.0f64; 3]; 3];
+        let mut b = [0.0f64; 3];
+        let mut used = 0usize;
+        for &(x, y, contrast) in points {
+            let (dx, dy) = (x - c.cx, y - c.cy);
+            let d = dx.hypot(dy);
+            if d <= 0.0 {
+                continue;
+            }
+            let e = d - c.r;
+            let u = e / (2.0 * tolerance);
+            if u.abs() >= 1.0 {
+                continue;
+            }
+            let w = contrast * (1.0 - u * u).powi(2);
+            let j = [-dx / d, -dy / d, -1.0];
+            for p in 0..3 {
+                for q in 0..3 {
+                    a[p][q] += w * j[p] * j[q];
+                }
+                b[p] -= w * j[p] * e;
+            }
+            used += 1;
+        }
+        if used < RAYS / 8 {
+            return None;
+        }
+        let [dcx, dcy, dr] = crate::geometry::solve3(a, b)?;
+        c = Circle {
+            cx: c.cx + dcx,
+            cy: c.cy + dcy,
+            r: c.r + dr,
+        };
+        if !(c.r.is_finite() && c.r > 0.0) {
+            return None;
+        }
+        if dcx.abs() + dcy.abs() + dr.abs() < 1e-3 && round >= 2 {
+            break;
+        }
+    }
+    Some(c)
+}
+
+/// Refine a rough circle on the full image; `slack` is the rough circle's uncertainty (px).
+fn refine(luminance: ArrayView2<f64>, rough: Circle, slack: f64) -> Option<Found> {
+    if rough.r < MIN_RADIUS * 0.9 {
+        return None;
+    }
+    let mut circle = rough;
+    for window in [slack + 0.04 * rough.r + 2.0, 0.015 * rough.r + 2.0] {
+        let points = rim_points(luminance, &circle, window);
+        circle = robust_fit(&points, &circle)?;
+    }
+    if circle.r < MIN_RADIUS {
+        return None;
+    }
+    // Confidence: rays with a clear edge on the final circle.
+    let points = rim_points(luminance, &circle, 0.015 * circle.r + 2.0);
+    let tolerance = (0.01 * circle.r).max(1.0);
+    let on = points
+        .iter()
+        .filter(|p| ((p.0 - circle.cx).hypot(p.1 - circle.cy) - circle.r).abs() <= tolerance)
+        .count();
+    Some(Found {
+        circle,
+        confidence: on as f64 / RAYS as f64,
+    })
+}

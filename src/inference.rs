@@ -1,0 +1,346 @@
+//! One photograph through the whole pipeline: decode → locate → white → features →
+//! classify, and the answer's JSON. No HTTP here: `POST /v1/classify`, the KServe endpoint
+//! and `reflectance classify` all call [`classify`] and give the same [`ClassifyResponse`].
+
+use crate::analysis::{self, AnalysisError, Locate, WhiteInput};
+use crate::features::Extractor;
+use crate::geometry::{self, Method as GeometryMethod};
+use crate::image_io::{self, DecodeError, DecodeOptions, Encoding};
+use crate::learn::LearnError;
+use crate::model::{ModelError, ModelFile};
+use crate::white::Method as WhiteMethod;
+use bytes::Bytes;
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+use std::time::Instant;
+use utoipa::ToSchema;
+
+/// A verified model version, ready to classify: the file and its feature extractor.
+#[derive(Debug)]
+pub struct LoadedModel {
+    pub file: ModelFile,
+    pub extractor: Extractor,
+    /// The canonical feature names of the model's extraction configuration.
+    pub feature_names: Vec<String>,
+    /// The features the classifier reads (`None`: all of them, e.g. for PCA): a request
+    /// that does not ask for every feature extracts only these.
+    pub needed: Option<Vec<usize>>,
+}
+
+impl LoadedModel {
+    /// Build the extractor for a verified model file.
+    pub fn new(file: ModelFile) -> Result<LoadedModel, ModelError> {
+        let extractor = Extractor::new(file.features.config)?;
+        let feature_names = file.features.config.names();
+        let classifier = &file.classifier;
+        let needed = (classifier.pca.is_none()
+            && classifier.selected_indices.len() < feature_names.len())
+        .then(|| classifier.selected_indices.clone());
+        Ok(LoadedModel {
+            file,
+            extractor,
+            feature_names,
+            needed,
+        })
+    }
+
+    pub fn name(&self) -> &str {
+        &self.file.name
+    }
+
+    pub fn version(&self) -> u32 {
+        self.file.version
+    }
+}
+
+/// How white is given, before decoding.
+pub enum WhiteSpec {
+    Value(f64),
+    Card { bytes: Bytes, reflectance: f64 },
+    Missing,
+}
+
+/// Where the sphere is, before decoding.
+pub enum LocateSpec {
+    Circle(geometry::Circle),
+    Mask(Bytes),
+    Auto,
+}
+
+/// A validated classification request.
+pub struct Input {
+    pub image: Bytes,
+    pub white: WhiteSpec,
+    pub locate: LocateSpec,
+    pub encoding: Option<Encoding>,
+    pub include_features: bool,
+    pub include_explain: bool,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum InferenceError {
+    /// A file of the request does not decode; `part` is empty for the image, else
+    /// `"white_image: "` or `"mask: "`.
+    #[error("{part}{source}")]
+    Decode {
+        part: &'static str,
+        source: DecodeError,
+    },
+    #[error(transparent)]
+    Analysis(#[from] AnalysisError),
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    #[error(transparent)]
+    Learn(#[from] LearnError),
+}
+
+/// What the CPU work produced.
+pub struct Classified {
+    pub model: Arc<LoadedModel>,
+    pub class: usize,
+    pub probabilities: Vec<f64>,
+    pub analysis: analysis::Analysis,
+    /// The classifier's inputs (the selected features, or the principal components).
+    pub selected: Vec<f64>,
+    pub explain: Option<Vec<Neighbour>>,
+    pub include_features: bool,
+    pub decode_ms: f64,
+    pub features_ms: f64,
+    pub predict_ms: f64,
+}
+
+fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+fn decode_part(
+    part: &'static str,
+    bytes: &[u8],
+    options: &DecodeOptions,
+) -> Result<image_io::LinearImage, InferenceError> {
+    image_io::decode(bytes, options).map_err(|source| InferenceError::Decode { part, source })
+}
+
+/// Decode, locate, extract and classify (blocking).
+pub fn classify(
+    model: Arc<LoadedModel>,
+    input: Input,
+    limits: image_io::Limits,
+) -> Result<Classified, InferenceError> {
+    let t = Instant::now();
+    let options = DecodeOptions {
+        encoding: input.encoding,
+        limits,
+    };
+    let image = decode_part("", &input.image, &options)?;
+    drop(input.image);
+    let white = match input.white {
+        WhiteSpec::Value(v) => WhiteInput::Value(v),
+        WhiteSpec::Card { bytes, reflectance } => WhiteInput::Card {
+            image: decode_part("white_image: ", &bytes, &options)?,
+            reflectance,
+        },
+        WhiteSpec::Missing => WhiteInput::Missing,
+    };
+    let locate = match input.locate {
+        LocateSpec::Circle(c) => Locate::Circle(c),
+        LocateSpec::Mask(bytes) => Locate::Mask(analysis::mask_from_image(&decode_part(
+            "mask: ", &bytes, &options,
+        )?)),
+        LocateSpec::Auto => Locate::Auto,
+    };
+    let decode_ms = ms(t);
+    let t = Instant::now();
+    // Unless every feature is asked for, extract only those the classifier reads.
+    let wanted = match &model.needed {
+        Some(needed) if !input.include_features => Some(needed.as_slice()),
+        _ => None,
+    };
+    let analysis = analysis::analyze_subset(&model.extractor, &image, &locate, &white, wanted)?;
+    drop(image);
+    let features_ms = ms(t);
+    let t = Instant::now();
+    let classifier = &model.file.classifier;
+    let z = classifier.transform(&analysis.values)?;
+    let output = classifier.classify_transformed(&z);
+    let selected = if classifier.pca.is_some() {
+        z
+    } else {
+        classifier
+            .selected_indices
+            .iter()
+            .map(|&i| analysis.values[i])
+            .collect()
+    };
+    let explain = if input.include_explain {
+        let nearest = model.file.nearest(&analysis.values, 3)?;
+        Some(
+            nearest
+                .into_iter()
+                .map(|(e, distance)| Neighbour {
+                    path: e.path.clone(),
+                    class: e.class.clone(),
+                    illumination: e.illumination.clone(),
+                    distance,
+                })
+                .collect(),
+        )
+    } else {
+        None
+    };
+    let predict_ms = ms(t);
+    Ok(Classified {
+        class: output.class,
+        probabilities: output.probabilities,
+        analysis,
+        selected,
+        explain,
+        include_features: input.include_features,
+        decode_ms,
+        features_ms,
+        predict_ms,
+        model,
+    })
+}
+
+/// The served model version.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct ModelId {
+    pub name: String,
+    pub version: u32,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct LabelProbability {
+    pub label: String,
+    pub p: f64,
+}
+
+/// Names and values, index by index.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct NamedValues {
+    pub names: Vec<String>,
+    pub values: Vec<f64>,
+}
+
+/// The classifier's inputs (the model's selected features, raw; for `pca<N>` models the
+/// standardized principal components `pc1…`), and with `include=features` every extracted
+/// feature in canonical order (117 with the default configuration).
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct FeaturesOut {
+    pub names: Vec<String>,
+    pub values: Vec<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub all: Option<NamedValues>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct GeometryOut {
+    pub cx: f64,
+    pub cy: f64,
+    pub r: f64,
+    /// `given`, `mask` (mask image), `alpha` (the image's alpha channel) or `auto`.
+    #[schema(value_type = String, example = "given")]
+    pub method: GeometryMethod,
+    /// Automatic detection only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub confidence: Option<f64>,
+}
+
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct WhiteOut {
+    pub value: f64,
+    /// `given`, `white_image` or `none` (no reference: the image is taken as normalized).
+    #[schema(value_type = String, example = "given")]
+    pub method: WhiteMethod,
+}
+
+/// Milliseconds per stage.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct TimingMs {
+    pub decode: f64,
+    pub features: f64,
+    pub predict: f64,
+    pub total: f64,
+}
+
+/// A training image near the classified one, in the classifier's standardized input space.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct Neighbour {
+    pub path: String,
+    pub class: String,
+    pub illumination: String,
+    pub distance: f64,
+}
+
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct ClassifyResponse {
+    pub request_id: String,
+    pub model: ModelId,
+    /// The predicted class.
+    pub label: String,
+    /// Every class, most probable first.
+    pub probabilities: Vec<LabelProbability>,
+    pub features: FeaturesOut,
+    pub geometry: GeometryOut,
+    pub white: WhiteOut,
+    pub warnings: Vec<String>,
+    pub timing_ms: TimingMs,
+    /// With `include=explain`: the 3 nearest training images, nearest first.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub explain: Option<Vec<Neighbour>>,
+}
+
+impl Classified {
+    /// The answer, as the service sends it; `total_ms` is the whole request's time.
+    pub fn response(self, request_id: String, total_ms: f64) -> ClassifyResponse {
+        let model = &self.model;
+        let classes = &model.file.classifier.classes;
+        let mut probabilities: Vec<LabelProbability> = classes
+            .iter()
+            .zip(&self.probabilities)
+            .map(|(label, &p)| LabelProbability {
+                label: label.clone(),
+                p,
+            })
+            .collect();
+        probabilities.sort_by(|a, b| b.p.total_cmp(&a.p));
+        let g = self.analysis.geometry;
+        ClassifyResponse {
+            request_id,
+            model: ModelId {
+                name: model.name().to_string(),
+                version: model.version(),
+            },
+            label: classes[self.class].clone(),
+            probabilities,
+            features: FeaturesOut {
+                names: model.file.classifier.selected.clone(),
+                values: self.selected,
+                all: self.include_features.then(|| NamedValues {
+                    names: model.feature_names.clone(),
+                    values: self.analysis.values.clone(),
+                }),
+            },
+            geometry: GeometryOut {
+                cx: g.cx,
+                cy: g.cy,
+                r: g.r,
+                method: g.method,
+                confidence: g.confidence,
+            },
+            white: WhiteOut {
+                value: self.analysis.white.value,
+                method: self.analysis.white.method,
+            },
+            warnings: self.analysis.warnings,
+            timing_ms: TimingMs {
+                decode: self.decode_ms,
+                features: self.features_ms,
+                predict: self.predict_ms,
+                total: total_ms,
+            },
+            explain: self.explain,
+        }
+    }
+}

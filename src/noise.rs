@@ -1,0 +1,227 @@
+//! What the camera added, measured on the sphere itself: sensor noise and clipping.
+//!
+//! **Noise.** Over the annulus the features read (0.2 r to 0.9 r), each 2 × 2 block gives a
+//! mean m and a diagonal difference d = (a − b − c + e)/2. White noise of standard deviation
+//! σ gives d the same σ, while a smooth reflection gives d ≈ 0 (a second mixed derivative),
+//! so the median of |d| over many blocks measures the noise and shrugs off the few blocks on
+//! sharp reflections (Donoho's MAD estimate, σ = 1.4826·median|d|). Camera noise grows
+//! with the signal (shot noise: σ² ∝ m, plus read noise: a constant), so blocks are split
+//! into eight bins of mean and σ² = a·m + b is fitted to the bins; the noise at white is
+//! √(a + b) (values are in units of white). Blocks touching a clipped pixel are left out.
+//!
+//! **Clipping.** The fraction of the annulus's pixels at full scale (integer formats only:
+//! floating-point images do not clip).
+
+use crate::geometry::Circle;
+use ndarray::ArrayView2;
+
+/// The annulus measured, as fractions of the radius (the features' default annulus).
+const INNER: f64 = 0.2;
+const OUTER: f64 = 0.9;
+/// Bins of block means for the signal-dependent fit.
+const BINS: usize = 8;
+/// Fewer blocks than this give no estimate.
+const MIN_BLOCKS: usize = 64;
+/// Samples at or above this fraction of full scale count as clipped.
+const CLIPPED: f64 = 0.999;
+
+/// The noise at white (a fraction of white; `None` when the annulus is too small or too
+/// clipped to tell) and the clipped fraction of the annulus.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimate {
+    pub noise: Option<f64>,
+    pub clipped: f64,
+}
+
+/// Pixel (x, y) lies in the annulus.
+fn inside(c: &Circle, x: f64, y: f64) -> bool {
+    let d = (x - c.cx).hypot(y - c.cy);
+    d >= INNER * c.r && d <= OUTER * c.r
+}
+
+/// The rows and columns the annulus spans, clamped to the image.
+fn span(c: &Circle, (h, w): (usize, usize)) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
+    let reach = OUTER * c.r + 1.0;
+    let clamp = |v: f64, n: usize| v.clamp(0.0, n as f64) as usize;
+    (
+        clamp((c.cy - reach).floor(), h)..clamp((c.cy + reach).ceil() + 1.0, h),
+        clamp((c.cx - reach).floor(), w)..clamp((c.cx + reach).ceil() + 1.0, w),
+    )
+}
+
+/// Fraction of the annulus's pixels at or above `full_scale`.
+pub fn clipped_fraction(image: ArrayView2<f64>, c: &Circle, full_scale: f64) -> f64 {
+    let (rows, cols) = span(c, image.dim());
+    let (mut clipped, mut total) = (0usize, 0usize);
+    for y in rows {
+        for x in cols.clone() {
+            if inside(c, x as f64, y as f64) {
+                total += 1;
+                clipped += usize::from(image[[y, x]] >= CLIPPED * full_scale);
+            }
+        }
+    }
+    clipped as f64 / total.max(1) as f64
+}
+
+/// The noise at white of `image` (linear, white at `white`), from the blocks of the annulus
+/// with no sample at or above `full_scale`.
+pub fn noise_at_white(
+    image: ArrayView2<f64>,
+    c: &Circle,
+    white: f64,
+    full_scale: f64,
+) -> Option<f64> {
+    let (rows, cols) = span(c, image.dim());
+    let ceiling = CLIPPED * full_scale;
+    let mut blocks: Vec<(f64, f64)> = Vec::new();
+    for y in rows.step_by(2) {
+        for x in cols.clone().step_by(2) {
+            if y + 1 >= image.nrows() || x + 1 >= image.ncols() {
+                continue;
+            }
+            if !inside(c, x as f64 + 0.5, y as f64 + 0.5) {
+                continue;
+            }
+            let [a, b, p, q] = [
+                image[[y, x]],
+                image[[y, x + 1]],
+                image[[y + 1, x]],
+                image[[y + 1, x + 1]],
+            ];
+            if a.max(b).max(p).max(q) >= ceiling {
+                continue;
+            }
+            let mean = (a + b + p + q) / (4.0 * white);
+            let diagonal = ((a - b - p + q) / (2.0 * white)).abs();
+            blocks.push((mean, diagonal));
+        }
+    }
+    if blocks.len() < MIN_BLOCKS {
+        return None;
+    }
+    // Bins of equal counts along the mean: (median mean, σ² from the MAD).
+    blocks.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+    let per_bin = blocks.len() / BINS;
+    let bins: Vec<(f64, f64, f64)> = (0..BINS)
+        .map(|k| {
+            let end = if k + 1 == BINS {
+                blocks.len()
+            } else {
+                (k + 1) * per_bin
+            };
+            let bin = &mut blocks[k * per_bin..end];
+            let mean = bin[bin.len() / 2].0;
+            let mut diagonals: Vec<f64> = bin.iter().map(|b| b.1).collect();
+            let mid = diagonals.len() / 2;
+            let (_, median, _) = diagonals.select_nth_unstable_by(mid, f64::total_cmp);
+            let sigma = 1.4826 * *median;
+            (mean, sigma * sigma, bin.len() as f64)
+        })
+        .collect();
+    let (a, b) = fit_affine(&bins);
+    Some((a + b).max(0.0).sqrt())
+}
+
+/// Weighted least squares of σ² = a·m + b over (m, σ², weight), with a, b ≥ 0.
+fn fit_affine(bins: &[(f64, f64, f64)]) -> (f64, f64) {
+    let (mut sw, mut sm, mut sv, mut smm, mut smv) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for &(m, v, w) in bins {
+        sw += w;
+        sm += w * m;
+        sv += w * v;
+        smm += w * m * m;
+        smv += w * m * v;
+    }
+    let det = sw * smm - sm * sm;
+    let (a, b) = if det.abs() > 1e-300 {
+        ((sw * smv - sm * sv) / det, (smm * sv - sm * smv) / det)
+    } else {
+        (0.0, sv / sw)
+    };
+    if a < 0.0 {
+        (0.0, (sv / sw).max(0.0))
+    } else if b < 0.0 {
+        let a = if smm > 0.0 { smv / smm } else { 0.0 };
+        (a.max(0.0), 0.0)
+    } else {
+        (a, b)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Rng;
+    use ndarray::Array2;
+
+    fn normal(rng: &mut Rng) -> f64 {
+        let u = 1.0 - rng.next_f64();
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * rng.next_f64()).cos()
+    }
+
+    const C: Circle = Circle {
+        cx: 119.5,
+        cy: 119.5,
+        r: 110.0,
+    };
+
+    /// A smooth shaded sphere (white = 2) with shot and read noise at white of `k`.
+    fn noisy(k: f64, shot_share: f64, seed: u64) -> Array2<f64> {
+        let mut rng = Rng::new(seed);
+        Array2::from_shape_fn((240, 240), |(y, x)| {
+            let d = (x as f64 - C.cx).hypot(y as f64 - C.cy) / C.r;
+            let level = 2.0 * (0.05 + 0.6 * (1.0 - d * d).max(0.0).sqrt());
+            let variance = k * k * 4.0 * (shot_share * level / 2.0 + (1.0 - shot_share));
+            level + variance.sqrt() * normal(&mut rng)
+        })
+    }
+
+    #[test]
+    fn the_noise_at_white_is_recovered() {
+        for (k, share) in [(0.005, 1.0), (0.01, 0.5), (0.025, 0.8)] {
+            let est = noise_at_white(noisy(k, share, 7).view(), &C, 2.0, f64::INFINITY).unwrap();
+            assert!((est - k).abs() < 0.12 * k, "{k}: {est}");
+        }
+        let clean = noise_at_white(noisy(0.0, 1.0, 7).view(), &C, 2.0, f64::INFINITY).unwrap();
+        assert!(clean < 1e-3, "{clean}");
+    }
+
+    #[test]
+    fn sharp_reflections_are_not_noise() {
+        // Stripes every 6 px across a noiseless sphere: few blocks straddle an edge.
+        let image = Array2::from_shape_fn((240, 240), |(y, x)| {
+            let d = (x as f64 - C.cx).hypot(y as f64 - C.cy) / C.r;
+            if d > 1.0 {
+                0.0
+            } else if (x / 6) % 2 == 0 {
+                1.5
+            } else {
+                0.2
+            }
+        });
+        let est = noise_at_white(image.view(), &C, 2.0, f64::INFINITY).unwrap();
+        assert!(est < 0.002, "{est}");
+    }
+
+    #[test]
+    fn clipping_is_measured_and_excluded() {
+        let mut image = noisy(0.01, 1.0, 3);
+        // The left half clipped at full scale 1.5.
+        image.indexed_iter_mut().for_each(
+            |((_, x), v)| {
+                if x < 120 { *v = 1.5 } else { *v = v.min(1.5) }
+            },
+        );
+        let clipped = clipped_fraction(image.view(), &C, 1.5);
+        assert!((clipped - 0.5).abs() < 0.03, "{clipped}");
+        let est = noise_at_white(image.view(), &C, 2.0, 1.5).unwrap();
+        assert!((est - 0.01).abs() < 0.002, "{est}");
+        // A small or fully clipped annulus gives no estimate.
+        let tiny = Circle { r: 4.0, ..C };
+        assert_eq!(noise_at_white(image.view(), &tiny, 2.0, 1.5), None);
+        let flat = Array2::from_elem((240, 240), 1.5);
+        assert_eq!(noise_at_white(flat.view(), &C, 2.0, 1.5), None);
+        assert_eq!(clipped_fraction(flat.view(), &C, 1.5), 1.0);
+    }
+}

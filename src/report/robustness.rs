@@ -1,0 +1,456 @@
+//! Accuracy through the camera: every test render captured by [`crate::capture`] at each
+//! setting of a sweep (one factor at a time around a clean baseline, the extremes of the
+//! ranges all at once, and settings drawn at random within the ranges), then classified by
+//! each model exactly as the service would (`inference::classify` on the captured file,
+//! with the white and circle a user would report).
+
+use super::ReportError;
+use crate::capture::{self, CaptureRanges, CaptureSettings, Quantization};
+use crate::dataset::{self, Manifest};
+use crate::geometry::Circle;
+use crate::image_io::{self, DecodeOptions};
+use crate::inference::{self, Input, LoadedModel, LocateSpec, WhiteSpec};
+use crate::progress;
+use crate::rng::Rng;
+use ndarray::Array2;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::Path;
+use std::sync::Arc;
+
+/// How a sweep point turns a render into the classifier's input.
+#[derive(Clone, Copy, Debug)]
+pub enum Camera {
+    /// The render itself (float, nothing clips), with its exact white and circle.
+    Original,
+    Fixed(CaptureSettings),
+    /// Settings drawn at random within the ranges, anew for every image and draw.
+    Random,
+}
+
+/// One point of the sweep: a factor, its value, and its camera.
+#[derive(Clone, Debug)]
+pub struct Setting {
+    pub factor: &'static str,
+    pub value: String,
+    pub camera: Camera,
+}
+
+/// The factors, in the report's order, with the axis label of their plot.
+pub const FACTORS: [(&str, &str); 6] = [
+    ("noise", "noise at white (% of white)"),
+    ("jpeg", "JPEG quality (8-bit sRGB)"),
+    (
+        "exposure",
+        "white's level (fraction of full scale; 8-bit sRGB)",
+    ),
+    ("blur", "lens blur σ (px)"),
+    ("radius", "sphere radius (px)"),
+    ("errors", "white and circle errors"),
+];
+
+/// Draws of random settings per image for the `random` rows.
+pub const RANDOM_DRAWS: usize = 4;
+
+/// The sweep for `ranges`, around a clean baseline: 16-bit linear, white at half of full
+/// scale, no noise or blur, exact white and circle, at `radius` (the training radius).
+pub fn sweep(ranges: &CaptureRanges, radius: f64) -> Vec<Setting> {
+    let base = CaptureSettings {
+        background: 0.3,
+        shot_share: 0.8,
+        ..CaptureSettings::ideal(radius)
+    };
+    let srgb8 = CaptureSettings {
+        quantization: Quantization::Srgb8,
+        ..base
+    };
+    let mut out = vec![Setting {
+        factor: "original",
+        value: "float render".into(),
+        camera: Camera::Original,
+    }];
+    let mut add = |factor, value: String, settings| {
+        out.push(Setting {
+            factor,
+            value,
+            camera: Camera::Fixed(settings),
+        })
+    };
+    add("clean", "16-bit linear".into(), base);
+    let [n0, n1] = ranges.noise;
+    for k in 1..=5 {
+        let noise = n0 + (n1 - n0) * k as f64 / 5.0;
+        add(
+            "noise",
+            format!("{:.1}", 100.0 * noise),
+            CaptureSettings { noise, ..base },
+        );
+    }
+    add("jpeg", "png8".into(), srgb8);
+    let [q0, q1] = ranges.jpeg_quality;
+    for quality in [q0, (q0 + q1) / 2, q1] {
+        let quantization = Quantization::Jpeg { quality };
+        add(
+            "jpeg",
+            quality.to_string(),
+            CaptureSettings {
+                quantization,
+                ..base
+            },
+        );
+    }
+    let [e0, e1] = ranges.exposure;
+    for k in 0..=3 {
+        let exposure = e0 + (e1 - e0) * k as f64 / 3.0;
+        add(
+            "exposure",
+            format!("{exposure:.2}"),
+            CaptureSettings { exposure, ..srgb8 },
+        );
+    }
+    let [b0, b1] = ranges.blur;
+    for k in 1..=4 {
+        let blur = b0 + (b1 - b0) * k as f64 / 4.0;
+        add(
+            "blur",
+            format!("{blur:.2}"),
+            CaptureSettings { blur, ..base },
+        );
+    }
+    let [r0, r1] = ranges.radius;
+    for r in [r0, 0.5 * (r0 + radius), r1.min(2.0 * radius), r1] {
+        add(
+            "radius",
+            format!("{r:.0}"),
+            CaptureSettings { radius: r, ..base },
+        );
+    }
+    let (w, c, rr) = (ranges.white_error, ranges.centre_error, ranges.radius_error);
+    for (label, white_error, centre, radius_error) in [
+        ("white -", -w, 0.0, 0.0),
+        ("white +", w, 0.0, 0.0),
+        ("circle", 0.0, c, rr),
+        ("circle -", 0.0, -c, -rr),
+    ] {
+        let settings = CaptureSettings {
+            white_error,
+            centre_error: [centre, centre],
+            radius_error,
+            ..base
+        };
+        add("errors", label.into(), settings);
+    }
+    // Everything at its worst at once, at both ends of the radius range.
+    for r in ranges.radius {
+        let settings = CaptureSettings {
+            radius: r,
+            exposure: ranges.exposure[1],
+            noise: ranges.noise[1],
+            blur: ranges.blur[1],
+            quantization: Quantization::Jpeg {
+                quality: ranges.jpeg_quality[0],
+            },
+            white_error: -ranges.white_error,
+            centre_error: [ranges.centre_error, -ranges.centre_error],
+            radius_error: ranges.radius_error,
+            ..base
+        };
+        add("worst", format!("r {r:.0}"), settings);
+    }
+    out.push(Setting {
+        factor: "random",
+        value: format!("{RANDOM_DRAWS} draws per image"),
+        camera: Camera::Random,
+    });
+    out
+}
+
+/// A test image: a render, its class, where its sphere is and its white.
+pub struct TestImage {
+    pub name: String,
+    pub class: String,
+    pub luminance: Array2<f64>,
+    pub circle: Circle,
+    pub white: f64,
+}
+
+/// The renders of a manifest (original views only; rows need a class, circle and white).
+pub fn test_images(
+    manifest: &Manifest,
+    options: &DecodeOptions,
+) -> Result<Vec<TestImage>, ReportError> {
+    manifest.require_labels()?;
+    manifest
+        .entries
+        .par_iter()
+        .filter(|e| e.illumination.as_deref().is_some_and(|i| !i.contains('@')))
+        .map(|e| {
+            let missing = |what: &str| {
+                ReportError::Input(format!(
+                    "{} line {}: no {what}",
+                    manifest.source.display(),
+                    e.line
+                ))
+            };
+            let image = image_io::decode_file(&e.file, options).map_err(|source| {
+                dataset::DatasetError::Image {
+                    path: manifest.source.display().to_string(),
+                    line: e.line,
+                    image: e.path.clone(),
+                    source: source.into(),
+                }
+            })?;
+            Ok(TestImage {
+                name: e.path.clone(),
+                class: e.class.clone().unwrap_or_default(),
+                luminance: image.luminance,
+                circle: e.circle.ok_or_else(|| missing("circle"))?,
+                white: e.white.ok_or_else(|| missing("white"))?,
+            })
+        })
+        .collect()
+}
+
+/// Accuracy of one model at one setting.
+#[derive(Clone, Debug, Serialize)]
+pub struct Cell {
+    pub factor: String,
+    pub value: String,
+    pub model: String,
+    pub n: usize,
+    pub correct: usize,
+    pub accuracy: f64,
+    /// Captures the model could not classify (e.g. the annulus left the image).
+    pub refused: usize,
+    /// `confusion[truth][predicted]` in the model's class order.
+    pub confusion: Vec<Vec<usize>>,
+}
+
+/// (truth, predicted) class indices, or `None` when the model refused the capture.
+type Verdict = Option<(usize, usize)>;
+
+/// Classify every test image, captured at every setting, with every model.
+pub fn evaluate(
+    models: &[(String, Arc<LoadedModel>)],
+    images: &[TestImage],
+    settings: &[Setting],
+    seed: u64,
+) -> Result<Vec<Cell>, ReportError> {
+    let jobs: Vec<(usize, usize, usize)> = settings
+        .iter()
+        .enumerate()
+        .flat_map(|(s, setting)| {
+            let draws = match setting.camera {
+                Camera::Random => RANDOM_DRAWS,
+                _ => 1,
+            };
+            (0..images.len()).flat_map(move |i| (0..draws).map(move |d| (s, i, d)))
+        })
+        .collect();
+    let bar = progress::bar(jobs.len() as u64, "robustness");
+    let outcomes: Vec<Result<Vec<Verdict>, ReportError>> = jobs
+        .par_iter()
+        .map(|&(s, i, d)| {
+            let image = &images[i];
+            let key = format!(
+                "{}|{}|{}|{d}",
+                settings[s].factor, settings[s].value, image.name
+            );
+            let mut rng = Rng::fork(seed, fnv(&key));
+            let shot = photograph(image, settings[s].camera, &mut rng)?;
+            let verdicts = models
+                .iter()
+                .map(|(_, model)| {
+                    let input = Input {
+                        image: shot.bytes.clone(),
+                        white: WhiteSpec::Value(shot.white),
+                        locate: LocateSpec::Circle(shot.circle),
+                        encoding: shot.encoding,
+                        include_features: false,
+                        include_explain: false,
+                    };
+                    let classes = &model.file.classifier.classes;
+                    let truth = classes.iter().position(|c| *c == image.class);
+                    inference::classify(model.clone(), input, Default::default())
+                        .ok()
+                        .zip(truth)
+                        .map(|(c, truth)| (truth, c.class))
+                })
+                .collect();
+            bar.inc(1);
+            Ok(verdicts)
+        })
+        .collect();
+    bar.finish();
+    let mut cells: Vec<Cell> = Vec::new();
+    for (&(s, _, _), outcome) in jobs.iter().zip(outcomes) {
+        for ((name, _), verdict) in models.iter().zip(outcome?) {
+            let setting = &settings[s];
+            let position = cells.iter().position(|c| {
+                c.factor == setting.factor && c.value == setting.value && &c.model == name
+            });
+            let cell = match position {
+                Some(p) => &mut cells[p],
+                None => {
+                    cells.push(Cell {
+                        factor: setting.factor.into(),
+                        value: setting.value.clone(),
+                        model: name.clone(),
+                        n: 0,
+                        correct: 0,
+                        accuracy: 0.0,
+                        refused: 0,
+                        confusion: vec![
+                            vec![0; classes_of(models, name)];
+                            classes_of(models, name)
+                        ],
+                    });
+                    cells.last_mut().expect("just pushed")
+                }
+            };
+            cell.n += 1;
+            match verdict {
+                Some((truth, predicted)) => {
+                    cell.correct += usize::from(truth == predicted);
+                    cell.confusion[truth][predicted] += 1;
+                }
+                None => cell.refused += 1,
+            }
+            cell.accuracy = cell.correct as f64 / cell.n as f64;
+        }
+    }
+    Ok(cells)
+}
+
+/// A file to classify and what its user reports with it.
+struct Shot {
+    bytes: bytes::Bytes,
+    white: f64,
+    circle: Circle,
+    encoding: Option<crate::image_io::Encoding>,
+}
+
+fn photograph(image: &TestImage, camera: Camera, rng: &mut Rng) -> Result<Shot, ReportError> {
+    let settings = match camera {
+        Camera::Original => {
+            let (h, w) = image.luminance.dim();
+            let values: Vec<f32> = image.luminance.iter().map(|&v| v as f32).collect();
+            return Ok(Shot {
+                bytes: crate::image_io::pfm::encode_gray(w, h, &values).into(),
+                white: image.white,
+                circle: image.circle,
+                encoding: None,
+            });
+        }
+        Camera::Fixed(settings) => settings,
+        Camera::Random => CaptureRanges::default().sample(rng),
+    };
+    let shot = capture::capture(
+        image.luminance.view(),
+        &image.circle,
+        image.white,
+        &settings,
+        rng,
+    )
+    .map_err(|e| ReportError::Input(format!("{}: {e}", image.name)))?;
+    Ok(Shot {
+        bytes: shot.bytes.into(),
+        white: shot.white,
+        circle: shot.circle,
+        encoding: Some(shot.quantization.encoding()),
+    })
+}
+
+fn classes_of(models: &[(String, Arc<LoadedModel>)], name: &str) -> usize {
+    models
+        .iter()
+        .find(|(n, _)| n == name)
+        .map_or(0, |(_, m)| m.file.classifier.classes.len())
+}
+
+/// FNV-1a of a text: a stable stream index.
+fn fnv(text: &str) -> u64 {
+    text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
+    })
+}
+
+/// The cells as a Markdown table: a row per setting, a column per model.
+pub fn markdown(cells: &[Cell], models: &[String]) -> String {
+    let mut out = String::from("| factor | setting |");
+    for m in models {
+        let _ = write!(out, " {m} |");
+    }
+    out.push_str("\n|---|---|");
+    out.push_str(&"---|".repeat(models.len()));
+    out.push('\n');
+    let mut rows: Vec<(&str, &str)> = Vec::new();
+    for c in cells {
+        if !rows.contains(&(c.factor.as_str(), c.value.as_str())) {
+            rows.push((&c.factor, &c.value));
+        }
+    }
+    for (factor, value) in rows {
+        let _ = write!(out, "| {factor} | {value} |");
+        for m in models {
+            match cells
+                .iter()
+                .find(|c| c.factor == factor && c.value == value && &c.model == m)
+            {
+                Some(c) => {
+                    let _ = write!(out, " {:.1} % ({}/{})", 100.0 * c.accuracy, c.correct, c.n);
+                    if c.refused > 0 {
+                        let _ = write!(out, ", {} refused", c.refused);
+                    }
+                    out.push_str(" |");
+                }
+                None => out.push_str(" – |"),
+            }
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// Load the models named `DIR/NAME[/VERSION]`, labelled by their path.
+pub fn load_models(
+    paths: &[std::path::PathBuf],
+) -> Result<Vec<(String, Arc<LoadedModel>)>, ReportError> {
+    paths
+        .iter()
+        .map(|path| {
+            let fail = |e: String| ReportError::Input(format!("{}: {e}", path.display()));
+            let (registry, name, version) =
+                crate::registry::parse_model_path(path).map_err(|e| fail(e.to_string()))?;
+            let version = match version {
+                Some(v) => v,
+                None => registry.active(&name).map_err(|e| fail(e.to_string()))?,
+            };
+            let file = registry
+                .load(&name, version)
+                .map_err(|e| fail(e.to_string()))?;
+            let model = LoadedModel::new(file).map_err(|e| fail(e.to_string()))?;
+            Ok((path.display().to_string(), Arc::new(model)))
+        })
+        .collect()
+}
+
+/// Write `robustness.md`, `robustness.json` and `robustness.png` into `out`.
+pub fn write(cells: &[Cell], models: &[String], out: &Path) -> Result<(), ReportError> {
+    std::fs::create_dir_all(out).map_err(|source| ReportError::Io {
+        path: out.display().to_string(),
+        source,
+    })?;
+    let save = |name: &str, bytes: &[u8]| {
+        let path = out.join(name);
+        crate::fsutil::write_atomic(&path, bytes).map_err(|source| ReportError::Io {
+            path: path.display().to_string(),
+            source,
+        })
+    };
+    save("robustness.md", markdown(cells, models).as_bytes())?;
+    let json = serde_json::to_vec_pretty(cells).map_err(|e| ReportError::Input(e.to_string()))?;
+    save("robustness.json", &json)?;
+    super::plots::robustness(cells, models, &out.join("robustness.png"))
+}
