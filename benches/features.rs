@@ -3,7 +3,8 @@
 
 use divan::Bencher;
 use ndarray::Array2;
-use reflectance::features::{Extensions, Extractor, FeatureConfig};
+use reflectance::analysis::{self, Locate, WhiteInput};
+use reflectance::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
 use reflectance::geometry::Circle;
 use reflectance::image_io::{self, DecodeOptions, LinearImage};
 use reflectance::pyramid::{self, Edge};
@@ -90,7 +91,40 @@ fn features_with_log_domain(bencher: Bencher) {
 /// Every extension: the radial changes and the orientation dependencies too (314 features).
 #[divan::bench]
 fn features_with_every_extension(bencher: Bencher) {
-    bench_extraction(bencher, FeatureConfig::extended(Extensions::ALL, None));
+    bench_extraction(
+        bencher,
+        FeatureConfig::extended(Extensions::ALL, Preprocessing::default()),
+    );
+}
+
+/// What the service does for the shipped default model (`models/ward6`): the features its
+/// classifier reads, after reduction to its working radius and with the capture
+/// measurements its warnings need. Target (issue 16): ≤ 1.2 ms excluding decode.
+#[divan::bench]
+fn features_of_the_shipped_model(bencher: Bencher) {
+    let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+    let registry = reflectance::registry::Registry::new(&models);
+    let file = registry
+        .active("ward6")
+        .and_then(|version| registry.load("ward6", version))
+        .expect("the shipped ward6 model");
+    let model = reflectance::inference::LoadedModel::new(file).expect("model");
+    let image = decoded();
+    let locate = Locate::Circle(circle());
+    let white = WhiteInput::Value(1.0);
+    let measure = model.file.capture.is_some();
+    bencher.bench(|| {
+        let wanted = model.needed.as_deref();
+        analysis::analyze_subset(
+            &model.extractor,
+            divan::black_box(&image),
+            &locate,
+            &white,
+            wanted,
+            measure,
+        )
+        .expect("features")
+    });
 }
 
 #[divan::bench]

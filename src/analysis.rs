@@ -2,7 +2,7 @@
 //! image plus where the sphere is and how bright white is → features, with what was used
 //! and every warning.
 
-use crate::features::Extractor;
+use crate::features::{CaptureMeasurements, Extractor};
 use crate::geometry::{self, Geometry, GeometryError, Method};
 use crate::image_io::{DecodeError, LinearImage};
 use crate::white::{self, White, WhiteError};
@@ -56,6 +56,9 @@ pub struct Analysis {
     pub geometry: Geometry,
     pub white: White,
     pub warnings: Vec<String>,
+    /// The capture measurements, when asked for.
+    #[serde(skip)]
+    pub measured: Option<CaptureMeasurements>,
 }
 
 /// The mask of a decoded mask image.
@@ -133,17 +136,19 @@ pub fn analyze(
     how: &Locate,
     white_input: &WhiteInput,
 ) -> Result<Analysis, AnalysisError> {
-    analyze_subset(extractor, image, how, white_input, None)
+    analyze_subset(extractor, image, how, white_input, None, false)
 }
 
 /// [`analyze`], extracting only the features at `wanted` (the others are NaN; see
-/// [`Extractor::extract_subset`]), or all of them for `None`.
+/// [`Extractor::extract_subset`]), or all of them for `None`; with `measure`, also the
+/// capture measurements.
 pub fn analyze_subset(
     extractor: &Extractor,
     image: &LinearImage,
     how: &Locate,
     white_input: &WhiteInput,
     wanted: Option<&[usize]>,
+    measure: bool,
 ) -> Result<Analysis, AnalysisError> {
     let mut warnings = image.warnings.clone();
     let (white, white_warning) = resolve_white(white_input)?;
@@ -154,11 +159,13 @@ pub fn analyze_subset(
     let (luminance, circle) = (image.luminance.view(), geometry.circle());
     // Integer samples clip at 1 once decoded; floating-point ones do not clip.
     let full_scale = (!image.is_float).then_some(1.0);
-    let values = extractor.extract_with(luminance, &circle, white.value, full_scale, wanted);
+    let (values, measured) =
+        extractor.extract_measured(luminance, &circle, white.value, full_scale, wanted, measure);
     Ok(Analysis {
         values,
         geometry,
         white,
         warnings,
+        measured,
     })
 }

@@ -13,11 +13,13 @@
 //! chroma subsampling (4:2:0 in a camera) changes nothing: the luminance plane carries the
 //! whole effect.
 
+use crate::features::CaptureMeasurements;
 use crate::geometry::Circle;
 use crate::image_io::Encoding;
 use crate::rng::Rng;
 use ndarray::{Array2, ArrayView2};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::fmt;
 
 /// How the captured samples are stored.
@@ -210,24 +212,74 @@ impl CaptureRanges {
             radius_error,
         }
     }
+}
 
-    /// Whether a measured input lies inside the ranges a model was trained for: the
-    /// reasons it does not, for the response's warnings.
-    pub fn outside(&self, measured: &Measured) -> Vec<String> {
+/// What marks a capture's training view: `<probe><view>@cap<k>`.
+pub const VIEW_TAG: &str = "@cap";
+
+/// The captures a model was trained for: the ranges its `@cap` training views were drawn
+/// from and what the capture measurements found on its training images, by class (a
+/// mirror's reflections read as more noise, and clip more, than a matte sphere's shading).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CaptureEnvelope {
+    pub ranges: CaptureRanges,
+    /// Per class, the 99th percentile of the noise at white estimated on its training
+    /// images (fraction of white); empty when the training table has no `cap.noise`.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub noise_p99: BTreeMap<String, f64>,
+    /// Per class, the 99th percentile of their clipped fractions; empty without
+    /// `cap.clipped`.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub clipped_p99: BTreeMap<String, f64>,
+}
+
+/// How far past the training envelope an input may go before the answer warns: the
+/// estimates scatter, and a model degrades gradually beyond its ranges.
+const RADIUS_MARGIN: f64 = 0.05;
+const NOISE_MARGIN: f64 = 1.25;
+const CLIPPED_MARGIN: f64 = 0.02;
+
+impl CaptureEnvelope {
+    /// Why an input of sphere radius `radius` (px, as given) with these measurements,
+    /// classified as `class`, lies outside the envelope: the response's warnings (empty:
+    /// inside). A model that reduces spheres to a `working_radius` within the range sees
+    /// larger ones as it saw its own.
+    pub fn outside(
+        &self,
+        radius: f64,
+        working_radius: Option<f64>,
+        class: &str,
+        measured: &CaptureMeasurements,
+    ) -> Vec<String> {
         let mut out = Vec::new();
-        if measured.radius < self.radius[0] * 0.95 || measured.radius > self.radius[1] * 1.05 {
+        let [low, high] = self.ranges.radius;
+        let reduced = working_radius.is_some_and(|w| w <= high);
+        let too_large = radius > high * (1.0 + RADIUS_MARGIN) && !reduced;
+        if radius < low * (1.0 - RADIUS_MARGIN) || too_large {
             out.push(format!(
-                "sphere radius {:.0} px is outside the {:.0}–{:.0} px the model was trained for",
-                measured.radius, self.radius[0], self.radius[1]
+                "the sphere's radius {radius:.0} px is outside the {low:.0}–{high:.0} px the model \
+                 was trained for"
             ));
         }
-        if let Some(noise) = measured.noise
-            && noise > self.noise[1] * 1.2
-        {
+        let noise_limit = self
+            .noise_p99
+            .get(class)
+            .map_or(self.ranges.noise[1], |p| p.max(self.ranges.noise[1]));
+        if let Some(noise) = measured.noise.filter(|n| *n > noise_limit * NOISE_MARGIN) {
             out.push(format!(
-                "estimated noise {:.1} % of white is above the {:.1} % the model was trained for",
+                "the image's noise, estimated at {:.1} % of white, is above the {:.1} % the \
+                 model was trained for on {class}: expect lower accuracy",
                 100.0 * noise,
-                100.0 * self.noise[1]
+                100.0 * noise_limit
+            ));
+        }
+        let clipped_limit = self.clipped_p99.get(class).copied().unwrap_or(0.0);
+        if measured.clipped > clipped_limit + CLIPPED_MARGIN {
+            out.push(format!(
+                "{:.1} % of the sphere's pixels are clipped (the model was trained on up to \
+                 {:.1} % for {class}): lower the exposure",
+                100.0 * measured.clipped,
+                100.0 * clipped_limit
             ));
         }
         out
@@ -245,14 +297,6 @@ pub struct Capture {
     pub white: f64,
     /// Fraction of the sphere's pixels at full scale.
     pub clipped: f64,
-}
-
-/// Image-domain measurements of an input, compared with a model's ranges.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Measured {
-    pub radius: f64,
-    /// Noise at white as a fraction of white, when estimated.
-    pub noise: Option<f64>,
 }
 
 /// Capture a render: `luminance` (linear; its background is replaced by the settings'),
@@ -491,6 +535,60 @@ fn encode(samples: ArrayView2<f64>, quantization: Quantization) -> Result<Vec<u8
 mod tests {
     use super::*;
     use crate::image_io::{DecodeOptions, decode};
+
+    #[test]
+    fn inputs_outside_the_training_envelope_are_named() {
+        let envelope = CaptureEnvelope {
+            ranges: CaptureRanges::default(),
+            noise_p99: BTreeMap::from([("matte".into(), 0.03), ("mirror".into(), 0.3)]),
+            clipped_p99: BTreeMap::from([("matte".into(), 0.05), ("mirror".into(), 0.3)]),
+        };
+        let clean = CaptureMeasurements {
+            noise: Some(0.01),
+            clipped: 0.0,
+        };
+        let outside = |radius, working_radius, m: &CaptureMeasurements| {
+            envelope.outside(radius, working_radius, "matte", m)
+        };
+        assert!(outside(100.0, None, &clean).is_empty());
+        // Within the margins: 0.95 × 60 px, 1.25 × 3 %, 5 % + 2 %.
+        let near = CaptureMeasurements {
+            noise: Some(0.037),
+            clipped: 0.069,
+        };
+        assert!(outside(57.5, None, &near).is_empty());
+        let small = outside(50.0, Some(116.0), &clean);
+        assert_eq!(small.len(), 1);
+        assert!(small[0].contains("radius 50 px") && small[0].contains("60–400"));
+        // Larger spheres are reduced to the working radius, when there is one.
+        assert!(outside(900.0, Some(116.0), &clean).is_empty());
+        assert_eq!(outside(900.0, None, &clean).len(), 1);
+        let noisy = CaptureMeasurements {
+            noise: Some(0.05),
+            clipped: 0.0,
+        };
+        let said = outside(100.0, None, &noisy);
+        assert!(
+            said.len() == 1 && said[0].contains("5.0 % of white"),
+            "{said:?}"
+        );
+        let clipped = CaptureMeasurements {
+            noise: None,
+            clipped: 0.2,
+        };
+        let said = outside(100.0, None, &clipped);
+        assert!(said.len() == 1 && said[0].contains("20.0 %"), "{said:?}");
+        // A mirror's envelope is wider.
+        assert!(envelope.outside(100.0, None, "mirror", &clipped).is_empty());
+        assert!(envelope.outside(100.0, None, "mirror", &noisy).is_empty());
+        // Without measured percentiles the ranges decide: 2.5 % noise, nothing clipped.
+        let ranges_only = CaptureEnvelope {
+            noise_p99: BTreeMap::new(),
+            clipped_p99: BTreeMap::new(),
+            ..envelope
+        };
+        assert_eq!(ranges_only.outside(100.0, None, "matte", &near).len(), 2);
+    }
 
     fn decoded(capture: &Capture) -> Array2<f64> {
         let options = DecodeOptions {

@@ -323,7 +323,7 @@ fn radii(edges: &[Edge], cx: f64, cy: f64, min_r: f64, max_r: f64) -> Vec<f64> {
 }
 
 /// Bilinear sample of the image at (x, y) (clamped to the image).
-fn sample(image: ArrayView2<f64>, x: f64, y: f64) -> f64 {
+pub(crate) fn sample(image: ArrayView2<f64>, x: f64, y: f64) -> f64 {
     let (h, w) = image.dim();
     let x = x.clamp(0.0, (w - 1) as f64);
     let y = y.clamp(0.0, (h - 1) as f64);

@@ -46,8 +46,10 @@ pub const DEPENDENCY_PREFIX: &str = "dep.";
 /// Prefix of the capture measurements' names.
 pub const CAPTURE_PREFIX: &str = "cap.";
 /// The capture measurements: log10 of the noise at white (a fraction of white, floored at
-/// 1e-4) and the clipped fraction of the annulus.
-pub const CAPTURE_NAMES: [&str; 2] = ["cap.noise", "cap.clipped"];
+/// 1e-4), the clipped fraction of the annulus, and log10 of the lens blur at the rim as a
+/// fraction of the radius (floored at 1e-4): the blur a gloss would have to match, since a
+/// lobe's blur grows with the sphere and the lens's does not.
+pub const CAPTURE_NAMES: [&str; 3] = ["cap.noise", "cap.clipped", "cap.blur"];
 /// Floor of the noise at white before its log10 (and its value when it cannot be told).
 const NOISE_FLOOR: f64 = 1e-4;
 /// The pairs of orientations whose subband magnitudes the dependency features correlate.
@@ -128,7 +130,7 @@ pub struct FeatureConfig {
     /// model files.
     #[serde(default, skip_serializing_if = "is_false")]
     pub dependencies: bool,
-    /// Also compute the capture measurements `cap.noise` and `cap.clipped` (after every
+    /// Also compute the capture measurements `cap.noise`, `cap.clipped` and `cap.blur` (after every
     /// block; an extension, see README). Absent in older model files.
     #[serde(default, skip_serializing_if = "is_false")]
     pub capture: bool,
@@ -137,6 +139,42 @@ pub struct FeatureConfig {
     /// resampling (the DESIGN.md definition).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub working_radius: Option<f64>,
+    /// Unwrapped values (in units of white) above this are clipped to it, so that
+    /// highlights look the same whether the camera clipped them or not. None: no ceiling
+    /// (the DESIGN.md definition). See `Preprocessing`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub saturation: Option<f64>,
+}
+
+/// What the capture measurements (see `noise`) found on one sphere.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CaptureMeasurements {
+    /// Noise at white as a fraction of white (`None`: no block of the annulus to read it).
+    pub noise: Option<f64>,
+    /// Fraction of the annulus's pixels at full scale (0 for floating-point images).
+    pub clipped: f64,
+}
+
+/// What extraction does to a sphere before the features, beyond the spec: settings a
+/// model records so that serving repeats them (none changes the feature names).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Preprocessing {
+    /// See [`FeatureConfig::working_radius`].
+    pub working_radius: Option<f64>,
+    /// See [`FeatureConfig::saturation`]. A camera whose exposure puts white at e of full
+    /// scale clips at 1/e of white; a ceiling at the lowest such point makes every capture
+    /// in range, and an unclipped render, look alike.
+    pub saturation: Option<f64>,
+}
+
+impl Preprocessing {
+    /// Reduction to a working radius, nothing else.
+    pub fn at_radius(working_radius: f64) -> Self {
+        Preprocessing {
+            working_radius: Some(working_radius),
+            saturation: None,
+        }
+    }
 }
 
 impl Default for FeatureConfig {
@@ -149,6 +187,7 @@ impl Default for FeatureConfig {
             dependencies: false,
             capture: false,
             working_radius: None,
+            saturation: None,
         }
     }
 }
@@ -176,6 +215,8 @@ pub enum ConfigError {
     BadLevels(usize),
     #[error("working radius {0} must be a finite number of pixels ≥ 32")]
     BadWorkingRadius(f64),
+    #[error("saturation {0} must be a finite multiple of white > 0")]
+    BadSaturation(f64),
 }
 
 impl FeatureConfig {
@@ -189,6 +230,9 @@ impl FeatureConfig {
             .filter(|r| !(r.is_finite() && *r >= crate::geometry::MIN_RADIUS))
         {
             return Err(ConfigError::BadWorkingRadius(r));
+        }
+        if let Some(s) = self.saturation.filter(|s| !(s.is_finite() && *s > 0.0)) {
+            return Err(ConfigError::BadSaturation(s));
         }
         if !(0.0 <= u.inner && u.inner < u.outer && u.outer <= 1.0 && u.r0 > 0.0) {
             return Err(ConfigError::BadAnnulus {
@@ -217,15 +261,24 @@ impl FeatureConfig {
         Ok(())
     }
 
-    /// The default configuration with the given extensions.
-    pub fn extended(extensions: Extensions, working_radius: Option<f64>) -> Self {
+    /// The default configuration with the given extensions and preprocessing.
+    pub fn extended(extensions: Extensions, preprocessing: Preprocessing) -> Self {
         FeatureConfig {
             log_domain: extensions.log_domain,
             radial: extensions.radial,
             dependencies: extensions.dependencies,
             capture: extensions.capture,
-            working_radius,
+            working_radius: preprocessing.working_radius,
+            saturation: preprocessing.saturation,
             ..FeatureConfig::default()
+        }
+    }
+
+    /// The preprocessing this configuration does.
+    pub fn preprocessing(&self) -> Preprocessing {
+        Preprocessing {
+            working_radius: self.working_radius,
+            saturation: self.saturation,
         }
     }
 
@@ -235,7 +288,7 @@ impl FeatureConfig {
             log_domain: true,
             ..Extensions::default()
         };
-        FeatureConfig::extended(log_domain, None)
+        FeatureConfig::extended(log_domain, Preprocessing::default())
     }
 
     /// The extensions this configuration computes.
@@ -493,12 +546,17 @@ impl Extractor {
     fn unwrap_as_is(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Array2<f64> {
         let angles = self.angles(self.config.unwrap.supersampling(circle.r));
         let gain = 1.0 / white;
-        if gain.is_finite() {
-            return unwrap(luminance, circle, &self.config.unwrap, &angles, gain);
+        let mut grid = if gain.is_finite() {
+            unwrap(luminance, circle, &self.config.unwrap, &angles, gain)
+        } else {
+            // A subnormal white has no finite reciprocal: divide instead.
+            let mut grid = unwrap(luminance, circle, &self.config.unwrap, &angles, 1.0);
+            grid.mapv_inplace(|v| v / white);
+            grid
+        };
+        if let Some(ceiling) = self.config.saturation {
+            grid.mapv_inplace(|v| v.min(ceiling));
         }
-        // A subnormal white has no finite reciprocal: divide instead.
-        let mut grid = unwrap(luminance, circle, &self.config.unwrap, &angles, 1.0);
-        grid.mapv_inplace(|v| v / white);
         grid
     }
 
@@ -519,10 +577,36 @@ impl Extractor {
         full_scale: Option<f64>,
         wanted: Option<&[usize]>,
     ) -> Vec<f64> {
+        self.extract_measured(luminance, circle, white, full_scale, wanted, false)
+            .0
+    }
+
+    /// [`Extractor::extract_with`], and with `measure` the image's capture measurements
+    /// (as the sphere is seen at the working radius, like the `cap.*` features).
+    pub fn extract_measured(
+        &self,
+        luminance: ArrayView2<f64>,
+        circle: &Circle,
+        white: f64,
+        full_scale: Option<f64>,
+        wanted: Option<&[usize]>,
+        measure: bool,
+    ) -> (Vec<f64>, Option<CaptureMeasurements>) {
         let reduced = self.reduce(luminance, circle);
         let (seen, seen_circle) = match &reduced {
             Some((image, moved)) => (image.view(), moved),
             None => (luminance, circle),
+        };
+        let measured = || CaptureMeasurements {
+            noise: crate::noise::noise_at_white(
+                seen,
+                seen_circle,
+                white,
+                full_scale.unwrap_or(f64::INFINITY),
+            ),
+            clipped: full_scale.map_or(0.0, |f| {
+                crate::noise::clipped_fraction(luminance, circle, f)
+            }),
         };
         let unwrapped = self.unwrap_as_is(seen, seen_circle, white);
         let mut values = match wanted {
@@ -537,22 +621,24 @@ impl Extractor {
             }
             Some(wanted) => self.subset_of_blocks(&unwrapped, wanted),
         };
+        let mut measurements = measure.then(measured);
         if self.config.capture {
             let blocks = values.len();
             let needed = wanted.is_none_or(|w| w.iter().any(|&i| i >= blocks));
             values.extend(match needed {
                 true => {
-                    let ceiling = full_scale.unwrap_or(f64::INFINITY);
-                    let noise = crate::noise::noise_at_white(seen, seen_circle, white, ceiling);
-                    let clipped = full_scale.map_or(0.0, |f| {
-                        crate::noise::clipped_fraction(luminance, circle, f)
-                    });
-                    [noise.unwrap_or(0.0).max(NOISE_FLOOR).log10(), clipped]
+                    let m = *measurements.get_or_insert_with(measured);
+                    let blur = crate::noise::rim_blur(luminance, circle).unwrap_or(0.0) / circle.r;
+                    [
+                        m.noise.unwrap_or(0.0).max(NOISE_FLOOR).log10(),
+                        m.clipped,
+                        blur.max(NOISE_FLOOR).log10(),
+                    ]
                 }
-                false => [f64::NAN; 2],
+                false => [f64::NAN; 3],
             });
         }
-        values
+        (values, measurements.filter(|_| measure))
     }
 
     pub fn stages(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Stages {
@@ -892,9 +978,9 @@ mod tests {
         for n in named_set("hand6+log").unwrap() {
             assert!(extended.contains(&n), "{n}");
         }
-        let every = FeatureConfig::extended(Extensions::ALL, None).names();
+        let every = FeatureConfig::extended(Extensions::ALL, Preprocessing::default()).names();
         let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14 + 12;
-        assert_eq!(every.len(), 2 * block + 2);
+        assert_eq!(every.len(), 2 * block + 3);
         assert_eq!(every[2 * block..], CAPTURE_NAMES);
         assert_eq!(every[..FEATURE_COUNT], names[..]);
         let last_pair = format!("r{}_r{RADIAL_RINGS}", RADIAL_RINGS - 1);
@@ -939,7 +1025,7 @@ mod tests {
         );
         assert_eq!(of_spec("log.radial.r1_r2.pix.var"), (true, true));
         assert_eq!(of_spec("log.pix.mean,pix.p10"), (true, false));
-        let config = FeatureConfig::extended(Extensions::ALL, Some(80.0));
+        let config = FeatureConfig::extended(Extensions::ALL, Preprocessing::at_radius(80.0));
         let names = config.names();
         assert_eq!(
             Extensions::of_names(names.iter().map(String::as_str)),
@@ -958,7 +1044,11 @@ mod tests {
 
     #[test]
     fn radial_changes_compare_each_ring_of_the_annulus_with_the_one_inside_it() {
-        let extractor = Extractor::new(FeatureConfig::extended(Extensions::ALL, None)).unwrap();
+        let extractor = Extractor::new(FeatureConfig::extended(
+            Extensions::ALL,
+            Preprocessing::default(),
+        ))
+        .unwrap();
         let names = extractor.config().names();
         let per = radial_per_ring(4);
         let radial = |unwrapped: Array2<f64>| {
@@ -1080,6 +1170,31 @@ mod tests {
     }
 
     #[test]
+    fn saturation_clips_the_white_normalized_unwrap() {
+        let img = Array2::from_shape_fn((128, 128), |(y, x)| 0.02 * (x + y) as f64);
+        let circle = Circle {
+            cx: 64.0,
+            cy: 63.5,
+            r: 60.0,
+        };
+        let free = Extractor::new(FeatureConfig::default()).unwrap();
+        let config = FeatureConfig {
+            saturation: Some(1.25),
+            ..FeatureConfig::default()
+        };
+        let clipped = Extractor::new(config).unwrap();
+        let white = 2.0;
+        let before = free.unwrap(img.view(), &circle, white);
+        let after = clipped.unwrap(img.view(), &circle, white);
+        assert!(before.iter().any(|&v| v > 1.5) && before.iter().any(|&v| v < 1.0));
+        for (b, a) in before.iter().zip(&after) {
+            assert_eq!(*a, b.min(1.25));
+        }
+        let features = |e: &Extractor| e.extract(img.view(), &circle, white);
+        assert_ne!(features(&free), features(&clipped));
+    }
+
+    #[test]
     fn subsets_are_bit_identical_to_the_full_extraction() {
         let size = 200;
         let luminance = Array2::from_shape_fn((size, size), |(y, x)| {
@@ -1119,12 +1234,15 @@ mod tests {
             (0..FEATURE_COUNT).collect(),
             vec![],
         ];
-        let extended =
-            Extractor::new(FeatureConfig::extended(Extensions::ALL, Some(60.0))).unwrap();
+        let extended = Extractor::new(FeatureConfig::extended(
+            Extensions::ALL,
+            Preprocessing::at_radius(60.0),
+        ))
+        .unwrap();
         let extended_full = extended.extract(luminance.view(), &circle, 0.9);
         let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14 + 12;
-        assert_eq!(extended.feature_count(), 2 * block + 2);
-        assert_eq!(extended_full.len(), 2 * block + 2);
+        assert_eq!(extended.feature_count(), 2 * block + 3);
+        assert_eq!(extended_full.len(), 2 * block + 3);
         let extended_subsets = [
             vec![3, block + 1, block + 99, 2 * block - 1],
             // dep.s3.vd alone (three pyramid levels), dep.s1.hv and log.dep.s4.hd
@@ -1136,11 +1254,12 @@ mod tests {
             // The capture measurements, alone and with a block feature.
             vec![2 * block + 1],
             vec![5, 2 * block],
-            (0..2 * block + 2).collect::<Vec<_>>(),
+            vec![2 * block + 2],
+            (0..2 * block + 3).collect::<Vec<_>>(),
         ];
         for wanted in extended_subsets {
             let part = extended.extract_subset(luminance.view(), &circle, 0.9, &wanted);
-            assert_eq!(part.len(), 2 * block + 2);
+            assert_eq!(part.len(), 2 * block + 3);
             for &i in &wanted {
                 assert_eq!(
                     part[i].to_bits(),
@@ -1192,7 +1311,7 @@ mod tests {
                 dependencies: true,
                 ..Extensions::default()
             },
-            None,
+            Preprocessing::default(),
         );
         let extractor = Extractor::new(config).unwrap();
         let u = config.unwrap;
@@ -1235,5 +1354,12 @@ mod tests {
             bad.validate(),
             Err(ConfigError::BadAnnulus { .. })
         ));
+        for saturation in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let bad = FeatureConfig {
+                saturation: Some(saturation),
+                ..ok
+            };
+            assert!(matches!(bad.validate(), Err(ConfigError::BadSaturation(_))));
+        }
     }
 }

@@ -156,13 +156,29 @@ pub fn classify(
         Some(needed) if !input.include_features => Some(needed.as_slice()),
         _ => None,
     };
-    let analysis = analysis::analyze_subset(&model.extractor, &image, &locate, &white, wanted)?;
+    let envelope = model.file.capture.as_ref();
+    let mut analysis = analysis::analyze_subset(
+        &model.extractor,
+        &image,
+        &locate,
+        &white,
+        wanted,
+        envelope.is_some(),
+    )?;
     drop(image);
+
     let features_ms = ms(t);
     let t = Instant::now();
     let classifier = &model.file.classifier;
     let z = classifier.transform(&analysis.values)?;
     let output = classifier.classify_transformed(&z);
+    if let (Some(envelope), Some(measured)) = (envelope, &analysis.measured) {
+        let radius = analysis.geometry.circle().r;
+        let working_radius = model.file.features.config.working_radius;
+        let class = &classifier.classes[output.class];
+        let outside = envelope.outside(radius, working_radius, class, measured);
+        analysis.warnings.extend(outside);
+    }
     let selected = if classifier.pca.is_some() {
         z
     } else {

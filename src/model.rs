@@ -7,6 +7,7 @@
 //! formatting. Loading verifies schema, checksum, feature configuration and names, the
 //! classifier's shapes, and the self-test; a file failing any of these is refused.
 
+use crate::capture::CaptureEnvelope;
 use crate::features::{ConfigError, FeatureConfig};
 use crate::learn::{Classifier, LearnError};
 use serde::{Deserialize, Serialize};
@@ -101,6 +102,10 @@ pub struct ModelFile {
     /// The original (non-augmented) training images, for `explain`.
     #[serde(default)]
     pub exemplars: Vec<Exemplar>,
+    /// The captures the model was trained for, when its training data had `@cap` views:
+    /// serving warns about inputs outside them. Absent in older model files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub capture: Option<CaptureEnvelope>,
     #[serde(default)]
     pub sha256: String,
 }

@@ -1,8 +1,9 @@
 //! From a feature table to a verified model file: fit the pipeline, cross-validate it,
 //! and record provenance and a self-test vector.
 
-use crate::dataset::FeatureTable;
-use crate::features::{Extensions, FeatureConfig};
+use crate::capture::{self, CaptureEnvelope, CaptureRanges};
+use crate::dataset::{FeatureTable, Sample};
+use crate::features::{CAPTURE_NAMES, Extensions, FeatureConfig, Preprocessing};
 use crate::learn::{self, CvReport, Dataset, LearnError, TrainSpec};
 use crate::model::{
     self, ClassInfo, CvSummary, Exemplar, FeatureSpec, ModelError, ModelFile, Provenance, SelfTest,
@@ -10,7 +11,9 @@ use crate::model::{
 };
 use crate::progress::{Observer, Silent};
 use crate::render::ward::Material;
+use crate::stats;
 use serde_json::json;
+use std::collections::BTreeMap;
 
 #[derive(Debug, thiserror::Error)]
 pub enum TrainError {
@@ -32,14 +35,44 @@ pub struct TrainOptions {
     pub cross_validate: bool,
     /// Ward parameters of the classes, when known.
     pub classes: Option<Vec<Material>>,
-    /// The radius the training spheres were extracted at, recorded so that serving
-    /// reduces larger spheres to it (the table must have been extracted with it).
-    pub working_radius: Option<f64>,
+    /// How the training spheres were preprocessed (working radius, saturation), recorded
+    /// so that serving does the same (the table must have been extracted with it).
+    pub preprocessing: Preprocessing,
 }
 
 pub struct Trained {
     pub model: ModelFile,
     pub report: Option<CvReport>,
+}
+
+/// The captures a table's model is trained for, when it has capture views: the ranges
+/// `render --captures` draws from, and per class the 99th percentiles of its capture
+/// measurements.
+fn capture_envelope(table: &FeatureTable) -> Option<CaptureEnvelope> {
+    let captured = |s: &Sample| s.illumination.contains(capture::VIEW_TAG);
+    if !table.samples.iter().any(captured) {
+        return None;
+    }
+    let p99 = |name: &str, of: fn(f64) -> f64| {
+        let Some(column) = table.names.iter().position(|n| n == name) else {
+            return BTreeMap::new();
+        };
+        let mut by_class: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+        for s in &table.samples {
+            let values = by_class.entry(s.class.clone()).or_default();
+            values.push(of(s.values[column]));
+        }
+        by_class
+            .into_iter()
+            .map(|(class, values)| (class, stats::percentiles(&values, [99.0])[0]))
+            .filter(|(_, p)| p.is_finite())
+            .collect()
+    };
+    Some(CaptureEnvelope {
+        ranges: CaptureRanges::default(),
+        noise_p99: p99(CAPTURE_NAMES[0], |log| 10f64.powf(log)),
+        clipped_p99: p99(CAPTURE_NAMES[1], |fraction| fraction),
+    })
 }
 
 /// Fit a model on `table`; `dataset` names the data (a path as given).
@@ -61,7 +94,7 @@ pub fn train_with(
 ) -> Result<Trained, TrainError> {
     // The table decides: 117 columns, more with extensions.
     let extensions = Extensions::of_names(table.names.iter().map(String::as_str));
-    let config = FeatureConfig::extended(extensions, options.working_radius);
+    let config = FeatureConfig::extended(extensions, options.preprocessing);
     if table.names != config.names() {
         return Err(TrainError::Columns);
     }
@@ -162,8 +195,41 @@ pub fn train_with(
             probabilities,
         },
         exemplars,
+        capture: capture_envelope(table),
         sha256: String::new(),
     };
     model.verify()?;
     Ok(Trained { model, report })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(illumination_of: impl Fn(usize) -> String) -> FeatureTable {
+        let samples = (0..200)
+            .map(|i| Sample {
+                path: format!("{i}.png"),
+                class: ["matte", "mirror"][i % 2].into(),
+                illumination: illumination_of(i),
+                // cap.noise is log10: 10^-2 for every matte row, 10^-1 for every mirror row.
+                values: vec![-1.0 - (i % 2 == 0) as u8 as f64, (i / 2) as f64 / 99.0],
+            })
+            .collect();
+        FeatureTable {
+            names: vec!["cap.noise".into(), "cap.clipped".into()],
+            samples,
+        }
+    }
+
+    #[test]
+    fn the_envelope_holds_per_class_percentiles_of_tables_with_captures() {
+        assert_eq!(capture_envelope(&table(|i| format!("probe{i}"))), None);
+        let envelope = capture_envelope(&table(|i| format!("probe{i}@cap1"))).unwrap();
+        assert_eq!(envelope.ranges, CaptureRanges::default());
+        assert!((envelope.noise_p99["matte"] - 0.01).abs() < 1e-12);
+        assert!((envelope.noise_p99["mirror"] - 0.1).abs() < 1e-12);
+        // 100 clipped fractions 0, 1/99, …, 1 per class: numpy's linear 99th percentile.
+        assert!((envelope.clipped_p99["matte"] - 0.99).abs() < 1e-12);
+    }
 }

@@ -30,7 +30,7 @@ fn trained(name: &str) -> ModelFile {
         seed: 1,
         cross_validate: false,
         classes: None,
-        working_radius: None,
+        preprocessing: Default::default(),
     };
     train(&table(), "fixture", &options).unwrap().model
 }
@@ -295,10 +295,15 @@ fn predict_rendered_spheres_with_a_trained_model() {
     assert_eq!(model.features.config.working_radius, None);
     assert_eq!(model.classes[1].name, "dark");
     assert_eq!(model.classes[1].ward.as_ref().unwrap().rho_d, 0.1);
-    // A working radius given to train is recorded in the model's feature configuration.
-    train("tiny-wr", "mean1", &["--working-radius", "40"]);
+    // The preprocessing given to train is recorded in the model's feature configuration.
+    train(
+        "tiny-wr",
+        "mean1",
+        &["--working-radius", "40", "--saturation", "1.25"],
+    );
     let wr = Registry::new(&models).load("tiny-wr", 1).unwrap();
     assert_eq!(wr.features.config.working_radius, Some(40.0));
+    assert_eq!(wr.features.config.saturation, Some(1.25));
     // Features named from an extension are extracted for training and again for predicting.
     train(
         "tiny-radial",

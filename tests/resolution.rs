@@ -7,7 +7,9 @@
 //! reduced first: scale-2 features then agree within 0.05, every hand6 feature within 0.15.
 
 use ndarray::Array2;
-use reflectance::features::{Extensions, Extractor, FeatureConfig, default_names, named_set};
+use reflectance::features::{
+    Extensions, Extractor, FeatureConfig, Preprocessing, default_names, named_set,
+};
 use reflectance::render::envmap::EnvMap;
 use reflectance::render::ward::Material;
 use reflectance::render::{Lighting, Quality, View, render};
@@ -46,8 +48,11 @@ fn sizes_agree_within_the_measured_tolerances() {
     let (lighting, real_probe) = lighting();
     let white = lighting.white(&View::default());
     let plain = Extractor::new(FeatureConfig::default()).unwrap();
-    let reduced =
-        Extractor::new(FeatureConfig::extended(Extensions::default(), Some(100.0))).unwrap();
+    let reduced = Extractor::new(FeatureConfig::extended(
+        Extensions::default(),
+        Preprocessing::at_radius(100.0),
+    ))
+    .unwrap();
     let names = default_names();
     let set = hand6();
     let at = |name: &str| names.iter().position(|n| n == name).unwrap();

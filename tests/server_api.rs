@@ -662,3 +662,100 @@ async fn the_command_line_answers_as_the_service_does() {
         "{stderr}"
     );
 }
+
+/// A model that records the captures it was trained for says when a photograph lies
+/// outside them: too noisy, clipped, or too small a sphere.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn warns_about_photographs_outside_the_captures_of_training() {
+    use reflectance::capture::{self, CaptureEnvelope, CaptureRanges, CaptureSettings};
+    use reflectance::image_io::{DecodeOptions, decode};
+    let models = models_copy("envelope");
+    let registry = reflectance::registry::Registry::new(&models);
+    let mut model = registry.load("ward6", 1).unwrap();
+    model.capture = Some(CaptureEnvelope {
+        ranges: CaptureRanges::default(),
+        noise_p99: model
+            .classes
+            .iter()
+            .map(|c| (c.name.clone(), 0.02))
+            .collect(),
+        clipped_p99: model
+            .classes
+            .iter()
+            .map(|c| (c.name.clone(), 0.01))
+            .collect(),
+    });
+    std::fs::remove_dir_all(models.join("ward6")).unwrap();
+    registry.publish(&mut model, &[]).unwrap();
+    let server = start(config(&models));
+    let (pfm, _, white) = &fixture().held_out[0];
+    let render = decode(pfm, &DecodeOptions::default()).unwrap().luminance;
+    let circle = reflectance::geometry::Circle {
+        cx: 47.5,
+        cy: 47.5,
+        r: R.parse().unwrap(),
+    };
+    let warnings = |settings: CaptureSettings, white: f64| {
+        let mut rng = reflectance::rng::Rng::new(7);
+        let shot = capture::capture(render.view(), &circle, white, &settings, &mut rng).unwrap();
+        let texts =
+            [shot.white, shot.circle.cx, shot.circle.cy, shot.circle.r].map(|v| v.to_string());
+        let fields = vec![
+            ("image", Part::File(&shot.bytes)),
+            ("white", Part::Text(&texts[0])),
+            ("cx", Part::Text(&texts[1])),
+            ("cy", Part::Text(&texts[2])),
+            ("r", Part::Text(&texts[3])),
+        ];
+        let request = post_multipart("/v1/classify", &fields);
+        let data = server.data.clone();
+        async move {
+            let answer = send(&data, request).await.json();
+            answer["warnings"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|w| w.as_str().unwrap().to_string())
+                .collect::<Vec<_>>()
+        }
+    };
+    let ideal = CaptureSettings {
+        quantization: capture::Quantization::Srgb8,
+        ..CaptureSettings::ideal(100.0)
+    };
+    let said = |warnings: &[String], what: &str| warnings.iter().any(|w| w.contains(what));
+    let clean = warnings(ideal, *white).await;
+    assert!(!said(&clean, "trained"), "{clean:?}");
+    let noisy = warnings(
+        CaptureSettings {
+            noise: 0.08,
+            ..ideal
+        },
+        *white,
+    )
+    .await;
+    assert!(said(&noisy, "noise, estimated at"), "{noisy:?}");
+    // White four times above full scale: most of the sphere clips.
+    let clipped = warnings(
+        CaptureSettings {
+            exposure: 1.0,
+            ..ideal
+        },
+        white / 4.0,
+    )
+    .await;
+    assert!(said(&clipped, "clipped"), "{clipped:?}");
+    let small = warnings(
+        CaptureSettings {
+            radius: 40.0,
+            ..ideal
+        },
+        *white,
+    )
+    .await;
+    assert!(said(&small, "radius 40 px"), "{small:?}");
+    assert!(
+        !said(&small, "noise") && !said(&small, "clipped"),
+        "{small:?}"
+    );
+}

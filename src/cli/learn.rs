@@ -242,7 +242,7 @@ pub fn train(args: TrainArgs) -> CliResult {
         seed: args.spec.seed,
         cross_validate: !args.no_cv,
         classes,
-        working_radius: args.spec.extensions.working_radius,
+        preprocessing: args.spec.extensions.preprocessing(),
     };
     let bar = progress::bar(0, "train");
     let mut trained =

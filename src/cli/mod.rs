@@ -86,13 +86,17 @@ pub struct ExtensionArgs {
     #[arg(long)]
     dependency_features: bool,
     /// Also compute the capture measurements (`cap.noise`: the noise at white estimated on
-    /// the sphere, `cap.clipped`: its clipped fraction).
+    /// the sphere, `cap.clipped`: its clipped fraction, `cap.blur`: the blur of its rim).
     #[arg(long)]
     capture_features: bool,
     /// Reduce spheres larger than this radius (px) to it before extraction (area
     /// averaging), as models trained at that radius expect.
     #[arg(long)]
     working_radius: Option<f64>,
+    /// Clip the white-normalized sphere at this multiple of white before extraction, as a
+    /// camera clips highlights (models trained so expect it).
+    #[arg(long)]
+    saturation: Option<f64>,
 }
 
 impl ExtensionArgs {
@@ -104,7 +108,14 @@ impl ExtensionArgs {
             dependencies: self.dependency_features,
             capture: self.capture_features,
         };
-        crate::features::FeatureConfig::extended(asked.union(implied), self.working_radius)
+        crate::features::FeatureConfig::extended(asked.union(implied), self.preprocessing())
+    }
+
+    pub fn preprocessing(&self) -> crate::features::Preprocessing {
+        crate::features::Preprocessing {
+            working_radius: self.working_radius,
+            saturation: self.saturation,
+        }
     }
 }
 

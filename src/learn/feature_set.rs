@@ -114,8 +114,11 @@ impl FromStr for FeatureSet {
 
     /// Parses against the default configuration's names with every extension.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        use crate::features::{Extensions, FeatureConfig};
-        FeatureSet::parse_with(s, &FeatureConfig::extended(Extensions::ALL, None).names())
+        use crate::features::{Extensions, FeatureConfig, Preprocessing};
+        FeatureSet::parse_with(
+            s,
+            &FeatureConfig::extended(Extensions::ALL, Preprocessing::default()).names(),
+        )
     }
 }
 
@@ -219,9 +222,11 @@ mod tests {
                 .resolve(&extended)
                 .is_err()
         );
-        let every =
-            crate::features::FeatureConfig::extended(crate::features::Extensions::ALL, None)
-                .names();
+        let every = crate::features::FeatureConfig::extended(
+            crate::features::Extensions::ALL,
+            crate::features::Preprocessing::default(),
+        )
+        .names();
         let idx = FeatureSet::Named("hand6+log+radial")
             .resolve(&every)
             .unwrap()

@@ -486,7 +486,12 @@ struct CaptureView {
 
 impl CaptureView {
     fn new(spec: &BatchSpec, probe: &Probe, job: &Job, k: usize) -> CaptureView {
-        let illumination = format!("{}{}@cap{k}", probe.stem, job.variant.suffix);
+        let illumination = format!(
+            "{}{}{}{k}",
+            probe.stem,
+            job.variant.suffix,
+            capture::VIEW_TAG
+        );
         let stem = format!("{illumination}__{}", spec.classes[job.class].name);
         let mut rng = Rng::fork(spec.seed, stable_hash(&stem));
         let settings = spec.augment.capture_ranges.sample(&mut rng);

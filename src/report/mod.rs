@@ -15,7 +15,7 @@ mod plots;
 pub mod robustness;
 
 use crate::dataset::{self, FeatureTable};
-use crate::features::{Extensions, Extractor, FeatureConfig};
+use crate::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
 use crate::image_io::DecodeOptions;
 use crate::learn::{self, ClassifierKind, CvReport, Dataset, FeatureSet, TrainSpec};
 use serde::Serialize;
@@ -122,7 +122,7 @@ fn features_of(dir: &Path, options: &DecodeOptions) -> Result<FeatureTable, Repo
     if !manifest.is_file() {
         return Err(ReportError::Missing(dir.display().to_string()));
     }
-    let config = FeatureConfig::extended(Extensions::ALL, None);
+    let config = FeatureConfig::extended(Extensions::ALL, Preprocessing::default());
     let cache = dir.join("features.csv");
     let modified = |p: &Path| std::fs::metadata(p).and_then(|m| m.modified()).ok();
     if modified(&cache).is_some_and(|c| modified(&manifest).is_some_and(|m| c >= m)) {

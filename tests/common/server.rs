@@ -129,7 +129,7 @@ pub fn fixture() -> &'static Fixture {
             seed: 1,
             cross_validate: true,
             classes: None,
-            working_radius: None,
+            preprocessing: Default::default(),
         };
         let mut model = train(&table, "train/manifest.csv", &options).unwrap().model;
         let models = dir.join("models");

@@ -43,6 +43,7 @@ const LEARN: &[&str] = &[
     "dependency_features",
     "capture_features",
     "working_radius",
+    "saturation",
 ];
 
 /// Refuse unknown keys (a typo must not silently fall back to a default).
@@ -366,6 +367,7 @@ mod tests {
             table: Some("t.csv".into()),
             gamma: Some(0.1),
             working_radius: Some(64.0),
+            saturation: Some(1.25),
             ..LearnParams::default()
         };
         let jobs = [

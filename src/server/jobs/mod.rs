@@ -96,6 +96,10 @@ pub struct LearnParams {
     /// recorded in the model so that serving does the same.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub working_radius: Option<f64>,
+    /// With `dataset`: clip the white-normalized sphere at this multiple of white before
+    /// extraction; recorded in the model so that serving does the same.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub saturation: Option<f64>,
 }
 
 fn default_features() -> String {

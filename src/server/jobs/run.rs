@@ -4,7 +4,7 @@
 use super::paths::DataDir;
 use super::{Activate, JobRequest, LearnParams};
 use crate::dataset::{self, DatasetError, FeatureTable};
-use crate::features::{Extensions, Extractor, FeatureConfig};
+use crate::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
 use crate::image_io::{DecodeOptions, Limits};
 use crate::learn::{
     self, ClassifierKind, CvReport, Dataset, FeatureSet, Grid, LearnError, TrainSpec,
@@ -198,7 +198,11 @@ fn config_of(p: &LearnParams) -> Result<FeatureConfig, ApiError> {
         capture: p.capture_features,
     };
     let implied = Extensions::of_spec(&p.features);
-    let config = FeatureConfig::extended(asked.union(implied), p.working_radius);
+    let preprocessing = Preprocessing {
+        working_radius: p.working_radius,
+        saturation: p.saturation,
+    };
+    let config = FeatureConfig::extended(asked.union(implied), preprocessing);
     config.validate().map_err(|e| invalid(e.to_string()))?;
     Ok(config)
 }
@@ -350,10 +354,12 @@ pub fn execute(
                 cross_validate: *cross_validate,
                 classes,
                 // Recorded only when this job extracted the features itself.
-                working_radius: config_of(p)
-                    .map_err(|e| Failure::Error(e.detail))?
-                    .working_radius
-                    .filter(|_| p.dataset.is_some()),
+                preprocessing: match p.dataset {
+                    Some(_) => config_of(p)
+                        .map_err(|e| Failure::Error(e.detail))?
+                        .preprocessing(),
+                    None => Preprocessing::default(),
+                },
             };
             let mut trained = train::train_with(&table, &label, &options, observer)?;
             if observer.cancelled() {
