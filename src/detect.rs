@@ -323,7 +323,7 @@ fn radii(edges: &[Edge], cx: f64, cy: f64, min_r: f64, max_r: f64) -> Vec<f64> {
 }
 
 /// Bilinear sample of the image at (x, y) (clamped to the image).
-pub(crate) fn sample(image: ArrayView2<f64>, x: f64, y: f64) -> f64 {
+fn sample(image: ArrayView2<f64>, x: f64, y: f64) -> f64 {
     let (h, w) = image.dim();
     let x = x.clamp(0.0, (w - 1) as f64);
     let y = y.clamp(0.0, (h - 1) as f64);
@@ -335,32 +335,68 @@ pub(crate) fn sample(image: ArrayView2<f64>, x: f64, y: f64) -> f64 {
     top * (1.0 - fy) + bottom * fy
 }
 
+/// Spacing (px) of the samples along a ray through a rim.
+pub(crate) const RIM_STEP: f64 = 0.25;
+/// Slopes along a ray are taken over one pixel: this many steps.
+const RIM_BASE: usize = 4;
+
+/// The luminance slopes along one ray through a rim, and the steepest of them.
+pub(crate) struct RimSlopes {
+    /// Over one pixel, every [`RIM_STEP`], starting `window` px inside the rim.
+    pub slope: Vec<f64>,
+    pub steepest: usize,
+    /// The steepest slope's magnitude.
+    pub peak: f64,
+}
+
+/// [`RimSlopes`] of `steps` samples along the ray at angle `theta` through the rim of
+/// `circle`, from `window` px inside it outwards.
+pub(crate) fn rim_slopes(
+    image: ArrayView2<f64>,
+    circle: &Circle,
+    theta: f64,
+    window: f64,
+    steps: usize,
+) -> Option<RimSlopes> {
+    let (ux, uy) = (theta.cos(), theta.sin());
+    let profile: Vec<f64> = (0..steps + RIM_BASE)
+        .map(|s| {
+            let d = circle.r - window + s as f64 * RIM_STEP;
+            sample(image, circle.cx + d * ux, circle.cy + d * uy)
+        })
+        .collect();
+    let slope: Vec<f64> = profile
+        .windows(RIM_BASE + 1)
+        .map(|p| p[RIM_BASE] - p[0])
+        .collect();
+    let (steepest, peak) = slope
+        .iter()
+        .enumerate()
+        .map(|(i, v)| (i, v.abs()))
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    Some(RimSlopes {
+        slope,
+        steepest,
+        peak,
+    })
+}
+
 /// Where along each ray through the rim of `circle` the luminance changes fastest, within
 /// `window` px of the rim: (x, y, contrast) per ray that has a clear edge. Slopes are taken
 /// over one pixel every quarter pixel, and the steepest is interpolated between samples:
 /// for a step blurred by any symmetric lens, the step itself.
 fn rim_points(image: ArrayView2<f64>, circle: &Circle, window: f64) -> Vec<(f64, f64, f64)> {
-    const STEP: f64 = 0.25;
-    // Slopes over one pixel: four steps.
-    const BASE: usize = 4;
-    let steps = (2.0 * window / STEP).ceil() as usize + 1;
+    let steps = (2.0 * window / RIM_STEP).ceil() as usize + 1;
     let mut out = Vec::with_capacity(RAYS);
     for k in 0..RAYS {
         let theta = std::f64::consts::TAU * k as f64 / RAYS as f64;
         let (ux, uy) = (theta.cos(), theta.sin());
-        let rho = |s: f64| circle.r - window + s * STEP;
-        let profile: Vec<f64> = (0..steps + BASE)
-            .map(|s| {
-                let d = rho(s as f64);
-                sample(image, circle.cx + d * ux, circle.cy + d * uy)
-            })
-            .collect();
-        let slope: Vec<f64> = profile.windows(BASE + 1).map(|p| p[BASE] - p[0]).collect();
-        let Some((i, peak)) = slope
-            .iter()
-            .enumerate()
-            .map(|(i, v)| (i, v.abs()))
-            .max_by(|a, b| a.1.total_cmp(&b.1))
+        let rho = |s: f64| circle.r - window + s * RIM_STEP;
+        let Some(RimSlopes {
+            slope,
+            steepest: i,
+            peak,
+        }) = rim_slopes(image, circle, theta, window, steps)
         else {
             continue;
         };
@@ -380,7 +416,7 @@ fn rim_points(image: ArrayView2<f64>, circle: &Circle, window: f64) -> Vec<(f64,
         } else {
             0.0
         };
-        let at = rho(i as f64 + offset + BASE as f64 / 2.0);
+        let at = rho(i as f64 + offset + RIM_BASE as f64 / 2.0);
         out.push((circle.cx + at * ux, circle.cy + at * uy, peak));
     }
     // A clear edge: at least a third of the median ray's.

@@ -563,26 +563,15 @@ impl Extractor {
     /// Feature values (canonical order, transformed) of a sphere in a luminance image.
     /// The circle must already be validated against the image.
     pub fn extract(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Vec<f64> {
-        self.extract_with(luminance, circle, white, None, None)
+        self.extract_measured(luminance, circle, white, None, None, false)
+            .0
     }
 
     /// [`Extractor::extract`], or [`Extractor::extract_subset`] when `wanted` is given, of an
     /// image whose samples clip at `full_scale` (`None`: they do not, as in floating-point
-    /// files). The clipping point matters to the capture measurements only.
-    pub fn extract_with(
-        &self,
-        luminance: ArrayView2<f64>,
-        circle: &Circle,
-        white: f64,
-        full_scale: Option<f64>,
-        wanted: Option<&[usize]>,
-    ) -> Vec<f64> {
-        self.extract_measured(luminance, circle, white, full_scale, wanted, false)
-            .0
-    }
-
-    /// [`Extractor::extract_with`], and with `measure` the image's capture measurements
-    /// (as the sphere is seen at the working radius, like the `cap.*` features).
+    /// files; the clipping point matters to the capture measurements only); with `measure`
+    /// also the image's capture measurements (as the sphere is seen at the working radius,
+    /// like the `cap.*` features).
     pub fn extract_measured(
         &self,
         luminance: ArrayView2<f64>,
@@ -764,7 +753,8 @@ impl Extractor {
         white: f64,
         wanted: &[usize],
     ) -> Vec<f64> {
-        self.extract_with(luminance, circle, white, None, Some(wanted))
+        self.extract_measured(luminance, circle, white, None, Some(wanted), false)
+            .0
     }
 
     /// The wanted features of the blocks (the unwrapped image's, then its log10's).

@@ -19,6 +19,7 @@
 //! edges, gives σ = √(FWHM²/8 ln 2 − baseline): the baseline is what a sharp capture
 //! shows (pixel area and the one-pixel slope).
 
+use crate::detect::{RIM_STEP, RimSlopes, rim_slopes};
 use crate::geometry::Circle;
 use ndarray::ArrayView2;
 
@@ -40,9 +41,21 @@ pub struct Estimate {
     pub clipped: f64,
 }
 
-/// Pixel (x, y) lies in the annulus.
+/// Pixel (x, y) lies in the annulus. Squared distances decide all but the points within a
+/// hair of an edge, which `hypot` decides as it always has (the measurements, and so the
+/// models trained on them, do not depend on the shortcut).
 fn inside(c: &Circle, x: f64, y: f64) -> bool {
-    let d = (x - c.cx).hypot(y - c.cy);
+    const HAIR: f64 = 1e-9;
+    let (dx, dy) = (x - c.cx, y - c.cy);
+    let d2 = dx * dx + dy * dy;
+    let (inner2, outer2) = ((INNER * c.r).powi(2), (OUTER * c.r).powi(2));
+    if d2 > inner2 * (1.0 + HAIR) && d2 < outer2 * (1.0 - HAIR) {
+        return true;
+    }
+    if d2 < inner2 * (1.0 - HAIR) || d2 > outer2 * (1.0 + HAIR) {
+        return false;
+    }
+    let d = dx.hypot(dy);
     d >= INNER * c.r && d <= OUTER * c.r
 }
 
@@ -164,27 +177,17 @@ const BLUR_BASELINE: f64 = 0.29;
 
 /// The lens blur σ (px) at the rim of the sphere at `c` (`None`: no clear rim).
 pub fn rim_blur(image: ArrayView2<f64>, c: &Circle) -> Option<f64> {
-    const STEP: f64 = 0.25;
-    const BASE: usize = 4;
     // The circle may be off by a pixel and a few per cent of the radius.
     let window = 3.0 + 0.03 * c.r;
-    let steps = (2.0 * window / STEP).ceil() as usize;
+    let steps = (2.0 * window / RIM_STEP).ceil() as usize;
     let mut rays: Vec<(f64, f64)> = Vec::with_capacity(BLUR_RAYS);
     for k in 0..BLUR_RAYS {
         let theta = std::f64::consts::TAU * k as f64 / BLUR_RAYS as f64;
-        let (ux, uy) = (theta.cos(), theta.sin());
-        let profile: Vec<f64> = (0..steps + BASE)
-            .map(|s| {
-                let rho = c.r - window + s as f64 * STEP;
-                crate::detect::sample(image, c.cx + rho * ux, c.cy + rho * uy)
-            })
-            .collect();
-        let slope: Vec<f64> = profile.windows(BASE + 1).map(|p| p[BASE] - p[0]).collect();
-        let Some((i, peak)) = slope
-            .iter()
-            .enumerate()
-            .map(|(i, v)| (i, v.abs()))
-            .max_by(|a, b| a.1.total_cmp(&b.1))
+        let Some(RimSlopes {
+            slope,
+            steepest: i,
+            peak,
+        }) = rim_slopes(image, c, theta, window, steps)
         else {
             continue;
         };
@@ -213,7 +216,7 @@ pub fn rim_blur(image: ArrayView2<f64>, c: &Circle) -> Option<f64> {
         ) else {
             continue;
         };
-        rays.push((peak, (right - left) * STEP));
+        rays.push((peak, (right - left) * RIM_STEP));
     }
     if rays.len() < BLUR_RAYS / 4 {
         return None;

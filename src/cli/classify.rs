@@ -2,7 +2,7 @@
 //! [--cx X --cy Y --r R | --mask F] [--json]`: one photograph, without a server or a
 //! manifest; the same pipeline and, with `--json`, the same JSON as `POST /v1/classify`.
 
-use super::{CliResult, LimitArgs};
+use super::{CliResult, LimitArgs, SphereArgs};
 use crate::geometry::{Circle, GeometryError, MIN_RADIUS};
 use crate::image_io::Encoding;
 use crate::inference::{self, ClassifyResponse, Input, LoadedModel, LocateSpec, WhiteSpec};
@@ -19,28 +19,8 @@ pub struct ClassifyArgs {
     /// The model: `DIR/NAME` (its active version) or `DIR/NAME/VERSION`, e.g. `models/ward6`.
     #[arg(long)]
     model: PathBuf,
-    /// Linear luminance of an ideal white surface at the sphere.
-    #[arg(long, conflicts_with = "white_image")]
-    white: Option<f64>,
-    /// A crop of a white card photographed with the sphere: its median is the white reference.
-    #[arg(long)]
-    white_image: Option<PathBuf>,
-    /// Reflectance of the white card in (0, 1].
-    #[arg(long, requires = "white_image", default_value_t = 1.0)]
-    white_reflectance: f64,
-    /// Sphere centre x (column) in pixels; give --cx, --cy and --r together, or none of them
-    /// (then the image's alpha channel, else automatic detection).
-    #[arg(long, requires_all = ["cy", "r"], allow_negative_numbers = true)]
-    cx: Option<f64>,
-    /// Sphere centre y (row) in pixels.
-    #[arg(long, requires_all = ["cx", "r"], allow_negative_numbers = true)]
-    cy: Option<f64>,
-    /// Sphere radius in pixels (≥ 32).
-    #[arg(long, requires_all = ["cx", "cy"], allow_negative_numbers = true)]
-    r: Option<f64>,
-    /// A mask image of the sphere (same size: alpha, or luminance ≥ 0.5).
-    #[arg(long, conflicts_with_all = ["cx", "cy", "r"])]
-    mask: Option<PathBuf>,
+    #[command(flatten)]
+    sphere: SphereArgs,
     /// How integer samples are linearized: srgb (default), linear or gamma:<g>.
     #[arg(long)]
     encoding: Option<Encoding>,
@@ -74,25 +54,26 @@ fn load_model(path: &Path) -> Result<LoadedModel, String> {
 }
 
 fn input(args: &ClassifyArgs) -> Result<Input, String> {
-    let white = match (&args.white, &args.white_image) {
+    let sphere = &args.sphere;
+    let white = match (&sphere.white, &sphere.white_image) {
         (Some(v), _) => {
             crate::white::given(*v).map_err(|e| e.to_string())?;
             WhiteSpec::Value(*v)
         }
         (None, Some(path)) => {
-            if !(args.white_reflectance > 0.0 && args.white_reflectance <= 1.0) {
+            if !(sphere.white_reflectance > 0.0 && sphere.white_reflectance <= 1.0) {
                 return Err(
-                    crate::white::WhiteError::BadReflectance(args.white_reflectance).to_string(),
+                    crate::white::WhiteError::BadReflectance(sphere.white_reflectance).to_string(),
                 );
             }
             WhiteSpec::Card {
                 bytes: read(path, "white image")?,
-                reflectance: args.white_reflectance,
+                reflectance: sphere.white_reflectance,
             }
         }
         (None, None) => WhiteSpec::Missing,
     };
-    let locate = match (args.cx, args.cy, args.r, &args.mask) {
+    let locate = match (sphere.cx, sphere.cy, sphere.r, &sphere.mask) {
         (Some(cx), Some(cy), Some(r), _) => {
             if !(cx.is_finite() && cy.is_finite() && r.is_finite()) {
                 return Err(GeometryError::NotFinite { cx, cy, r }.to_string());
@@ -145,15 +126,15 @@ fn summary(answer: &ClassifyResponse) -> String {
     }
     let g = &answer.geometry;
     out.push_str(&format!(
-        "sphere: cx {:.2}, cy {:.2}, r {:.2} ({:?}{}); white {} ({:?})\n",
+        "sphere: cx {:.2}, cy {:.2}, r {:.2} ({}{}); white {} ({})\n",
         g.cx,
         g.cy,
         g.r,
-        g.method,
+        wire_name(&g.method),
         g.confidence
             .map_or(String::new(), |c| format!(", confidence {c:.2}")),
         crate::dataset::format_f64(answer.white.value),
-        answer.white.method
+        wire_name(&answer.white.method)
     ));
     for warning in &answer.warnings {
         out.push_str(&format!("warning: {warning}\n"));
@@ -165,4 +146,12 @@ fn summary(answer: &ClassifyResponse) -> String {
         ));
     }
     out
+}
+
+/// A unit variant's name as the JSON answer spells it (`given`, `white_image`).
+fn wire_name(value: &impl serde::Serialize) -> String {
+    match serde_json::to_value(value) {
+        Ok(serde_json::Value::String(name)) => name,
+        _ => String::new(),
+    }
 }

@@ -1,6 +1,6 @@
 //! `reflectance features IMAGE …` (JSON) and `reflectance features --manifest M --out F` (CSV).
 
-use super::{CliResult, LimitArgs};
+use super::{CliResult, LimitArgs, SphereArgs};
 use crate::analysis::{self, Locate, WhiteInput};
 use crate::dataset::{self, Manifest};
 use crate::features::{Extensions, Extractor};
@@ -15,27 +15,8 @@ pub struct FeaturesArgs {
     /// Image of the sphere (PNG, JPEG, TIFF, PNM, Radiance HDR, PFM, OpenEXR).
     #[arg(required_unless_present = "manifest", conflicts_with = "manifest")]
     image: Option<PathBuf>,
-    /// Circle centre x in pixels (column; pixel centres are integers).
-    #[arg(long, requires_all = ["cy", "r"], allow_negative_numbers = true)]
-    cx: Option<f64>,
-    /// Circle centre y in pixels (row, downwards).
-    #[arg(long, requires_all = ["cx", "r"], allow_negative_numbers = true)]
-    cy: Option<f64>,
-    /// Circle radius in pixels.
-    #[arg(long, requires_all = ["cx", "cy"], allow_negative_numbers = true)]
-    r: Option<f64>,
-    /// Mask image (same size; alpha, or bright = sphere); a circle is fitted to its edge.
-    #[arg(long, conflicts_with = "cx")]
-    mask: Option<PathBuf>,
-    /// Linear luminance of an ideal white surface facing the viewer at the sphere.
-    #[arg(long, allow_negative_numbers = true)]
-    white: Option<f64>,
-    /// Crop of a white card; its median luminance is the white reference.
-    #[arg(long, conflicts_with = "white")]
-    white_image: Option<PathBuf>,
-    /// Reflectance of the white card (white = card median / reflectance).
-    #[arg(long, default_value_t = 1.0, requires = "white_image")]
-    white_reflectance: f64,
+    #[command(flatten)]
+    sphere: SphereArgs,
     /// How integer samples are linearized: srgb, linear or gamma:<g>.
     #[arg(long)]
     encoding: Option<String>,
@@ -90,7 +71,8 @@ fn single(args: &FeaturesArgs, extractor: &Extractor, options: &DecodeOptions) -
         image_io::decode_file(p, options).map_err(|e| format!("{}: {e}", p.display()))
     };
     let image = decode(path, options)?;
-    let locate = match (args.cx, args.cy, args.r, &args.mask) {
+    let sphere = &args.sphere;
+    let locate = match (sphere.cx, sphere.cy, sphere.r, &sphere.mask) {
         (Some(cx), Some(cy), Some(r), _) => Locate::Circle(Circle { cx, cy, r }),
         (_, _, _, Some(mask)) => {
             let linear = DecodeOptions {
@@ -101,11 +83,11 @@ fn single(args: &FeaturesArgs, extractor: &Extractor, options: &DecodeOptions) -
         }
         _ => Locate::Auto,
     };
-    let white = match (args.white, &args.white_image) {
+    let white = match (sphere.white, &sphere.white_image) {
         (Some(v), _) => WhiteInput::Value(v),
         (None, Some(card)) => WhiteInput::Card {
             image: decode(card, options)?,
-            reflectance: args.white_reflectance,
+            reflectance: sphere.white_reflectance,
         },
         (None, None) => WhiteInput::Missing,
     };

@@ -71,6 +71,36 @@ impl LimitArgs {
     }
 }
 
+/// Where the sphere is in one image and how bright white is there (`features IMAGE`,
+/// `classify`).
+#[derive(Args, Debug, Clone)]
+pub struct SphereArgs {
+    /// Sphere centre x (column; pixel centres are integers); give --cx, --cy and --r
+    /// together, or none of them (then the image's alpha channel, else automatic detection).
+    #[arg(long, requires_all = ["cy", "r"], allow_negative_numbers = true)]
+    pub cx: Option<f64>,
+    /// Sphere centre y in pixels (row, downwards).
+    #[arg(long, requires_all = ["cx", "r"], allow_negative_numbers = true)]
+    pub cy: Option<f64>,
+    /// Sphere radius in pixels (≥ 32).
+    #[arg(long, requires_all = ["cx", "cy"], allow_negative_numbers = true)]
+    pub r: Option<f64>,
+    /// A mask image of the sphere (same size: alpha, or luminance ≥ 0.5); a circle is
+    /// fitted to its edge.
+    #[arg(long, conflicts_with_all = ["cx", "cy", "r"])]
+    pub mask: Option<std::path::PathBuf>,
+    /// Linear luminance of an ideal white surface facing the viewer at the sphere.
+    #[arg(long, allow_negative_numbers = true, conflicts_with = "white_image")]
+    pub white: Option<f64>,
+    /// A crop of a white card photographed with the sphere: its median luminance is the
+    /// white reference.
+    #[arg(long)]
+    pub white_image: Option<std::path::PathBuf>,
+    /// Reflectance of the white card in (0, 1] (white = card median / reflectance).
+    #[arg(long, requires = "white_image", default_value_t = 1.0)]
+    pub white_reflectance: f64,
+}
+
 /// Extensions of the feature bank beyond DESIGN.md's 117 features.
 #[derive(Args, Debug, Clone, Copy)]
 pub struct ExtensionArgs {

@@ -53,6 +53,15 @@ pub const FACTORS: [(&str, &str); 6] = [
 /// Draws of random settings per image for the `random` rows.
 pub const RANDOM_DRAWS: usize = 4;
 
+/// `a + (b − a)·k/n` for each k of `ks`.
+fn spaced(
+    [a, b]: [f64; 2],
+    n: usize,
+    ks: std::ops::RangeInclusive<usize>,
+) -> impl Iterator<Item = f64> {
+    ks.map(move |k| a + (b - a) * k as f64 / n as f64)
+}
+
 /// The sweep for `ranges`, around a clean baseline: 16-bit linear, white at half of full
 /// scale, no noise or blur, exact white and circle, at `radius` (the training radius).
 pub fn sweep(ranges: &CaptureRanges, radius: f64) -> Vec<Setting> {
@@ -78,14 +87,9 @@ pub fn sweep(ranges: &CaptureRanges, radius: f64) -> Vec<Setting> {
         })
     };
     add("clean", "16-bit linear".into(), base);
-    let [n0, n1] = ranges.noise;
-    for k in 1..=5 {
-        let noise = n0 + (n1 - n0) * k as f64 / 5.0;
-        add(
-            "noise",
-            format!("{:.1}", 100.0 * noise),
-            CaptureSettings { noise, ..base },
-        );
+    for noise in spaced(ranges.noise, 5, 1..=5) {
+        let settings = CaptureSettings { noise, ..base };
+        add("noise", format!("{:.1}", 100.0 * noise), settings);
     }
     add("jpeg", "png8".into(), srgb8);
     let [q0, q1] = ranges.jpeg_quality;
@@ -100,18 +104,11 @@ pub fn sweep(ranges: &CaptureRanges, radius: f64) -> Vec<Setting> {
             },
         );
     }
-    let [e0, e1] = ranges.exposure;
-    for k in 0..=3 {
-        let exposure = e0 + (e1 - e0) * k as f64 / 3.0;
-        add(
-            "exposure",
-            format!("{exposure:.2}"),
-            CaptureSettings { exposure, ..srgb8 },
-        );
+    for exposure in spaced(ranges.exposure, 3, 0..=3) {
+        let settings = CaptureSettings { exposure, ..srgb8 };
+        add("exposure", format!("{exposure:.2}"), settings);
     }
-    let [b0, b1] = ranges.blur;
-    for k in 1..=4 {
-        let blur = b0 + (b1 - b0) * k as f64 / 4.0;
+    for blur in spaced(ranges.blur, 4, 1..=4) {
         add(
             "blur",
             format!("{blur:.2}"),
