@@ -166,7 +166,6 @@ pub fn classify(
         envelope.is_some(),
     )?;
     drop(image);
-
     let features_ms = ms(t);
     let t = Instant::now();
     let classifier = &model.file.classifier;
