@@ -3,16 +3,16 @@
 
 use divan::Bencher;
 use ndarray::Array2;
-use reflectance::analysis::{self, Locate, WhiteInput};
+use reflectance::features::analysis::{self, Locate, WhiteInput};
+use reflectance::features::pyramid::{self, Edge};
+use reflectance::features::spectrum::SpectrumPlan;
 use reflectance::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
-use reflectance::geometry::Circle;
-use reflectance::image_io::{self, DecodeOptions, LinearImage};
-use reflectance::pyramid::{self, Edge};
-use reflectance::spectrum::SpectrumPlan;
+use reflectance::image::decode::{self, DecodeOptions, LinearImage};
+use reflectance::image::geometry::Circle;
 
 fn main() {
-    // As the binary does: see `reflectance::heap`.
-    assert!(reflectance::heap::tune(), "heap thresholds refused");
+    // As the binary does: see `reflectance::util::heap`.
+    assert!(reflectance::util::heap::tune(), "heap thresholds refused");
     divan::main();
 }
 
@@ -58,14 +58,14 @@ fn png_bytes() -> Vec<u8> {
 }
 
 fn decoded() -> LinearImage {
-    image_io::decode(&png_bytes(), &DecodeOptions::default()).expect("decode")
+    decode::decode(&png_bytes(), &DecodeOptions::default()).expect("decode")
 }
 
 #[divan::bench]
 fn decode_png(bencher: Bencher) {
     let bytes = png_bytes();
     bencher.bench(|| {
-        image_io::decode(divan::black_box(&bytes), &DecodeOptions::default()).expect("decode")
+        decode::decode(divan::black_box(&bytes), &DecodeOptions::default()).expect("decode")
     });
 }
 
@@ -103,7 +103,7 @@ fn features_with_every_extension(bencher: Bencher) {
 #[divan::bench]
 fn features_of_the_shipped_model(bencher: Bencher) {
     let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
-    let registry = reflectance::registry::Registry::new(&models);
+    let registry = reflectance::model::registry::Registry::new(&models);
     let file = registry
         .active("ward6")
         .and_then(|version| registry.load("ward6", version))
@@ -134,7 +134,7 @@ fn features_including_decode(bencher: Bencher) {
     let c = circle();
     bencher.bench(|| {
         let image =
-            image_io::decode(divan::black_box(&bytes), &DecodeOptions::default()).expect("decode");
+            decode::decode(divan::black_box(&bytes), &DecodeOptions::default()).expect("decode");
         extractor.extract(image.luminance.view(), &c, 1.0)
     });
 }

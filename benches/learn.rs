@@ -13,15 +13,15 @@ use divan::Bencher;
 use ndarray::{Array2, Axis};
 use reflectance::dataset::{FeatureTable, Sample};
 use reflectance::features::{default_names, named_set};
-use reflectance::learn::model::{ClassifierKind, TrainSpec, fit};
+use reflectance::learn::pipeline::{ClassifierKind, TrainSpec, fit};
 use reflectance::learn::scaler::Scaler;
 use reflectance::learn::svm::{Gram, KernelValue, SolverParams, train_one_vs_all};
 use reflectance::learn::{Dataset, FeatureSet, cross_validate};
-use reflectance::rng::Rng;
+use reflectance::util::rng::Rng;
 
 fn main() {
-    // As the binary does: see `reflectance::heap`.
-    assert!(reflectance::heap::tune(), "heap thresholds refused");
+    // As the binary does: see `reflectance::util::heap`.
+    assert!(reflectance::util::heap::tune(), "heap thresholds refused");
     let path = std::env::temp_dir().join("reflectance_learn_bench.csv");
     table().write(&path).expect("write bench table");
     eprintln!("bench table: {}", path.display());

@@ -6,12 +6,12 @@ use divan::Bencher;
 use reflectance::render::envmap::EnvMap;
 use reflectance::render::ward::Material;
 use reflectance::render::{Lighting, Quality, View, render};
-use reflectance::rng::Rng;
+use reflectance::util::rng::Rng;
 use std::sync::OnceLock;
 
 fn main() {
-    // As the binary does: see `reflectance::heap`.
-    assert!(reflectance::heap::tune(), "heap thresholds refused");
+    // As the binary does: see `reflectance::util::heap`.
+    assert!(reflectance::util::heap::tune(), "heap thresholds refused");
     divan::main();
 }
 

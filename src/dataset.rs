@@ -1,11 +1,11 @@
 //! Dataset manifests (`path,class,illumination[,cx,cy,r,white,encoding]`, paths relative
 //! to the manifest's folder) and feature tables (`path,class,illumination,<feature names>`).
 
-use crate::analysis::{self, AnalysisError, Locate, WhiteInput};
 use crate::features::Extractor;
-use crate::geometry::Circle;
-use crate::image_io::{self, DecodeOptions};
-use crate::progress;
+use crate::features::analysis::{self, AnalysisError, Locate, WhiteInput};
+use crate::image::decode::{self, DecodeOptions};
+use crate::image::geometry::Circle;
+use crate::util::progress;
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -55,7 +55,7 @@ pub struct Entry {
     pub white: Option<f64>,
     /// How the file's integer samples decode (`srgb`, `linear`, `gamma:<g>`); unset: the
     /// extraction's default.
-    pub encoding: Option<image_io::Encoding>,
+    pub encoding: Option<decode::Encoding>,
 }
 
 #[derive(Clone, Debug)]
@@ -136,7 +136,7 @@ pub fn read_manifest(path: &Path) -> Result<Manifest, DatasetError> {
         let [class, illumination, cx, cy, r, white, encoding] = cols;
         let encoding = text(encoding)
             .map(|e| {
-                image_io::Encoding::parse(e).ok_or_else(|| {
+                decode::Encoding::parse(e).ok_or_else(|| {
                     bad(format!(
                         "encoding must be srgb, linear or gamma:<g>, not {e:?}"
                     ))
@@ -210,7 +210,7 @@ pub fn extract_entry(
         encoding: entry.encoding.or(options.encoding),
         ..*options
     };
-    let image = image_io::decode_file(&entry.file, &options)?;
+    let image = decode::decode_file(&entry.file, &options)?;
     let locate = entry.circle.map_or(Locate::Auto, Locate::Circle);
     let white = WhiteInput::Value(entry.white.unwrap_or(1.0));
     Ok(analysis::analyze(extractor, &image, &locate, &white)?.values)
@@ -316,9 +316,11 @@ impl FeatureTable {
     }
 
     pub fn write(&self, path: &Path) -> Result<(), DatasetError> {
-        crate::fsutil::write_atomic(path, &self.to_csv()).map_err(|source| DatasetError::Io {
-            path: display(path),
-            source,
+        crate::util::durable::write_atomic(path, &self.to_csv()).map_err(|source| {
+            DatasetError::Io {
+                path: display(path),
+                source,
+            }
         })
     }
 

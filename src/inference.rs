@@ -2,13 +2,13 @@
 //! classify, and the answer's JSON. No HTTP here: `POST /v1/classify`, the KServe endpoint
 //! and `reflectance classify` all call [`classify`] and give the same [`ClassifyResponse`].
 
-use crate::analysis::{self, AnalysisError, Locate, WhiteInput};
 use crate::features::Extractor;
-use crate::geometry::{self, Method as GeometryMethod};
-use crate::image_io::{self, DecodeError, DecodeOptions, Encoding};
+use crate::features::analysis::{self, AnalysisError, Locate, WhiteInput};
+use crate::image::decode::{self, DecodeError, DecodeOptions, Encoding};
+use crate::image::geometry::{self, Method as GeometryMethod};
+use crate::image::white::Method as WhiteMethod;
 use crate::learn::LearnError;
 use crate::model::{ModelError, ModelFile};
-use crate::white::Method as WhiteMethod;
 use bytes::Bytes;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -117,15 +117,15 @@ fn decode_part(
     part: &'static str,
     bytes: &[u8],
     options: &DecodeOptions,
-) -> Result<image_io::LinearImage, InferenceError> {
-    image_io::decode(bytes, options).map_err(|source| InferenceError::Decode { part, source })
+) -> Result<decode::LinearImage, InferenceError> {
+    decode::decode(bytes, options).map_err(|source| InferenceError::Decode { part, source })
 }
 
 /// Decode, locate, extract and classify (blocking).
 pub fn classify(
     model: Arc<LoadedModel>,
     input: Input,
-    limits: image_io::Limits,
+    limits: decode::Limits,
 ) -> Result<Classified, InferenceError> {
     let t = Instant::now();
     let options = DecodeOptions {

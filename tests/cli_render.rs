@@ -2,7 +2,7 @@
 
 mod common;
 
-use reflectance::image_io::rgbe;
+use reflectance::image::decode::rgbe;
 use reflectance::render::envmap::EnvMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -3,7 +3,7 @@
 mod common;
 
 use common::*;
-use reflectance::image_io::{DecodeError, DecodeOptions, Limits, decode, pfm, rgbe};
+use reflectance::image::decode::{DecodeError, DecodeOptions, Limits, decode, pfm, rgbe};
 
 fn err(bytes: &[u8]) -> DecodeError {
     decode(bytes, &DecodeOptions::default()).expect_err("must be refused")
@@ -148,7 +148,7 @@ fn sixteen_bit_and_palette_pngs_decode_exactly() {
     let linear = decode(
         &out,
         &DecodeOptions {
-            encoding: Some(reflectance::image_io::Encoding::Linear),
+            encoding: Some(reflectance::image::decode::Encoding::Linear),
             ..Default::default()
         },
     )
@@ -162,7 +162,7 @@ fn sixteen_bit_and_palette_pngs_decode_exactly() {
     let img = decode(
         &palette,
         &DecodeOptions {
-            encoding: Some(reflectance::image_io::Encoding::Linear),
+            encoding: Some(reflectance::image::decode::Encoding::Linear),
             ..Default::default()
         },
     )

@@ -9,13 +9,13 @@
 //! `REFLECTANCE_COMPOSITE_DUMP=DIR` writes the missed ones there.
 
 use ndarray::Array2;
-use reflectance::capture::{self, gaussian_blur, linear_to_srgb};
-use reflectance::geometry::{self, Circle, GeometryError};
-use reflectance::image_io::{DecodeOptions, decode};
+use reflectance::image::decode::{DecodeOptions, decode};
+use reflectance::image::geometry::{self, Circle, GeometryError};
+use reflectance::render::capture::{self, gaussian_blur, linear_to_srgb};
 use reflectance::render::envmap::EnvMap;
 use reflectance::render::ward::Material;
 use reflectance::render::{self, Lighting, Quality, View};
-use reflectance::rng::Rng;
+use reflectance::util::rng::Rng;
 use std::path::PathBuf;
 
 fn shared_probes() -> PathBuf {

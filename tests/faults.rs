@@ -1,7 +1,7 @@
 //! Crash safety with the real binary: SIGKILL while a training job publishes a version and
 //! while a version is being activated, then a restart on the same registry and data
 //! directory. The crash windows are made deterministic with the test-only
-//! `REFLECTANCE_TEST_PAUSE` (see `fsutil::test_pause`): the process sleeps at the named
+//! `REFLECTANCE_TEST_PAUSE` (see `util::durable::test_pause`): the process sleeps at the named
 //! point and the test kills it there once the point is observably reached. Also: start-up
 //! when the active version does not load (fallback to the newest version that does).
 

@@ -1,12 +1,12 @@
 //! Golden tests against the independent numpy reference (`scripts/reference/`) and pyrtools.
 
 use ndarray::Array2;
-use reflectance::analysis::{self, Locate, WhiteInput};
+use reflectance::features::analysis::{self, Locate, WhiteInput};
+use reflectance::features::pyramid::{self, Edge};
+use reflectance::features::stats;
 use reflectance::features::{Extractor, FeatureConfig, default_names};
-use reflectance::geometry::{Circle, GeometryError};
-use reflectance::image_io::{self, DecodeOptions, Encoding};
-use reflectance::pyramid::{self, Edge};
-use reflectance::stats;
+use reflectance::image::decode::{self, DecodeOptions, Encoding};
+use reflectance::image::geometry::{Circle, GeometryError};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -63,7 +63,7 @@ fn features_match_the_reference_implementation() {
             ..Default::default()
         };
         let image =
-            image_io::decode_file(&dir.join(fixture["image"].as_str().unwrap()), &options).unwrap();
+            decode::decode_file(&dir.join(fixture["image"].as_str().unwrap()), &options).unwrap();
         let circle = Circle {
             cx: fixture["cx"].as_f64().unwrap(),
             cy: fixture["cy"].as_f64().unwrap(),

@@ -5,7 +5,7 @@
 
 use reflectance::dataset::FeatureTable;
 use reflectance::learn::calibration::Sigmoid;
-use reflectance::learn::model::{ClassifierKind, TrainSpec};
+use reflectance::learn::pipeline::{ClassifierKind, TrainSpec};
 use reflectance::learn::{Dataset, FeatureSet, cross_validate, select};
 use serde_json::Value;
 use std::path::PathBuf;

@@ -5,9 +5,9 @@ mod common;
 
 use reflectance::dataset::FeatureTable;
 use reflectance::learn::{ClassifierKind, FeatureSet, TrainSpec};
+use reflectance::model::registry::{Registry, RegistryError};
+use reflectance::model::train::{TrainOptions, train};
 use reflectance::model::{ModelError, ModelFile};
-use reflectance::registry::{Registry, RegistryError};
-use reflectance::train::{TrainOptions, train};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -211,7 +211,7 @@ fn train_and_cross_validate_through_the_binary() {
 
 #[test]
 fn predict_rendered_spheres_with_a_trained_model() {
-    use reflectance::image_io::rgbe;
+    use reflectance::image::decode::rgbe;
     use reflectance::render::envmap::EnvMap;
     let dir = temp_dir("predict");
     let bin = env!("CARGO_BIN_EXE_reflectance");

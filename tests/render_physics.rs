@@ -4,7 +4,7 @@
 use reflectance::render::envmap::EnvMap;
 use reflectance::render::ward::Material;
 use reflectance::render::{Lighting, Quality, Rendering, View, circle, render, white};
-use reflectance::rng::Rng;
+use reflectance::util::rng::Rng;
 use std::f64::consts::PI;
 
 fn material(name: &str, rho_d: f64, rho_s: f64, alpha: f64) -> Material {

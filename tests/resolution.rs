@@ -13,7 +13,7 @@ use reflectance::features::{
 use reflectance::render::envmap::EnvMap;
 use reflectance::render::ward::Material;
 use reflectance::render::{Lighting, Quality, View, render};
-use reflectance::rng::Rng;
+use reflectance::util::rng::Rng;
 
 /// The shared ict_grace probe (true), or a synthetic stand-in (false) when it is absent:
 /// texture and a small bright source.

@@ -215,7 +215,7 @@ async fn render_train_activate_roll_back_and_delete() {
     assert_eq!(done["result"]["activated"], false, "{done}");
     assert_eq!(classified_version(&server).await, "2");
     // Publishing did not make version 3 the registry's active version.
-    let registry = reflectance::registry::Registry::new(server.state.config.models.clone());
+    let registry = reflectance::model::registry::Registry::new(server.state.config.models.clone());
     assert_eq!(registry.active("ward6").unwrap(), 2);
 
     // Roll back, and delete.

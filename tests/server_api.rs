@@ -667,10 +667,10 @@ async fn the_command_line_answers_as_the_service_does() {
 /// outside them: too noisy, clipped, or too small a sphere.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn warns_about_photographs_outside_the_captures_of_training() {
-    use reflectance::capture::{self, CaptureEnvelope, CaptureRanges, CaptureSettings};
-    use reflectance::image_io::{DecodeOptions, decode};
+    use reflectance::image::decode::{DecodeOptions, decode};
+    use reflectance::render::capture::{self, CaptureEnvelope, CaptureRanges, CaptureSettings};
     let models = models_copy("envelope");
-    let registry = reflectance::registry::Registry::new(&models);
+    let registry = reflectance::model::registry::Registry::new(&models);
     let mut model = registry.load("ward6", 1).unwrap();
     model.capture = Some(CaptureEnvelope {
         ranges: CaptureRanges::default(),
@@ -690,13 +690,13 @@ async fn warns_about_photographs_outside_the_captures_of_training() {
     let server = start(config(&models));
     let (pfm, _, white) = &fixture().held_out[0];
     let render = decode(pfm, &DecodeOptions::default()).unwrap().luminance;
-    let circle = reflectance::geometry::Circle {
+    let circle = reflectance::image::geometry::Circle {
         cx: 47.5,
         cy: 47.5,
         r: R.parse().unwrap(),
     };
     let warnings = |settings: CaptureSettings, white: f64| {
-        let mut rng = reflectance::rng::Rng::new(7);
+        let mut rng = reflectance::util::rng::Rng::new(7);
         let shot = capture::capture(render.view(), &circle, white, &settings, &mut rng).unwrap();
         let texts =
             [shot.white, shot.circle.cx, shot.circle.cy, shot.circle.r].map(|v| v.to_string());

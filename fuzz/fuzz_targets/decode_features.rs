@@ -4,10 +4,10 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use reflectance::analysis::{self, Locate, WhiteInput};
+use reflectance::features::analysis::{self, Locate, WhiteInput};
 use reflectance::features::{Extractor, FeatureConfig};
-use reflectance::geometry::Circle;
-use reflectance::image_io::{DecodeOptions, Limits, decode};
+use reflectance::image::geometry::Circle;
+use reflectance::image::decode::{DecodeOptions, Limits, decode};
 use std::sync::OnceLock;
 
 fn extractor() -> &'static Extractor {

@@ -3,10 +3,10 @@
 //! manifest; the same pipeline and, with `--json`, the same JSON as `POST /v1/classify`.
 
 use super::{CliResult, LimitArgs, SphereArgs};
-use crate::geometry::{Circle, GeometryError, MIN_RADIUS};
-use crate::image_io::Encoding;
+use crate::image::decode::Encoding;
+use crate::image::geometry::{Circle, GeometryError, MIN_RADIUS};
 use crate::inference::{self, ClassifyResponse, Input, LoadedModel, LocateSpec, WhiteSpec};
-use crate::registry;
+use crate::model::registry;
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -57,14 +57,15 @@ fn input(args: &ClassifyArgs) -> Result<Input, String> {
     let sphere = &args.sphere;
     let white = match (&sphere.white, &sphere.white_image) {
         (Some(v), _) => {
-            crate::white::given(*v).map_err(|e| e.to_string())?;
+            crate::image::white::given(*v).map_err(|e| e.to_string())?;
             WhiteSpec::Value(*v)
         }
         (None, Some(path)) => {
             if !(sphere.white_reflectance > 0.0 && sphere.white_reflectance <= 1.0) {
-                return Err(
-                    crate::white::WhiteError::BadReflectance(sphere.white_reflectance).to_string(),
-                );
+                return Err(crate::image::white::WhiteError::BadReflectance(
+                    sphere.white_reflectance,
+                )
+                .to_string());
             }
             WhiteSpec::Card {
                 bytes: read(path, "white image")?,

@@ -1,11 +1,11 @@
 //! `reflectance features IMAGE …` (JSON) and `reflectance features --manifest M --out F` (CSV).
 
 use super::{CliResult, LimitArgs, SphereArgs};
-use crate::analysis::{self, Locate, WhiteInput};
 use crate::dataset::{self, Manifest};
+use crate::features::analysis::{self, Locate, WhiteInput};
 use crate::features::{Extensions, Extractor};
-use crate::geometry::Circle;
-use crate::image_io::{self, DecodeOptions, Encoding};
+use crate::image::decode::{self, DecodeOptions, Encoding};
+use crate::image::geometry::Circle;
 use clap::Args;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -36,8 +36,8 @@ pub struct FeaturesArgs {
 struct Output<'a> {
     names: Vec<String>,
     values: &'a [f64],
-    geometry: &'a crate::geometry::Geometry,
-    white: &'a crate::white::White,
+    geometry: &'a crate::image::geometry::Geometry,
+    white: &'a crate::image::white::White,
     warnings: &'a [String],
 }
 
@@ -68,7 +68,7 @@ pub fn run(args: FeaturesArgs) -> CliResult {
 fn single(args: &FeaturesArgs, extractor: &Extractor, options: &DecodeOptions) -> CliResult {
     let path = args.image.as_ref().ok_or("give an IMAGE or --manifest")?;
     let decode = |p: &PathBuf, options: &DecodeOptions| {
-        image_io::decode_file(p, options).map_err(|e| format!("{}: {e}", p.display()))
+        decode::decode_file(p, options).map_err(|e| format!("{}: {e}", p.display()))
     };
     let image = decode(path, options)?;
     let sphere = &args.sphere;

@@ -3,12 +3,12 @@
 use super::{CliResult, LimitArgs};
 use crate::dataset::{self, FeatureTable};
 use crate::features::{Extensions, Extractor, FeatureConfig};
-use crate::image_io::DecodeOptions;
+use crate::image::decode::DecodeOptions;
 use crate::learn::{ClassifierKind, CvReport, Dataset, FeatureSet, Grid, TrainSpec};
-use crate::progress;
-use crate::registry::{self, Registry};
+use crate::model::registry::{self, Registry};
+use crate::model::train::{self, TrainOptions};
 use crate::render::batch::load_classes;
-use crate::train::{self, TrainOptions};
+use crate::util::progress;
 use clap::Args;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -326,7 +326,7 @@ pub fn predict(args: PredictArgs) -> CliResult {
             correct += usize::from(truth == label);
         }
     }
-    crate::fsutil::write_atomic(&args.out, csv.as_bytes())
+    crate::util::durable::write_atomic(&args.out, csv.as_bytes())
         .map_err(|e| format!("{}: {e}", args.out.display()))?;
     if labelled > 0 {
         println!(

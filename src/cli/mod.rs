@@ -51,19 +51,19 @@ enum Command {
 #[derive(Args, Debug, Clone, Copy)]
 pub struct LimitArgs {
     /// Largest accepted image width in pixels.
-    #[arg(long, env = "REFLECTANCE_MAX_WIDTH", default_value_t = crate::image_io::Limits::default().max_width)]
+    #[arg(long, env = "REFLECTANCE_MAX_WIDTH", default_value_t = crate::image::decode::Limits::default().max_width)]
     max_width: u32,
     /// Largest accepted image height in pixels.
-    #[arg(long, env = "REFLECTANCE_MAX_HEIGHT", default_value_t = crate::image_io::Limits::default().max_height)]
+    #[arg(long, env = "REFLECTANCE_MAX_HEIGHT", default_value_t = crate::image::decode::Limits::default().max_height)]
     max_height: u32,
     /// Largest accepted number of pixels.
-    #[arg(long, env = "REFLECTANCE_MAX_PIXELS", default_value_t = crate::image_io::Limits::default().max_pixels)]
+    #[arg(long, env = "REFLECTANCE_MAX_PIXELS", default_value_t = crate::image::decode::Limits::default().max_pixels)]
     max_pixels: u64,
 }
 
 impl LimitArgs {
-    pub fn limits(&self) -> crate::image_io::Limits {
-        crate::image_io::Limits {
+    pub fn limits(&self) -> crate::image::decode::Limits {
+        crate::image::decode::Limits {
             max_width: self.max_width,
             max_height: self.max_height,
             max_pixels: self.max_pixels,
@@ -155,7 +155,7 @@ pub type CliResult = Result<(), String>;
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     if !matches!(cli.command, Command::Serve(_) | Command::Healthcheck(_)) {
-        crate::progress::show_on_stderr();
+        crate::util::progress::show_on_stderr();
     }
     let result = match cli.command {
         Command::Features(args) => features::run(args),

@@ -1,7 +1,7 @@
 //! `reflectance report --data DIR [--out DIR]`: the paper's Tables 1 and 2 on our data.
 
 use super::{CliResult, LimitArgs};
-use crate::image_io::DecodeOptions;
+use crate::image::decode::DecodeOptions;
 use crate::report;
 use clap::Args;
 use std::path::PathBuf;

@@ -3,9 +3,9 @@
 //! (Markdown, JSON and a PNG plot).
 
 use super::{CliResult, LimitArgs};
-use crate::capture::CaptureRanges;
 use crate::dataset;
-use crate::image_io::DecodeOptions;
+use crate::image::decode::DecodeOptions;
+use crate::render::capture::CaptureRanges;
 use crate::report::robustness;
 use clap::Args;
 use std::path::PathBuf;

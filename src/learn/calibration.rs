@@ -8,7 +8,7 @@
 //! (N₊ + 1)/(N₊ + 2) and 1/(N₋ + 2), Hessian regularized by σ = 1e-12, stopping when both
 //! gradient components are below 1e-5 (at most 100 iterations, minimum step 1e-10).
 
-use crate::rng::Rng;
+use crate::util::rng::Rng;
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

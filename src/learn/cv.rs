@@ -1,19 +1,19 @@
 //! Leave-one-illumination-out cross-validation: each illumination (group) in turn is held
 //! out, the whole pipeline (selection or PCA, standardization, SVM, calibration) is fitted
 //! on the other groups' rows, and the held-out group's un-augmented rows are predicted.
-//! Augmented rows (`<probe>@<suffix>`, see [`super::dataset`]) train only, and leave the
+//! Augmented rows (`<probe>@<suffix>`, see [`super::matrix`]) train only, and leave the
 //! training set together with their probe.
 //!
 //! Folds run in parallel; each fold's seed is forked from the run's seed by its group index,
 //! and results are assembled in a fixed order, so the report does not depend on the number
 //! of threads.
 
-use super::dataset::Dataset;
 use super::error::LearnError;
-use super::model::{Classifier, TrainSpec, fit_rows};
+use super::matrix::Dataset;
+use super::pipeline::{Classifier, TrainSpec, fit_rows};
 use super::svm::squared_distance;
-use crate::progress::{Counter, Observer, Silent};
-use crate::rng::Rng;
+use crate::util::progress::{Counter, Observer, Silent};
+use crate::util::rng::Rng;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -156,7 +156,7 @@ fn run_fold(
         ));
     }
     let (c, gamma) = match &clf.model {
-        super::model::Model::Svm(m) => (Some(m.c), Some(m.gamma)),
+        super::pipeline::Model::Svm(m) => (Some(m.c), Some(m.gamma)),
         _ => (None, None),
     };
     Ok(FoldResult {
@@ -284,7 +284,7 @@ mod tests {
     use super::*;
     use crate::dataset::FeatureTable;
     use crate::learn::feature_set::FeatureSet;
-    use crate::learn::model::ClassifierKind;
+    use crate::learn::pipeline::ClassifierKind;
     use crate::learn::testutil::table;
 
     fn spec(features: &str, classifier: ClassifierKind) -> TrainSpec {

@@ -3,32 +3,32 @@
 //! ([`Classifier`]) and leave-one-illumination-out cross-validation.
 //!
 //! Everything is deterministic for a fixed seed and independent of the number of threads:
-//! randomness comes only from [`crate::rng::Rng`] streams forked per task, and parallel
+//! randomness comes only from [`crate::util::rng::Rng`] streams forked per task, and parallel
 //! loops collect their results in a fixed order.
 
 pub mod calibration;
 pub mod cv;
-pub mod dataset;
 pub mod error;
 pub mod feature_set;
 pub mod knn;
-pub mod model;
+pub mod matrix;
 pub mod normal;
 pub mod pca;
+pub mod pipeline;
 pub mod scaler;
 pub mod select;
 pub mod svm;
 
 pub use cv::{CvReport, cross_validate, cross_validate_with};
-pub use dataset::Dataset;
 pub use error::LearnError;
 pub use feature_set::FeatureSet;
-pub use model::{Classifier, ClassifierKind, Grid, TrainSpec, fit};
+pub use matrix::Dataset;
+pub use pipeline::{Classifier, ClassifierKind, Grid, TrainSpec, fit};
 
 #[cfg(test)]
 pub(crate) mod testutil {
     use crate::dataset::{FeatureTable, Sample};
-    use crate::rng::Rng;
+    use crate::util::rng::Rng;
 
     /// A small synthetic table: `classes` × `groups` × `per_cell` rows of `features`
     /// columns `f0…`, class centres plus an illumination shift plus uniform noise.

@@ -139,11 +139,11 @@ mod tests {
     /// standardization the correlation matrix has a known spectrum.
     #[test]
     fn recovers_known_components_and_whitens() {
-        let mut rng = crate::rng::Rng::new(11);
+        let mut rng = crate::util::rng::Rng::new(11);
         let n = 4000;
         let mut x = Array2::zeros((n, 3));
         for i in 0..n {
-            let g = |r: &mut crate::rng::Rng| {
+            let g = |r: &mut crate::util::rng::Rng| {
                 // Approximately normal (Irwin–Hall, 12 uniforms).
                 (0..12).map(|_| r.next_f64()).sum::<f64>() - 6.0
             };

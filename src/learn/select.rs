@@ -381,7 +381,7 @@ mod tests {
         // f3 = 5·f1 + a class-1-vs-2 signal uncorrelated with f1, visible only once f1's
         // contribution is regressed out; f0 weakly informative, its signal explained by f1
         // and f3 together.
-        let mut rng = crate::rng::Rng::new(5);
+        let mut rng = crate::util::rng::Rng::new(5);
         let n = 300;
         let mut x = Array2::zeros((n, 4));
         let mut labels = Vec::new();

@@ -728,7 +728,7 @@ pub fn argmax(values: &[f64]) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::Rng;
+    use crate::util::rng::Rng;
     use ndarray::{Array2, array};
 
     fn all_rows(n: usize) -> Vec<usize> {

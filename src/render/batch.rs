@@ -6,12 +6,12 @@
 use super::envmap::{EnvMap, EnvMapError};
 use super::ward::{Material, MaterialError};
 use super::{Lighting, Quality, View, render};
-use crate::capture::{self, CaptureRanges, CaptureSettings};
 use crate::dataset::{SYNTHETIC_ILLUMINATION, format_f64};
-use crate::fsutil::write_atomic;
-use crate::image_io::pfm;
-use crate::progress;
-use crate::rng::Rng;
+use crate::image::decode::pfm;
+use crate::render::capture::{self, CaptureRanges, CaptureSettings};
+use crate::util::durable::write_atomic;
+use crate::util::progress;
+use crate::util::rng::Rng;
 use rayon::prelude::*;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -134,7 +134,7 @@ pub struct Augment {
     /// original view only, labelled `synthetic@s<seed>-<index>`: one group that never
     /// holds originals, so cross-validation trains on them in every fold and never tests them.
     pub synthetic: usize,
-    /// Photograph-like captures of every rendered image ([`crate::capture`]), each with its
+    /// Photograph-like captures of every rendered image ([`crate::render::capture`]), each with its
     /// own settings drawn from `capture_ranges`: `@cap<k>` views (8-bit PNG, JPEG or 16-bit
     /// linear PNG files, with the white and circle a user would report).
     pub captures: usize,
@@ -426,7 +426,7 @@ fn render_job(
     let rendering = if complete {
         None
     } else {
-        crate::fsutil::test_pause("render-image");
+        crate::util::durable::test_pause("render-image");
         let map = probe.map()?;
         let k = job.variant.lighting;
         let lighting =
@@ -452,7 +452,7 @@ fn render_job(
         }),
         None => {
             let path = spec.out.join(format!("{}.pfm", job.name));
-            crate::image_io::decode_file(&path, &Default::default())
+            crate::image::decode::decode_file(&path, &Default::default())
                 .map_err(|e| RenderError::Options(format!("{}: {e}", path.display())))?
                 .luminance
         }

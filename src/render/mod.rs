@@ -8,6 +8,7 @@
 //! (background 0); shiny classes add stratified samples of the Ward lobe per sub-pixel.
 
 pub mod batch;
+pub mod capture;
 pub mod envmap;
 pub mod fastmath;
 pub mod highlights;
@@ -15,8 +16,8 @@ pub mod irradiance;
 pub mod synthetic;
 pub mod ward;
 
-use crate::geometry::Circle;
-use crate::rng::Rng;
+use crate::image::geometry::Circle;
+use crate::util::rng::Rng;
 use envmap::EnvMap;
 use highlights::{BrightSources, SourcePoint, points_per_side};
 use irradiance::Irradiance;
@@ -142,7 +143,7 @@ pub fn check_size(size: usize) -> Result<(), String> {
         "size {size} must be between {} (a sphere of radius {} px, the least that features \
          can be extracted from) and {}",
         SIZES.start(),
-        crate::geometry::MIN_RADIUS,
+        crate::image::geometry::MIN_RADIUS,
         SIZES.end()
     ))
 }
@@ -514,8 +515,8 @@ mod tests {
     #[test]
     fn the_least_size_is_the_least_extractable_sphere() {
         let least = *SIZES.start();
-        assert!(circle(least).r >= crate::geometry::MIN_RADIUS);
-        assert!(circle(least - 1).r < crate::geometry::MIN_RADIUS);
+        assert!(circle(least).r >= crate::image::geometry::MIN_RADIUS);
+        assert!(circle(least - 1).r < crate::image::geometry::MIN_RADIUS);
         assert!(check_size(least - 1).is_err() && check_size(least).is_ok());
     }
 }

@@ -16,7 +16,7 @@ pub mod robustness;
 
 use crate::dataset::{self, FeatureTable};
 use crate::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
-use crate::image_io::DecodeOptions;
+use crate::image::decode::DecodeOptions;
 use crate::learn::{self, ClassifierKind, CvReport, Dataset, FeatureSet, TrainSpec};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -218,7 +218,7 @@ pub fn run(
             [(paper, paper_ds), (views, views_ds), (full, full_ds)],
         ));
     }
-    let bar = crate::progress::bar(runs.len() as u64, "report");
+    let bar = crate::util::progress::bar(runs.len() as u64, "report");
     let mut cells = Vec::new();
     for (name, protocol, set, classifier) in runs {
         let (_, variants) = tables
@@ -259,7 +259,7 @@ pub fn run(
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
-    crate::fsutil::write_atomic(path, bytes).map_err(|source| ReportError::Io {
+    crate::util::durable::write_atomic(path, bytes).map_err(|source| ReportError::Io {
         path: path.display().to_string(),
         source,
     })

@@ -90,7 +90,7 @@ fn render_png(
         image::ExtendedColorType::Rgb8,
     )
     .map_err(plot_error)?;
-    crate::fsutil::write_atomic(path, &png).map_err(|source| ReportError::Io {
+    crate::util::durable::write_atomic(path, &png).map_err(|source| ReportError::Io {
         path: path.display().to_string(),
         source,
     })

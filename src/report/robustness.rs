@@ -1,17 +1,17 @@
-//! Accuracy through the camera: every test render captured by [`crate::capture`] at each
+//! Accuracy through the camera: every test render captured by [`crate::render::capture`] at each
 //! setting of a sweep (one factor at a time around a clean baseline, the extremes of the
 //! ranges all at once, and settings drawn at random within the ranges), then classified by
 //! each model exactly as the service would (`inference::classify` on the captured file,
 //! with the white and circle a user would report).
 
 use super::ReportError;
-use crate::capture::{self, CaptureRanges, CaptureSettings, Quantization};
 use crate::dataset::{self, Manifest};
-use crate::geometry::Circle;
-use crate::image_io::{self, DecodeOptions};
+use crate::image::decode::{self, DecodeOptions};
+use crate::image::geometry::Circle;
 use crate::inference::{self, Input, LoadedModel, LocateSpec, WhiteSpec};
-use crate::progress;
-use crate::rng::Rng;
+use crate::render::capture::{self, CaptureRanges, CaptureSettings, Quantization};
+use crate::util::progress;
+use crate::util::rng::Rng;
 use ndarray::Array2;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -190,7 +190,7 @@ pub fn test_images(
                     e.line
                 ))
             };
-            let image = image_io::decode_file(&e.file, options).map_err(|source| {
+            let image = decode::decode_file(&e.file, options).map_err(|source| {
                 dataset::DatasetError::Image {
                     path: manifest.source.display().to_string(),
                     line: e.line,
@@ -325,7 +325,7 @@ struct Shot {
     bytes: bytes::Bytes,
     white: f64,
     circle: Circle,
-    encoding: Option<crate::image_io::Encoding>,
+    encoding: Option<crate::image::decode::Encoding>,
 }
 
 fn photograph(image: &TestImage, camera: Camera, rng: &mut Rng) -> Result<Shot, ReportError> {
@@ -334,7 +334,7 @@ fn photograph(image: &TestImage, camera: Camera, rng: &mut Rng) -> Result<Shot, 
             let (h, w) = image.luminance.dim();
             let values: Vec<f32> = image.luminance.iter().map(|&v| v as f32).collect();
             return Ok(Shot {
-                bytes: crate::image_io::pfm::encode_gray(w, h, &values).into(),
+                bytes: crate::image::decode::pfm::encode_gray(w, h, &values).into(),
                 white: image.white,
                 circle: image.circle,
                 encoding: None,
@@ -419,7 +419,7 @@ pub fn load_models(
         .map(|path| {
             let fail = |e: String| ReportError::Input(format!("{}: {e}", path.display()));
             let (registry, name, version) =
-                crate::registry::parse_model_path(path).map_err(|e| fail(e.to_string()))?;
+                crate::model::registry::parse_model_path(path).map_err(|e| fail(e.to_string()))?;
             let version = match version {
                 Some(v) => v,
                 None => registry.active(&name).map_err(|e| fail(e.to_string()))?,
@@ -441,7 +441,7 @@ pub fn write(cells: &[Cell], models: &[String], out: &Path) -> Result<(), Report
     })?;
     let save = |name: &str, bytes: &[u8]| {
         let path = out.join(name);
-        crate::fsutil::write_atomic(&path, bytes).map_err(|source| ReportError::Io {
+        crate::util::durable::write_atomic(&path, bytes).map_err(|source| ReportError::Io {
             path: path.display().to_string(),
             source,
         })

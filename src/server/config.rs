@@ -2,7 +2,7 @@
 //! equivalent (DESIGN.md §6 fixes the first flags; new ones are only ever added).
 
 use crate::cli::LimitArgs;
-use crate::image_io::Limits;
+use crate::image::decode::Limits;
 use clap::{Args, ValueEnum};
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -231,7 +231,7 @@ impl ServeArgs {
                 self.admin_listen
             ));
         }
-        if !crate::registry::valid_name(&self.default_model) {
+        if !crate::model::registry::valid_name(&self.default_model) {
             return Err(format!(
                 "invalid --default-model {:?} (use 1–64 of a-z, 0-9, '_' and '-')",
                 self.default_model

@@ -29,13 +29,13 @@ use serde::Serialize;
 use std::borrow::Cow;
 use utoipa::ToSchema;
 
-use crate::analysis::AnalysisError;
-use crate::geometry::GeometryError;
-use crate::image_io::DecodeError;
+use crate::features::analysis::AnalysisError;
+use crate::image::decode::DecodeError;
+use crate::image::geometry::GeometryError;
+use crate::image::white::WhiteError;
 use crate::learn::LearnError;
 use crate::model::ModelError;
-use crate::registry::RegistryError;
-use crate::white::WhiteError;
+use crate::model::registry::RegistryError;
 
 pub const PROBLEM_JSON: &str = "application/problem+json";
 const TYPE_PREFIX: &str = "urn:reflectance:problem:";
@@ -577,7 +577,10 @@ mod tests {
     fn library_errors_map_to_client_errors() {
         let decode = [
             (DecodeError::UnsupportedFormat, 415),
-            (DecodeError::corrupt(crate::image_io::Format::Png, "x"), 422),
+            (
+                DecodeError::corrupt(crate::image::decode::Format::Png, "x"),
+                422,
+            ),
             (
                 DecodeError::TooLarge {
                     width: 1,

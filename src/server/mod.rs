@@ -30,7 +30,7 @@ use std::time::Instant;
 /// reports `loading`); call [`load_models`].
 pub fn build_state(config: Config) -> Result<SharedState, String> {
     let _ = metrics::handle();
-    let registry = crate::registry::Registry::new(&config.models);
+    let registry = crate::model::registry::Registry::new(&config.models);
     match registry.clean_staging() {
         Ok(0) => {}
         Ok(n) => tracing::info!(removed = n, "removed staging leftovers from the registry"),
@@ -208,7 +208,7 @@ pub async fn serve(
 }
 
 /// `reflectance serve`: everything, from configuration to shutdown.
-/// (The binary has already tuned the heap for repeated requests: `crate::heap`.)
+/// (The binary has already tuned the heap for repeated requests: `crate::util::heap`.)
 pub fn run(config: Config) -> Result<(), String> {
     init_logging(&config);
     let runtime = tokio::runtime::Builder::new_multi_thread()

@@ -6,7 +6,7 @@ use super::error::{ApiError, Kind};
 use super::jobs::JobManager;
 use super::metrics;
 pub use crate::inference::LoadedModel;
-use crate::registry::{Registry, RegistryError};
+use crate::model::registry::{Registry, RegistryError};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
@@ -212,7 +212,7 @@ impl ModelStore {
         })?;
         let previous = self.active(name).map(|m| m.version());
         self.install(model);
-        crate::fsutil::test_pause("activate");
+        crate::util::durable::test_pause("activate");
         let warning = self.registry.set_active(name, version).err().map(|e| {
             let warning = format!(
                 "activation of {name} version {version} holds in memory only: the registry \

@@ -2,8 +2,8 @@
 //! out. The CPU work (decode, locate, features, predict) runs on the CPU pool behind the
 //! admission semaphore (429 when saturated); the async side only moves bytes.
 
-use crate::geometry;
-use crate::image_io::Encoding;
+use crate::image::decode::Encoding;
+use crate::image::geometry;
 use crate::inference::{self, Classified, ClassifyResponse, Input, LocateSpec, WhiteSpec};
 use crate::server::error::{ApiError, Kind, Problem};
 use crate::server::metrics;
@@ -128,7 +128,7 @@ impl RawInput {
                     ));
                 }
                 let value = number("white", &text)?;
-                crate::white::given(value)?;
+                crate::image::white::given(value)?;
                 WhiteSpec::Value(value)
             }
             (None, Some(bytes)) => {
@@ -137,7 +137,7 @@ impl RawInput {
                     None => 1.0,
                 };
                 if !(reflectance > 0.0 && reflectance <= 1.0) {
-                    return Err(crate::white::WhiteError::BadReflectance(reflectance).into());
+                    return Err(crate::image::white::WhiteError::BadReflectance(reflectance).into());
                 }
                 WhiteSpec::Card { bytes, reflectance }
             }

@@ -111,7 +111,7 @@ pub struct ModelDetail {
 pub fn detail(model: &LoadedModel, versions: Vec<u32>) -> ModelDetail {
     let f = &model.file;
     let (c, gamma) = match &f.classifier.model {
-        crate::learn::model::Model::Svm(m) => (Some(m.c), Some(m.gamma)),
+        crate::learn::pipeline::Model::Svm(m) => (Some(m.c), Some(m.gamma)),
         _ => (None, None),
     };
     ModelDetail {

@@ -3,7 +3,7 @@
 //! progress, and a persisted record per job.
 //!
 //! **Records are atomic JSON files**, one per job (`<jobs-dir>/<id>.json`, written with
-//! [`crate::fsutil::write_atomic`]: temporary file, fsync, rename). Jobs are rare and their
+//! [`crate::util::durable::write_atomic`]: temporary file, fsync, rename). Jobs are rare and their
 //! records change a few times a second at most, so an embedded database would buy nothing
 //! but build time (SQLite or sqlx) and a second storage format; a rename is crash-safe, a
 //! reader never sees a partial record, and the files are easy to inspect. On start-up,
@@ -16,9 +16,9 @@ mod run;
 use super::error::{ApiError, Kind};
 use super::metrics;
 use super::state::ModelStore;
-use crate::fsutil::write_atomic;
-use crate::image_io::Limits;
-use crate::progress::Observer;
+use crate::image::decode::Limits;
+use crate::util::durable::write_atomic;
+use crate::util::progress::Observer;
 use paths::DataDir;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};

@@ -5,17 +5,17 @@ use super::paths::DataDir;
 use super::{Activate, JobRequest, LearnParams};
 use crate::dataset::{self, DatasetError, FeatureTable};
 use crate::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
-use crate::image_io::{DecodeOptions, Limits};
+use crate::image::decode::{DecodeOptions, Limits};
 use crate::learn::{
     self, ClassifierKind, CvReport, Dataset, FeatureSet, Grid, LearnError, TrainSpec,
 };
-use crate::progress::Observer;
-use crate::registry;
+use crate::model::registry;
+use crate::model::train::{self, TrainError, TrainOptions};
 use crate::render::Quality;
 use crate::render::batch::{self, Augment, BatchSpec, RenderError};
 use crate::server::error::{ApiError, Kind};
 use crate::server::state::ModelStore;
-use crate::train::{self, TrainError, TrainOptions};
+use crate::util::progress::Observer;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 

@@ -257,14 +257,14 @@ fn rms_residual(points: &[(f64, f64)], c: &Circle) -> f64 {
     (points.iter().map(|p| residual(p, c).powi(2)).sum::<f64>() / points.len() as f64).sqrt()
 }
 
-/// Find the sphere in a photograph ([`crate::detect`]: table tops, scenes, JPEG), with the
+/// Find the sphere in a photograph ([`crate::image::detect`]: table tops, scenes, JPEG), with the
 /// circle a clean background gives ([`detect_clean`]) as one more candidate. The
 /// confidence is the fraction of the rim with a clear edge on the circle.
 pub fn detect(luminance: ArrayView2<f64>) -> Result<Geometry, GeometryError> {
     let clean = detect_clean(luminance).ok().map(|g| g.circle());
-    crate::detect::find_sphere(luminance, clean)
+    crate::image::detect::find_sphere(luminance, clean)
         .map(|found| Geometry::new(found.circle, Method::Auto, Some(found.confidence)))
-        .map_err(|crate::detect::NotFound(reason)| GeometryError::DetectionFailed { reason })
+        .map_err(|crate::image::detect::NotFound(reason)| GeometryError::DetectionFailed { reason })
 }
 
 /// Find a sphere on a clean background.

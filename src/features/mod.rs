@@ -8,11 +8,19 @@
 //! `radial.r{t}_r{t+1}.wav.s{k}.{h,v,d}.var` after those (ring t + 1 of the annulus minus
 //! ring t), and the whole block again on the log10 image with the `log.` prefix.
 
-use crate::geometry::Circle;
-use crate::pyramid::{self, Edge};
-use crate::spectrum::{BandPowers, ORIENTATIONS, SpectrumPlan};
-use crate::stats::{Moments, STAT_NAMES, Summary, moments, percentiles_with, summarize};
-use crate::unwrap::{AngleTable, UnwrapConfig, angle_table, unwrap};
+pub mod analysis;
+pub mod log10;
+pub mod noise;
+pub mod polar;
+pub mod pyramid;
+pub mod spectrum;
+pub mod stats;
+
+use self::polar::{AngleTable, UnwrapConfig, angle_table, unwrap};
+use self::pyramid::Edge;
+use self::spectrum::{BandPowers, ORIENTATIONS, SpectrumPlan};
+use self::stats::{Moments, STAT_NAMES, Summary, moments, percentiles_with, summarize};
+use crate::image::geometry::Circle;
 use ndarray::{Array2, ArrayView2};
 use serde::{Deserialize, Serialize};
 use std::sync::{Arc, OnceLock};
@@ -29,8 +37,10 @@ pub const LOG_PIXEL_FLOOR: f64 = 1e-4;
 /// log10 of the floored unwrapped values: the image of the log-domain features.
 fn log_pixels(unwrapped: &Array2<f64>) -> Array2<f64> {
     let values = unwrapped.as_standard_layout();
-    let logs =
-        crate::log10::log10_floored(values.as_slice().expect("standard layout"), LOG_PIXEL_FLOOR);
+    let logs = crate::features::log10::log10_floored(
+        values.as_slice().expect("standard layout"),
+        LOG_PIXEL_FLOOR,
+    );
     Array2::from_shape_vec(unwrapped.raw_dim(), logs).expect("same number of values")
 }
 
@@ -64,7 +74,7 @@ pub struct Extensions {
     pub radial: bool,
     /// Correlations of subband magnitudes between orientations at each scale (`dep.*`).
     pub dependencies: bool,
-    /// What the camera added, measured on the sphere (`cap.*`: [`crate::noise`]), after
+    /// What the camera added, measured on the sphere (`cap.*`: [`crate::features::noise`]), after
     /// every block.
     pub capture: bool,
 }
@@ -227,7 +237,7 @@ impl FeatureConfig {
         }
         if let Some(r) = self
             .working_radius
-            .filter(|r| !(r.is_finite() && *r >= crate::geometry::MIN_RADIUS))
+            .filter(|r| !(r.is_finite() && *r >= crate::image::geometry::MIN_RADIUS))
         {
             return Err(ConfigError::BadWorkingRadius(r));
         }
@@ -529,7 +539,7 @@ impl Extractor {
     fn reduce(&self, luminance: ArrayView2<f64>, circle: &Circle) -> Option<(Array2<f64>, Circle)> {
         self.config
             .working_radius
-            .and_then(|target| crate::resample::to_radius(luminance, circle, target))
+            .and_then(|target| crate::image::resample::to_radius(luminance, circle, target))
     }
 
     /// The unwrapped, white-normalized annulus (after reduction to the working radius, if
@@ -587,14 +597,14 @@ impl Extractor {
             None => (luminance, circle),
         };
         let measured = || CaptureMeasurements {
-            noise: crate::noise::noise_at_white(
+            noise: crate::features::noise::noise_at_white(
                 seen,
                 seen_circle,
                 white,
                 full_scale.unwrap_or(f64::INFINITY),
             ),
             clipped: full_scale.map_or(0.0, |f| {
-                crate::noise::clipped_fraction(luminance, circle, f)
+                crate::features::noise::clipped_fraction(luminance, circle, f)
             }),
         };
         let unwrapped = self.unwrap_as_is(seen, seen_circle, white);
@@ -617,7 +627,8 @@ impl Extractor {
             values.extend(match needed {
                 true => {
                     let m = *measurements.get_or_insert_with(measured);
-                    let blur = crate::noise::rim_blur(luminance, circle).unwrap_or(0.0) / circle.r;
+                    let blur = crate::features::noise::rim_blur(luminance, circle).unwrap_or(0.0)
+                        / circle.r;
                     [
                         m.noise.unwrap_or(0.0).max(NOISE_FLOOR).log10(),
                         m.clipped,

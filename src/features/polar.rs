@@ -1,7 +1,7 @@
 //! Canonical unwrap: the annulus ρ ∈ [inner·r, outer·r] resampled onto a rows × cols grid
 //! (radius down, angle across), each cell the mean of s×s bilinear samples, s = ⌈r / r0⌉.
 
-use crate::geometry::Circle;
+use crate::image::geometry::Circle;
 use ndarray::{Array2, ArrayView2};
 use std::f64::consts::PI;
 

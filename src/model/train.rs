@@ -1,17 +1,17 @@
 //! From a feature table to a verified model file: fit the pipeline, cross-validate it,
 //! and record provenance and a self-test vector.
 
-use crate::capture::{self, CaptureEnvelope, CaptureRanges};
 use crate::dataset::{FeatureTable, Sample};
+use crate::features::stats;
 use crate::features::{CAPTURE_NAMES, Extensions, FeatureConfig, Preprocessing};
 use crate::learn::{self, CvReport, Dataset, LearnError, TrainSpec};
 use crate::model::{
     self, ClassInfo, CvSummary, Exemplar, FeatureSpec, ModelError, ModelFile, Provenance, SelfTest,
     Ward,
 };
-use crate::progress::{Observer, Silent};
+use crate::render::capture::{self, CaptureEnvelope, CaptureRanges};
 use crate::render::ward::Material;
-use crate::stats;
+use crate::util::progress::{Observer, Silent};
 use serde_json::json;
 use std::collections::BTreeMap;
 

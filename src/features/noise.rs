@@ -19,8 +19,8 @@
 //! edges, gives σ = √(FWHM²/8 ln 2 − baseline): the baseline is what a sharp capture
 //! shows (pixel area and the one-pixel slope).
 
-use crate::detect::{RIM_STEP, RimSlopes, rim_slopes};
-use crate::geometry::Circle;
+use crate::image::detect::{RIM_STEP, RimSlopes, rim_slopes};
+use crate::image::geometry::Circle;
 use ndarray::ArrayView2;
 
 /// The annulus measured, as fractions of the radius (the features' default annulus).
@@ -233,7 +233,7 @@ pub fn rim_blur(image: ArrayView2<f64>, c: &Circle) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::Rng;
+    use crate::util::rng::Rng;
     use ndarray::Array2;
 
     fn normal(rng: &mut Rng) -> f64 {
@@ -301,7 +301,7 @@ mod tests {
             inside * shade + (1.0 - inside) * 0.1
         });
         if sigma > 0.0 {
-            crate::capture::gaussian_blur(image.view(), sigma)
+            crate::render::capture::gaussian_blur(image.view(), sigma)
         } else {
             image
         }

@@ -72,7 +72,7 @@ mod tests {
 
     #[test]
     fn replaces_content_and_leaves_no_temporary() {
-        let dir = std::env::temp_dir().join(format!("fsutil-test-{}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("durable-test-{}", std::process::id()));
         fs::create_dir_all(&dir).unwrap();
         let target = dir.join("a.txt");
         write_atomic(&target, b"one").unwrap();

@@ -14,7 +14,7 @@
 //! 3. **Confidence**: the fraction of the rim along which a clear edge lies on the fitted
 //!    circle. The best candidate is taken when it is confident enough.
 
-use crate::geometry::{Circle, MIN_RADIUS};
+use crate::image::geometry::{Circle, MIN_RADIUS};
 use ndarray::{Array2, ArrayView2};
 
 /// The candidate search runs on a copy at most this many pixels across.
@@ -96,14 +96,17 @@ fn working_copy(luminance: ArrayView2<f64>) -> (Array2<f64>, f64) {
     let (h, w) = luminance.dim();
     let scale = (WORK_SIZE as f64 / h.max(w) as f64).min(1.0);
     let small = if scale < 1.0 {
-        crate::resample::downsample(luminance, scale)
+        crate::image::resample::downsample(luminance, scale)
     } else {
         luminance.to_owned()
     };
     let p99 = quantile(small.iter().copied().collect(), 0.99);
     let norm = if p99 > 0.0 { 1.0 / p99 } else { 1.0 };
     let encoded = small.mapv(|v| (v * norm).clamp(0.0, 4.0).powf(1.0 / 2.2));
-    (crate::capture::gaussian_blur(encoded.view(), 1.0), scale)
+    (
+        crate::render::capture::gaussian_blur(encoded.view(), 1.0),
+        scale,
+    )
 }
 
 /// The `q` quantile of non-empty `values`.
@@ -214,7 +217,7 @@ fn vote(edges: &[Edge], (h, w): (usize, usize), min_r: f64, max_r: f64) -> Vec<(
     let mut found: Vec<(f64, f64, f64, f64)> = Vec::new();
     for (bin, (map, seen)) in votes.iter().zip(&directions).enumerate() {
         let r = min_r * RADIUS_RATIO.powf(bin as f64 + 0.5);
-        let smooth = crate::capture::gaussian_blur(map.mapv(f64::from).view(), 1.0);
+        let smooth = crate::render::capture::gaussian_blur(map.mapv(f64::from).view(), 1.0);
         let circumference = std::f64::consts::TAU * r;
         for (y, x) in peaks(&smooth, CANDIDATES, (0.5 * r / CELL).max(2.0)) {
             let (y, x) = (y as usize, x as usize);
@@ -469,7 +472,7 @@ fn robust_fit(points: &[(f64, f64, f64)], start: &Circle) -> Option<Circle> {
         if used < RAYS / 8 {
             return None;
         }
-        let [dcx, dcy, dr] = crate::geometry::solve3(a, b)?;
+        let [dcx, dcy, dr] = crate::image::geometry::solve3(a, b)?;
         c = Circle {
             cx: c.cx + dcx,
             cy: c.cy + dcy,

@@ -3,9 +3,9 @@
 //! and every warning.
 
 use crate::features::{CaptureMeasurements, Extractor};
-use crate::geometry::{self, Geometry, GeometryError, Method};
-use crate::image_io::{DecodeError, LinearImage};
-use crate::white::{self, White, WhiteError};
+use crate::image::decode::{DecodeError, LinearImage};
+use crate::image::geometry::{self, Geometry, GeometryError, Method};
+use crate::image::white::{self, White, WhiteError};
 use ndarray::Array2;
 use serde::Serialize;
 

@@ -5,15 +5,15 @@
 //! model file can embed it; after deserializing, call [`Classifier::validate`] before use.
 
 use super::calibration::{Calibration, Sigmoid, stratified_folds};
-use super::dataset::Dataset;
 use super::error::LearnError;
 use super::feature_set::FeatureSet;
 use super::knn::{ChanceModel, KnnModel};
+use super::matrix::Dataset;
 use super::pca::Pca;
 use super::scaler::Scaler;
 use super::select;
 use super::svm::{self, Gram, SolverParams, SvmModel};
-use crate::rng::Rng;
+use crate::util::rng::Rng;
 use ndarray::{Array2, ArrayView2, Axis};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};

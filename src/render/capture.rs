@@ -14,9 +14,9 @@
 //! whole effect.
 
 use crate::features::CaptureMeasurements;
-use crate::geometry::Circle;
-use crate::image_io::Encoding;
-use crate::rng::Rng;
+use crate::image::decode::Encoding;
+use crate::image::geometry::Circle;
+use crate::util::rng::Rng;
 use ndarray::{Array2, ArrayView2};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -157,7 +157,7 @@ pub enum CaptureError {
 impl CaptureRanges {
     pub fn validate(&self) -> Result<(), CaptureError> {
         let ordered = |[lo, hi]: [f64; 2], min: f64, max: f64| lo >= min && lo <= hi && hi <= max;
-        let ok = ordered(self.radius, crate::geometry::MIN_RADIUS, 4096.0)
+        let ok = ordered(self.radius, crate::image::geometry::MIN_RADIUS, 4096.0)
             && ordered(self.exposure, 0.01, 1.0)
             && ordered(self.noise, 0.0, 0.5)
             && ordered(self.blur, 0.0, 10.0)
@@ -384,7 +384,7 @@ fn check(settings: &CaptureSettings, circle: &Circle, white: f64) -> Result<(), 
     if !finite {
         return fail("every value must be finite");
     }
-    if !(s.radius >= crate::geometry::MIN_RADIUS && s.radius <= 4096.0) {
+    if !(s.radius >= crate::image::geometry::MIN_RADIUS && s.radius <= 4096.0) {
         return fail("radius must be within 32–4096 px");
     }
     if !(s.exposure > 0.0 && s.exposure <= 1.0) {
@@ -435,7 +435,7 @@ fn normal(rng: &mut Rng) -> f64 {
 /// centres map as (x + ½)·factor − ½).
 pub fn scale(image: ArrayView2<f64>, factor: f64) -> Array2<f64> {
     if factor <= 1.0 {
-        return crate::resample::downsample(image, factor);
+        return crate::image::resample::downsample(image, factor);
     }
     let (h, w) = image.dim();
     // (Less a hair: 110 × 150/50 must be 330, not 331.)
@@ -534,7 +534,7 @@ fn encode(samples: ArrayView2<f64>, quantization: Quantization) -> Result<Vec<u8
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::image_io::{DecodeOptions, decode};
+    use crate::image::decode::{DecodeOptions, decode};
 
     #[test]
     fn inputs_outside_the_training_envelope_are_named() {

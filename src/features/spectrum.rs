@@ -141,7 +141,7 @@ impl SpectrumPlan {
         let (rows, half) = (self.rows, self.cols / 2 + 1);
         let image = image.as_standard_layout();
         let pixels = image.as_slice().expect("standard layout");
-        let mean = crate::stats::sum(pixels) / pixels.len() as f64;
+        let mean = crate::features::stats::sum(pixels) / pixels.len() as f64;
         let mut row_in = self.row_fft.make_input_vec();
         let mut row_out = self.row_fft.make_output_vec();
         let mut scratch = self.row_fft.make_scratch_vec();

@@ -7,9 +7,9 @@
 //! formatting. Loading verifies schema, checksum, feature configuration and names, the
 //! classifier's shapes, and the self-test; a file failing any of these is refused.
 
-use crate::capture::CaptureEnvelope;
 use crate::features::{ConfigError, FeatureConfig};
 use crate::learn::{Classifier, LearnError};
+use crate::render::capture::CaptureEnvelope;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use sha2::{Digest, Sha256};

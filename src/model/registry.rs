@@ -5,8 +5,8 @@
 //! version. `<root>/<name>/ACTIVE` holds the active version (written atomically); without
 //! it the latest version is active.
 
-use crate::fsutil::{sync_dir, write_atomic};
 use crate::model::{ModelError, ModelFile};
+use crate::util::durable::{sync_dir, write_atomic};
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -175,13 +175,13 @@ impl Registry {
                 Err(e) => return Err(e),
             };
             model.version = version;
-            let staging = crate::fsutil::temp_path(&dir.join(version.to_string()));
+            let staging = crate::util::durable::temp_path(&dir.join(version.to_string()));
             let written = self.stage(&staging, model, extra);
             if let Err(e) = written {
                 let _ = fs::remove_dir_all(&staging);
                 return Err(e);
             }
-            crate::fsutil::test_pause("publish");
+            crate::util::durable::test_pause("publish");
             let target = dir.join(version.to_string());
             match fs::rename(&staging, &target) {
                 Ok(()) => {
@@ -230,7 +230,7 @@ impl Registry {
         }
         let dir = self.version_dir(name, version)?;
         // Rename first so the version disappears atomically, then remove the files.
-        let doomed = crate::fsutil::temp_path(&dir);
+        let doomed = crate::util::durable::temp_path(&dir);
         fs::rename(&dir, &doomed).map_err(io(&dir))?;
         fs::remove_dir_all(&doomed).map_err(io(&doomed))
     }

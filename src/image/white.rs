@@ -2,7 +2,7 @@
 //! facing the viewer would have at the sphere. Given as a number, measured from a white-card
 //! image (median luminance, divided by the card's reflectance), or absent.
 
-use crate::image_io::LinearImage;
+use crate::image::decode::LinearImage;
 use serde::Serialize;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -100,7 +100,7 @@ fn median(values: &mut [f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::image_io::Format;
+    use crate::image::decode::Format;
     use ndarray::Array2;
 
     fn card(values: &[f64]) -> LinearImage {
