@@ -1,0 +1,254 @@
+//! The feature-extraction configuration every model file records: the unwrap grid, the
+//! pyramid depth, the optional families and the preprocessing.
+
+use super::layout::Layout;
+use super::polar::UnwrapConfig;
+use super::sets::named_set;
+use super::{CAPTURE_PREFIX, DEPENDENCY_PREFIX, LOG_PREFIX, RADIAL_PREFIX};
+use serde::{Deserialize, Serialize};
+
+/// The smallest subband height the 9-tap filters can reflect within.
+const MIN_BAND_ROWS: usize = 9;
+
+/// Optional feature families beyond the paper's 117 (docs/design.md §8).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Extensions {
+    /// The whole block again on the log10 image (`log.*`).
+    pub log_domain: bool,
+    /// How the statistics change from ring to ring of the annulus (`radial.*`).
+    pub radial: bool,
+    /// Correlations of subband magnitudes between orientations at each scale (`dep.*`).
+    pub dependencies: bool,
+    /// What the camera added, measured on the sphere (`cap.*`: [`crate::features::noise`]), after
+    /// every block.
+    pub capture: bool,
+}
+
+impl Extensions {
+    /// Every extension.
+    pub const ALL: Extensions = Extensions {
+        log_domain: true,
+        radial: true,
+        dependencies: true,
+        capture: true,
+    };
+
+    /// The extensions whose features occur among `names` (a table's columns, a list).
+    pub fn of_names<'a>(names: impl IntoIterator<Item = &'a str>) -> Self {
+        names.into_iter().fold(Extensions::default(), |seen, name| {
+            let in_block = name.strip_prefix(LOG_PREFIX);
+            let block_name = in_block.unwrap_or(name);
+            Extensions {
+                log_domain: seen.log_domain || in_block.is_some(),
+                radial: seen.radial || block_name.starts_with(RADIAL_PREFIX),
+                dependencies: seen.dependencies || block_name.starts_with(DEPENDENCY_PREFIX),
+                capture: seen.capture || name.starts_with(CAPTURE_PREFIX),
+            }
+        })
+    }
+
+    /// The extensions a feature-set specification reads (a named set or a list of names).
+    pub fn of_spec(spec: &str) -> Self {
+        let spec = spec.trim();
+        match named_set(spec) {
+            Some(names) => Self::of_names(names.iter().map(String::as_str)),
+            None => Self::of_names(spec.split(',').map(str::trim)),
+        }
+    }
+
+    /// Both sets of extensions.
+    pub fn union(self, other: Extensions) -> Extensions {
+        Extensions {
+            log_domain: self.log_domain || other.log_domain,
+            radial: self.radial || other.radial,
+            dependencies: self.dependencies || other.dependencies,
+            capture: self.capture || other.capture,
+        }
+    }
+}
+
+/// Everything that determines the feature values: stored in every model file.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FeatureConfig {
+    pub unwrap: UnwrapConfig,
+    pub levels: usize,
+    /// Also compute every feature on log10(max(U, 1e-4)) of the unwrapped, white-normalized
+    /// image U, named with the `log.` prefix (an extension of the paper; docs/design.md §8).
+    #[serde(default)]
+    pub log_domain: bool,
+    /// Also compute, in each block, how the statistics change from ring to ring of the
+    /// annulus (`radial.*`; an extension, docs/design.md §8). Absent in older model files.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub radial: bool,
+    /// Also compute, in each block, the correlations of subband magnitudes between
+    /// orientations at each scale (`dep.*`; an extension, docs/design.md §8). Absent in older
+    /// model files.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub dependencies: bool,
+    /// Also compute the capture measurements `cap.noise`, `cap.clipped` and `cap.blur` (after every
+    /// block; an extension, docs/design.md §8). Absent in older model files.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub capture: bool,
+    /// Spheres larger than this radius (px) are first area-downsampled to it, so a model
+    /// sees the same effective resolution as in training (see `resample`). None: no
+    /// resampling (the paper's definition).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub working_radius: Option<f64>,
+    /// Unwrapped values (in units of white) above this are clipped to it, so that
+    /// highlights look the same whether the camera clipped them or not. None: no ceiling
+    /// (the paper's definition). See `Preprocessing`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub saturation: Option<f64>,
+}
+
+/// What extraction does to a sphere before the features, beyond the spec: settings a
+/// model records so that serving repeats them (none changes the feature names).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Preprocessing {
+    /// See [`FeatureConfig::working_radius`].
+    pub working_radius: Option<f64>,
+    /// See [`FeatureConfig::saturation`]. A camera whose exposure puts white at e of full
+    /// scale clips at 1/e of white; a ceiling at the lowest such point makes every capture
+    /// in range, and an unclipped render, look alike.
+    pub saturation: Option<f64>,
+}
+
+impl Preprocessing {
+    /// Reduction to a working radius, nothing else.
+    pub fn at_radius(working_radius: f64) -> Self {
+        Preprocessing {
+            working_radius: Some(working_radius),
+            saturation: None,
+        }
+    }
+}
+
+impl Default for FeatureConfig {
+    fn default() -> Self {
+        FeatureConfig {
+            unwrap: UnwrapConfig::default(),
+            levels: 4,
+            log_domain: false,
+            radial: false,
+            dependencies: false,
+            capture: false,
+            working_radius: None,
+            saturation: None,
+        }
+    }
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ConfigError {
+    #[error("unwrap width {cols} is not divisible by 2^{levels}")]
+    WidthNotDivisible { cols: usize, levels: usize },
+    #[error(
+        "unwrap height {rows} is too small for {levels} levels (level {level} would have {band_rows} < 9 rows)"
+    )]
+    HeightTooSmall {
+        rows: usize,
+        levels: usize,
+        level: usize,
+        band_rows: usize,
+    },
+    #[error("invalid annulus [{inner}, {outer}]·r (need 0 ≤ inner < outer ≤ 1) or r0 {r0} ≤ 0")]
+    BadAnnulus { inner: f64, outer: f64, r0: f64 },
+    #[error("levels must be between 2 and 8, not {0}")]
+    BadLevels(usize),
+    #[error("working radius {0} must be a finite number of pixels ≥ 32")]
+    BadWorkingRadius(f64),
+    #[error("saturation {0} must be a finite multiple of white > 0")]
+    BadSaturation(f64),
+}
+
+impl FeatureConfig {
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let u = &self.unwrap;
+        if !(2..=8).contains(&self.levels) {
+            return Err(ConfigError::BadLevels(self.levels));
+        }
+        if let Some(r) = self
+            .working_radius
+            .filter(|r| !(r.is_finite() && *r >= crate::image::geometry::MIN_RADIUS))
+        {
+            return Err(ConfigError::BadWorkingRadius(r));
+        }
+        if let Some(s) = self.saturation.filter(|s| !(s.is_finite() && *s > 0.0)) {
+            return Err(ConfigError::BadSaturation(s));
+        }
+        if !(0.0 <= u.inner && u.inner < u.outer && u.outer <= 1.0 && u.r0 > 0.0) {
+            return Err(ConfigError::BadAnnulus {
+                inner: u.inner,
+                outer: u.outer,
+                r0: u.r0,
+            });
+        }
+        if !u.cols.is_multiple_of(1 << self.levels) {
+            return Err(ConfigError::WidthNotDivisible {
+                cols: u.cols,
+                levels: self.levels,
+            });
+        }
+        for level in 0..self.levels {
+            let band_rows = u.rows >> level;
+            if band_rows < MIN_BAND_ROWS {
+                return Err(ConfigError::HeightTooSmall {
+                    rows: u.rows,
+                    levels: self.levels,
+                    level,
+                    band_rows,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The default configuration with the given extensions and preprocessing.
+    pub fn extended(extensions: Extensions, preprocessing: Preprocessing) -> Self {
+        FeatureConfig {
+            log_domain: extensions.log_domain,
+            radial: extensions.radial,
+            dependencies: extensions.dependencies,
+            capture: extensions.capture,
+            working_radius: preprocessing.working_radius,
+            saturation: preprocessing.saturation,
+            ..FeatureConfig::default()
+        }
+    }
+
+    /// The preprocessing this configuration does.
+    pub fn preprocessing(&self) -> Preprocessing {
+        Preprocessing {
+            working_radius: self.working_radius,
+            saturation: self.saturation,
+        }
+    }
+
+    /// The default configuration with the log-domain features.
+    pub fn with_log_domain() -> Self {
+        let log_domain = Extensions {
+            log_domain: true,
+            ..Extensions::default()
+        };
+        FeatureConfig::extended(log_domain, Preprocessing::default())
+    }
+
+    /// The extensions this configuration computes.
+    pub fn extensions(&self) -> Extensions {
+        Extensions {
+            log_domain: self.log_domain,
+            radial: self.radial,
+            dependencies: self.dependencies,
+            capture: self.capture,
+        }
+    }
+
+    /// Canonical feature names for this configuration.
+    pub fn names(&self) -> Vec<String> {
+        Layout::of(self).names()
+    }
+}

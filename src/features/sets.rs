@@ -1,0 +1,79 @@
+//! The named feature sets: the paper's hand-picked ones and hand6 with our extensions.
+
+use super::config::FeatureConfig;
+use super::layout::BlockLayout;
+use super::stats::STAT_NAMES;
+use super::{BAND_NAMES, CAPTURE_NAMES, DEPENDENCY_PREFIX, LOG_PREFIX, RADIAL_PREFIX};
+
+/// The named feature sets: the paper's hand-picked ones, the trivial one, and hand6 with
+/// our extensions ([`named_set`] lists their features).
+pub const NAMED_SETS: [&str; 8] = [
+    "hand6",
+    "hand2",
+    "mean1",
+    "hand6+log",
+    "hand6+log+radial",
+    "hand6+log+radial+dep",
+    "hand6+cap",
+    "hand6+log+cap",
+];
+
+/// The paper's hand-picked sets (§6.3, Fig. 7), the trivial one, hand6 extended with the
+/// log-domain pixel statistics and subband variances (`hand6+log`), and that with the
+/// log-domain radial changes (`hand6+log+radial`; docs/design.md §8), and hand6 and hand6+log with
+/// the capture measurements (`hand6+cap`, `hand6+log+cap`).
+pub fn named_set(name: &str) -> Option<Vec<String>> {
+    const HAND6: [&str; 6] = [
+        "pix.mean",
+        "pix.p10",
+        "wav.s1.v.var",
+        "wav.s2.v.var",
+        "ratio.v.s1_s2",
+        "wav.s2.v.kurt",
+    ];
+    let strings = |names: &[&str]| names.iter().map(|n| n.to_string()).collect::<Vec<_>>();
+    match name {
+        "hand6" => Some(strings(&HAND6)),
+        "hand2" => Some(strings(&["pix.p10", "wav.s2.v.var"])),
+        "mean1" => Some(strings(&["pix.mean"])),
+        "hand6+log+cap" => {
+            let mut names = named_set("hand6+log")?;
+            names.extend(CAPTURE_NAMES.iter().map(|n| n.to_string()));
+            Some(names)
+        }
+        "hand6+cap" => Some(
+            strings(&HAND6)
+                .into_iter()
+                .chain(CAPTURE_NAMES.iter().map(|n| n.to_string()))
+                .collect(),
+        ),
+        "hand6+log" | "hand6+log+radial" | "hand6+log+radial+dep" => {
+            let levels = FeatureConfig::default().levels;
+            let pixels = STAT_NAMES.iter().map(|s| format!("{LOG_PREFIX}pix.{s}"));
+            let bands = (1..=levels).flat_map(|k| {
+                BAND_NAMES
+                    .iter()
+                    .map(move |b| format!("{LOG_PREFIX}wav.s{k}.{b}.var"))
+            });
+            let extended = BlockLayout {
+                levels,
+                radial: name.contains("+radial"),
+                dependencies: name.ends_with("+dep"),
+            };
+            let families = extended
+                .names()
+                .into_iter()
+                .filter(|n| n.starts_with(RADIAL_PREFIX) || n.starts_with(DEPENDENCY_PREFIX))
+                .map(|n| format!("{LOG_PREFIX}{n}"));
+            Some(
+                strings(&HAND6)
+                    .into_iter()
+                    .chain(pixels)
+                    .chain(bands)
+                    .chain(families)
+                    .collect(),
+            )
+        }
+        _ => None,
+    }
+}
