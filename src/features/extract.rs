@@ -231,7 +231,7 @@ impl Extractor {
     /// The feature vector of computed stages: one block ([`BlockLayout`]).
     pub fn features_of(&self, stages: &Stages) -> Vec<f64> {
         let layout = &self.layout.block;
-        let mut out = vec![f64::NAN; layout.len()];
+        let mut out = vec![f64::NAN; layout.count()];
         let mut scratch: Vec<u64> = Vec::new();
         let mut summary = |values: &Array2<f64>| summarize(&values_of(values), &mut scratch);
         put_summary(&mut out[BlockLayout::PIXELS..], &summary(&stages.unwrapped));
@@ -267,7 +267,7 @@ impl Extractor {
 
     /// Number of features of this configuration (117 with the default one).
     pub fn feature_count(&self) -> usize {
-        self.layout.len()
+        self.layout.count()
     }
 
     /// [`Extractor::extract`] computing only the features at the indices `wanted` (into the
@@ -290,7 +290,7 @@ impl Extractor {
     /// The wanted features of the blocks (the unwrapped image's, then its log10's).
     fn subset_of_blocks(&self, unwrapped: &Array2<f64>, wanted: &[usize]) -> Vec<f64> {
         let n = self.layout.blocks().end;
-        let block = self.layout.block.len();
+        let block = self.layout.block.count();
         let mut need = vec![false; n];
         for &i in wanted {
             if let Some(slot) = need.get_mut(i) {
@@ -508,8 +508,8 @@ fn put_summary(out: &mut [f64], s: &Summary) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::features::{CAPTURE_NAMES, FEATURE_COUNT, RADIAL_RINGS};
     use crate::features::polar::UnwrapConfig;
+    use crate::features::{CAPTURE_NAMES, FEATURE_COUNT, RADIAL_RINGS};
     use crate::features::{Extensions, Preprocessing, default_names, named_set};
     use crate::image::geometry::Circle;
 

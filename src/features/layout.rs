@@ -83,7 +83,7 @@ impl BlockLayout {
         self.band_powers().end + self.radial_len() + ORIENTATION_PAIRS.len() * level + pair
     }
 
-    pub fn len(&self) -> usize {
+    pub fn count(&self) -> usize {
         let dependencies = match self.dependencies {
             true => ORIENTATION_PAIRS.len() * self.levels,
             false => 0,
@@ -93,7 +93,7 @@ impl BlockLayout {
 
     /// The names, each written at its index.
     pub fn names(&self) -> Vec<String> {
-        let mut names = vec![String::new(); self.len()];
+        let mut names = vec![String::new(); self.count()];
         for (s, stat) in STAT_NAMES.iter().enumerate() {
             names[Self::PIXELS + s] = format!("pix.{stat}");
         }
@@ -176,12 +176,12 @@ impl Layout {
     /// The blocks' features: one image's, or two with the log-domain extension.
     pub fn blocks(&self) -> Range<usize> {
         let blocks = if self.log_domain { 2 } else { 1 };
-        0..blocks * self.block.len()
+        0..blocks * self.block.count()
     }
 
     /// Where the log10 image's block starts (with the log-domain extension).
     pub fn log_block(&self) -> usize {
-        self.block.len()
+        self.block.count()
     }
 
     /// The capture measurements (empty without the extension).
@@ -193,7 +193,7 @@ impl Layout {
         }
     }
 
-    pub fn len(&self) -> usize {
+    pub fn count(&self) -> usize {
         self.capture().end
     }
 
@@ -240,7 +240,7 @@ mod tests {
                 };
                 let layout = Layout::of(&config);
                 let names = layout.names();
-                assert_eq!(names.len(), layout.len());
+                assert_eq!(names.len(), layout.count());
                 assert!(
                     names.iter().all(|n| !n.is_empty()),
                     "{extensions:?}: a hole"
