@@ -8,7 +8,7 @@ use crate::image::decode::{self, DecodeError, DecodeOptions, Encoding};
 use crate::image::geometry::{self, Method as GeometryMethod};
 use crate::image::white::Method as WhiteMethod;
 use crate::learn::LearnError;
-use crate::model::{ModelError, ModelFile};
+use crate::model::{ClassInfo, ModelError, ModelFile};
 use bytes::Bytes;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -231,6 +231,40 @@ pub struct LabelProbability {
     pub p: f64,
 }
 
+/// Ward reflectance parameters of a rendered class.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct WardParams {
+    pub rho_d: f64,
+    pub rho_s: f64,
+    pub alpha: f64,
+}
+
+/// A class of the model, for people.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct ClassOut {
+    pub name: String,
+    /// In words (from the Ward parameters when known), e.g. "white, glossy: sharp
+    /// reflections".
+    pub description: String,
+    /// Known when the class was rendered from Ward parameters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ward: Option<WardParams>,
+}
+
+impl From<&ClassInfo> for ClassOut {
+    fn from(c: &ClassInfo) -> ClassOut {
+        ClassOut {
+            name: c.name.clone(),
+            description: c.description(),
+            ward: c.ward.as_ref().map(|w| WardParams {
+                rho_d: w.rho_d,
+                rho_s: w.rho_s,
+                alpha: w.alpha,
+            }),
+        }
+    }
+}
+
 /// Names and values, index by index.
 #[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
 pub struct NamedValues {
@@ -294,6 +328,8 @@ pub struct ClassifyResponse {
     pub model: ModelId,
     /// The predicted class.
     pub label: String,
+    /// The predicted class in words, with its Ward parameters when known.
+    pub class: ClassOut,
     /// Every class, most probable first.
     pub probabilities: Vec<LabelProbability>,
     pub features: FeaturesOut,
@@ -320,6 +356,13 @@ impl Classified {
             })
             .collect();
         probabilities.sort_by(|a, b| b.p.total_cmp(&a.p));
+        let predicted = match model.file.classes.get(self.class) {
+            Some(info) => ClassOut::from(info),
+            None => ClassOut::from(&ClassInfo {
+                name: classes[self.class].clone(),
+                ward: None,
+            }),
+        };
         let g = self.analysis.geometry;
         ClassifyResponse {
             request_id,
@@ -328,6 +371,7 @@ impl Classified {
                 version: model.version(),
             },
             label: classes[self.class].clone(),
+            class: predicted,
             probabilities,
             features: FeaturesOut {
                 names: model.file.classifier.selected.clone(),

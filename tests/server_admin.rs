@@ -159,7 +159,10 @@ async fn render_train_activate_roll_back_and_delete() {
         "renders/r96/manifest.csv"
     );
     assert_eq!(done["result"]["render"]["images"], 12);
-    assert_eq!(done["progress"]["stage"], "done");
+    assert_eq!(
+        done["progress"],
+        json!({"stage": "done", "done": 12, "total": 12})
+    );
     assert!(data.join("renders/r96/probe3__chrome.pfm").is_file());
 
     // Train on it (features are extracted by the job) and activate.
@@ -175,6 +178,12 @@ async fn render_train_activate_roll_back_and_delete() {
     );
     let done = wait_for(&server, train["id"].as_str().unwrap(), TERMINAL).await;
     assert_eq!(done["state"], "succeeded", "{done}");
+    let progress = &done["progress"];
+    assert_eq!(progress["stage"], "done", "{done}");
+    assert!(
+        progress["total"].as_u64() > Some(0) && progress["done"] == progress["total"],
+        "a finished job shows its work complete: {done}"
+    );
     let result = &done["result"];
     assert_eq!(result["model"], json!({"name": "ward6", "version": 2}));
     assert_eq!(result["activated"], true);

@@ -50,6 +50,17 @@ async fn classifies_held_out_renderings_correctly() {
         }
         let doc = answer.json();
         assert_eq!(doc["label"], class.as_str(), "{doc}");
+        let described = match class.as_str() {
+            "matte" => ("white matte", 0.8, 0.0),
+            "chrome" => ("metal: a mirror with sharp reflections", 0.0, 0.75),
+            _ => ("black matte", 0.08, 0.0),
+        };
+        assert_eq!(
+            doc["class"],
+            json!({"name": class, "description": described.0,
+                   "ward": {"rho_d": described.1, "rho_s": described.2, "alpha": 0.0}}),
+            "the predicted class in words, with its Ward parameters"
+        );
         assert_eq!(doc["model"], json!({"name": "ward6", "version": 1}));
         assert_eq!(
             doc["request_id"].as_str(),

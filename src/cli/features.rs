@@ -2,8 +2,8 @@
 
 use super::{CliResult, LimitArgs, SphereArgs};
 use crate::dataset::{self, Manifest};
+use crate::features::Extractor;
 use crate::features::analysis::{self, Locate, WhiteInput};
-use crate::features::{Extensions, Extractor};
 use crate::image::decode::{self, DecodeOptions, Encoding};
 use crate::image::geometry::Circle;
 use clap::Args;
@@ -42,8 +42,7 @@ struct Output<'a> {
 }
 
 pub fn run(args: FeaturesArgs) -> CliResult {
-    let extractor =
-        Extractor::new(args.extensions.config(Extensions::default())).map_err(|e| e.to_string())?;
+    let extractor = Extractor::new(args.extensions.config("")?).map_err(|e| e.to_string())?;
     let encoding = args
         .encoding
         .as_deref()

@@ -2,9 +2,9 @@
 
 use super::{CliResult, LimitArgs};
 use crate::dataset::{self, FeatureTable};
-use crate::features::{Extensions, Extractor, FeatureConfig};
+use crate::features::{Extractor, FeatureConfig};
 use crate::image::decode::DecodeOptions;
-use crate::learn::{ClassifierKind, CvReport, Dataset, FeatureSet, Grid, TrainSpec};
+use crate::learn::{CvReport, DEFAULT_C, Dataset, SpecText, TrainSpec};
 use crate::model::registry::{self, Registry};
 use crate::model::train::{self, TrainOptions};
 use crate::render::batch::load_classes;
@@ -66,7 +66,7 @@ pub struct SpecArgs {
     #[arg(long, default_value = "svm")]
     classifier: String,
     /// SVM C.
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, default_value_t = DEFAULT_C)]
     c: f64,
     /// SVM γ (default 1 / number of classifier inputs).
     #[arg(long)]
@@ -80,28 +80,19 @@ pub struct SpecArgs {
 
 impl SpecArgs {
     /// The extraction configuration for manifests.
-    fn config(&self) -> FeatureConfig {
-        self.extensions.config(Extensions::of_spec(&self.features))
+    fn config(&self) -> Result<FeatureConfig, String> {
+        self.extensions.config(&self.features)
     }
 
     fn spec(&self, names: &[String]) -> Result<TrainSpec, String> {
-        let features = FeatureSet::parse_with(&self.features, names).map_err(|e| e.to_string())?;
-        let classifier: ClassifierKind = self
-            .classifier
-            .parse()
-            .map_err(|e: crate::learn::LearnError| e.to_string())?;
-        if !(self.c.is_finite() && self.c > 0.0)
-            || self.gamma.is_some_and(|g| !(g.is_finite() && g > 0.0))
-        {
-            return Err("C and γ must be finite and positive".into());
-        }
-        Ok(TrainSpec {
-            features,
-            classifier,
+        let text = SpecText {
+            features: &self.features,
+            classifier: &self.classifier,
             c: self.c,
             gamma: self.gamma,
-            grid: self.grid.then(Grid::default),
-        })
+            grid: self.grid,
+        };
+        text.parse(names).map_err(|e| e.to_string())
     }
 }
 
@@ -119,7 +110,7 @@ pub struct CvArgs {
 }
 
 pub fn cv(args: CvArgs) -> CliResult {
-    let (table, _) = args.data.load(&args.limits, args.spec.config())?;
+    let (table, _) = args.data.load(&args.limits, args.spec.config()?)?;
     let spec = args.spec.spec(&table.names)?;
     let ds = Dataset::from_table(&table).map_err(|e| e.to_string())?;
     let bar = progress::bar(0, "cv");
@@ -235,7 +226,7 @@ pub fn train(args: TrainArgs) -> CliResult {
         .map(load_classes)
         .transpose()
         .map_err(|e| e.to_string())?;
-    let (table, label) = args.data.load(&args.limits, args.spec.config())?;
+    let (table, label) = args.data.load(&args.limits, args.spec.config()?)?;
     let options = TrainOptions {
         name: args.name.clone(),
         spec: args.spec.spec(&table.names)?,

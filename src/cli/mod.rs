@@ -42,7 +42,7 @@ enum Command {
     /// Accuracy of models on renders captured as photographs, one capture factor at a time.
     Robustness(robustness::RobustnessArgs),
     /// Run the classification service (data plane, and the admin plane when a token is set).
-    Serve(crate::server::config::ServeArgs),
+    Serve(serve::ServeArgs),
     /// Exit 0 when a server answers GET /health/ready with 200 (for container health checks).
     Healthcheck(serve::HealthcheckArgs),
 }
@@ -101,7 +101,7 @@ pub struct SphereArgs {
     pub white_reflectance: f64,
 }
 
-/// Extensions of the feature bank beyond DESIGN.md's 117 features.
+/// Extensions of the feature bank beyond the paper's 117 features (docs/design.md §8).
 #[derive(Args, Debug, Clone, Copy)]
 pub struct ExtensionArgs {
     /// Also compute the log-domain features (`log.*`, 117 more).
@@ -130,15 +130,16 @@ pub struct ExtensionArgs {
 }
 
 impl ExtensionArgs {
-    /// The configuration, with the `implied` extensions on too.
-    pub fn config(&self, implied: Extensions) -> crate::features::FeatureConfig {
+    /// The configuration, with the extensions the feature-set `spec` names on too.
+    pub fn config(&self, spec: &str) -> Result<crate::features::FeatureConfig, String> {
         let asked = Extensions {
             log_domain: self.log_features,
             radial: self.radial_features,
             dependencies: self.dependency_features,
             capture: self.capture_features,
         };
-        crate::features::FeatureConfig::extended(asked.union(implied), self.preprocessing())
+        crate::features::FeatureConfig::for_spec(asked, spec, self.preprocessing())
+            .map_err(|e| e.to_string())
     }
 
     pub fn preprocessing(&self) -> crate::features::Preprocessing {

@@ -1,11 +1,183 @@
 //! `reflectance serve` and `reflectance healthcheck`.
 
-use super::CliResult;
-use crate::server::config::ServeArgs;
+use super::{CliResult, LimitArgs};
+use crate::server::config::{self, Config, LogFormat, defaults};
 use clap::Args;
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream, ToSocketAddrs};
+use std::path::PathBuf;
 use std::time::Duration;
+
+/// `reflectance serve`'s flags, each with a `REFLECTANCE_*` environment equivalent
+/// (docs/design.md §6: the first flags are fixed; new ones are only ever added).
+#[derive(Args, Debug, Clone)]
+pub struct ServeArgs {
+    /// Model registry folder (`<DIR>/<name>/<version>/model.json`); may be read-only.
+    #[arg(long, env = "REFLECTANCE_MODELS", default_value = defaults::MODELS)]
+    pub models: PathBuf,
+    /// Model answering `POST /v1/classify`.
+    #[arg(long, env = "REFLECTANCE_DEFAULT_MODEL", default_value = defaults::DEFAULT_MODEL)]
+    pub default_model: String,
+    /// Data-plane address (classification, models, health, metrics).
+    #[arg(long, env = "REFLECTANCE_LISTEN", default_value = defaults::LISTEN)]
+    pub listen: SocketAddr,
+    /// Admin-plane address (jobs, registry); served only when a token is configured.
+    #[arg(
+        long,
+        env = "REFLECTANCE_ADMIN_LISTEN",
+        default_value = defaults::ADMIN_LISTEN
+    )]
+    pub admin_listen: SocketAddr,
+    /// File holding the admin bearer token (surrounding whitespace ignored). The token may
+    /// also be given in the REFLECTANCE_ADMIN_TOKEN environment variable.
+    #[arg(long, env = "REFLECTANCE_ADMIN_TOKEN_FILE")]
+    pub admin_token_file: Option<PathBuf>,
+    /// Folder that admin jobs read datasets from and write renderings into; job paths are
+    /// relative to it and may not leave it.
+    #[arg(long, env = "REFLECTANCE_DATA_DIR", default_value = defaults::DATA_DIR)]
+    pub data_dir: PathBuf,
+    /// Folder of the persisted job records (default `<data-dir>/jobs`).
+    #[arg(long, env = "REFLECTANCE_JOBS_DIR")]
+    pub jobs_dir: Option<PathBuf>,
+    /// Job worker threads (train, cross_validate, render), off the request runtime.
+    #[arg(long, env = "REFLECTANCE_WORKERS", default_value_t = defaults::WORKERS)]
+    pub workers: usize,
+    /// Jobs that may wait for a worker; beyond this `POST /admin/v1/jobs` answers 429.
+    #[arg(long, env = "REFLECTANCE_JOB_QUEUE", default_value_t = defaults::JOB_QUEUE)]
+    pub job_queue: usize,
+    /// Finished job records kept (in memory and in the jobs folder); the oldest finished
+    /// beyond this are forgotten.
+    #[arg(long, env = "REFLECTANCE_JOB_HISTORY", default_value_t = defaults::JOB_HISTORY)]
+    pub job_history: usize,
+    /// Threads that decode images and compute features (default: the number of CPUs).
+    #[arg(long, env = "REFLECTANCE_CPU_THREADS")]
+    pub cpu_threads: Option<usize>,
+    /// Classification requests admitted at once (running or waiting for a CPU thread);
+    /// beyond this requests are shed at once with 429 and Retry-After.
+    #[arg(long, env = "REFLECTANCE_MAX_INFLIGHT", default_value_t = defaults::MAX_INFLIGHT)]
+    pub max_inflight: usize,
+    /// Largest request body in bytes.
+    #[arg(long, env = "REFLECTANCE_BODY_LIMIT", default_value_t = defaults::BODY_LIMIT)]
+    pub body_limit: usize,
+    /// Per-request time limit in seconds (answered with 408).
+    #[arg(long, env = "REFLECTANCE_REQUEST_TIMEOUT", default_value_t = defaults::REQUEST_TIMEOUT_S)]
+    pub request_timeout: f64,
+    /// Seconds a connection may take to send a request's headers, or stay idle between
+    /// requests, before it is closed (slow or stalled clients cannot hold connections).
+    #[arg(long, env = "REFLECTANCE_HEADER_TIMEOUT", default_value_t = defaults::HEADER_TIMEOUT_S)]
+    pub header_timeout: f64,
+    /// On SIGTERM/SIGINT: seconds to let in-flight requests finish before stopping.
+    #[arg(long, env = "REFLECTANCE_SHUTDOWN_GRACE", default_value_t = defaults::SHUTDOWN_GRACE_S)]
+    pub shutdown_grace: f64,
+    /// Seconds between turning not-ready and closing the listeners on shutdown, so that
+    /// load balancers stop sending traffic first.
+    #[arg(long, env = "REFLECTANCE_DRAIN_DELAY", default_value_t = defaults::DRAIN_DELAY_S)]
+    pub drain_delay: f64,
+    /// Non-active model versions kept loaded for `?version=` requests.
+    #[arg(long, env = "REFLECTANCE_MODEL_CACHE", default_value_t = defaults::MODEL_CACHE)]
+    pub model_cache: usize,
+    /// Log format.
+    #[arg(long, env = "REFLECTANCE_LOG_FORMAT", value_enum, default_value_t = LogFormat::Auto)]
+    pub log_format: LogFormat,
+    /// Log filter: a level (`info`) or per-target directives (`warn,reflectance=debug`).
+    #[arg(long, env = "REFLECTANCE_LOG", default_value = defaults::LOG)]
+    pub log: String,
+    #[command(flatten)]
+    pub limits: LimitArgs,
+}
+
+fn seconds(what: &str, value: f64) -> Result<Duration, String> {
+    if (0.0..1e9).contains(&value) {
+        Ok(Duration::from_secs_f64(value))
+    } else {
+        Err(format!(
+            "{what} must be a number of seconds ≥ 0, not {value}"
+        ))
+    }
+}
+
+fn positive_seconds(what: &str, value: f64) -> Result<Duration, String> {
+    match seconds(what, value)? {
+        d if d.is_zero() => Err(format!("{what} must be > 0")),
+        d => Ok(d),
+    }
+}
+
+impl ServeArgs {
+    /// Validate the flags and read the admin token (`env_token`: REFLECTANCE_ADMIN_TOKEN).
+    pub fn into_config(self, env_token: Option<String>) -> Result<Config, String> {
+        let token = match (&self.admin_token_file, env_token) {
+            (Some(path), _) => {
+                let text = std::fs::read_to_string(path)
+                    .map_err(|e| format!("admin token file {}: {e}", path.display()))?;
+                Some(text.trim().to_string())
+            }
+            (None, Some(token)) => Some(token.trim().to_string()),
+            (None, None) => None,
+        };
+        if token
+            .as_ref()
+            .is_some_and(|t| t.len() < defaults::MIN_TOKEN_LEN)
+        {
+            return Err(format!(
+                "the admin token must be at least {} characters",
+                defaults::MIN_TOKEN_LEN
+            ));
+        }
+        if token.is_none() && !self.admin_listen.ip().is_loopback() {
+            return Err(format!(
+                "--admin-listen {} is not a loopback address and no admin token is configured \
+                 (--admin-token-file or REFLECTANCE_ADMIN_TOKEN)",
+                self.admin_listen
+            ));
+        }
+        if !crate::model::registry::valid_name(&self.default_model) {
+            return Err(format!(
+                "invalid --default-model {:?} (use 1–64 of a-z, 0-9, '_' and '-')",
+                self.default_model
+            ));
+        }
+        let positive = |what: &str, n: usize| {
+            if n == 0 {
+                Err(format!("{what} must be at least 1"))
+            } else {
+                Ok(n)
+            }
+        };
+        let jobs_dir = self
+            .jobs_dir
+            .clone()
+            .unwrap_or_else(|| self.data_dir.join(defaults::JOBS_SUBDIR));
+        let request_timeout = positive_seconds("--request-timeout", self.request_timeout)?;
+        let header_timeout = positive_seconds("--header-timeout", self.header_timeout)?;
+        Ok(Config {
+            models: self.models,
+            default_model: self.default_model,
+            listen: self.listen,
+            admin_listen: self.admin_listen,
+            admin_token: token,
+            data_dir: self.data_dir,
+            jobs_dir,
+            workers: positive("--workers", self.workers)?,
+            job_queue: positive("--job-queue", self.job_queue)?,
+            job_history: positive("--job-history", self.job_history)?,
+            cpu_threads: positive(
+                "--cpu-threads",
+                self.cpu_threads.unwrap_or_else(config::default_cpu_threads),
+            )?,
+            max_inflight: positive("--max-inflight", self.max_inflight)?,
+            body_limit: positive("--body-limit", self.body_limit)?,
+            request_timeout,
+            header_timeout,
+            shutdown_grace: seconds("--shutdown-grace", self.shutdown_grace)?,
+            drain_delay: seconds("--drain-delay", self.drain_delay)?,
+            model_cache: self.model_cache,
+            limits: self.limits.limits(),
+            log_format: self.log_format,
+            log: self.log,
+        })
+    }
+}
 
 pub fn run(args: ServeArgs) -> CliResult {
     let token = std::env::var("REFLECTANCE_ADMIN_TOKEN").ok();

@@ -220,6 +220,19 @@ impl FeatureConfig {
         }
     }
 
+    /// The configuration that extracts what a feature-set specification reads: the
+    /// extensions `asked` for, those the specification names (e.g. `hand6+log`), and the
+    /// preprocessing; validated.
+    pub fn for_spec(
+        asked: Extensions,
+        spec: &str,
+        preprocessing: Preprocessing,
+    ) -> Result<Self, ConfigError> {
+        let config = FeatureConfig::extended(asked.union(Extensions::of_spec(spec)), preprocessing);
+        config.validate()?;
+        Ok(config)
+    }
+
     /// The preprocessing this configuration does.
     pub fn preprocessing(&self) -> Preprocessing {
         Preprocessing {

@@ -23,7 +23,7 @@ pub use cv::{CvReport, cross_validate, cross_validate_with};
 pub use error::LearnError;
 pub use feature_set::FeatureSet;
 pub use matrix::Dataset;
-pub use pipeline::{Classifier, ClassifierKind, Grid, TrainSpec, fit};
+pub use pipeline::{Classifier, ClassifierKind, DEFAULT_C, Grid, SpecText, TrainSpec, fit};
 
 #[cfg(test)]
 pub(crate) mod testutil {

@@ -75,11 +75,14 @@ impl Default for Grid {
     }
 }
 
+/// The SVM's default C (docs/design.md §3 "Classifiers").
+pub const DEFAULT_C: f64 = 100.0;
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrainSpec {
     pub features: FeatureSet,
     pub classifier: ClassifierKind,
-    /// SVM C (default 100).
+    /// SVM C (default [`DEFAULT_C`]).
     pub c: f64,
     /// SVM γ; `None` = 1 / number of classifier inputs.
     pub gamma: Option<f64>,
@@ -92,10 +95,45 @@ impl TrainSpec {
         TrainSpec {
             features,
             classifier,
-            c: 100.0,
+            c: DEFAULT_C,
             gamma: None,
             grid: None,
         }
+    }
+}
+
+/// A training specification as people write it (the CLI's flags, an admin job's fields):
+/// parsed into a [`TrainSpec`] in this one place, so that both accept and refuse the same.
+#[derive(Clone, Copy, Debug)]
+pub struct SpecText<'a> {
+    /// A named set, `all`, `auto<N>`, `pca<N>` or a comma-separated list of names.
+    pub features: &'a str,
+    /// `svm`, `nn`, `knn5` or `chance`.
+    pub classifier: &'a str,
+    pub c: f64,
+    pub gamma: Option<f64>,
+    /// Choose C and γ by inner cross-validation over the default grid.
+    pub grid: bool,
+}
+
+impl SpecText<'_> {
+    /// The specification over a table whose columns are `names`.
+    pub fn parse(&self, names: &[String]) -> Result<TrainSpec, LearnError> {
+        let features = FeatureSet::parse_with(self.features, names)?;
+        let classifier: ClassifierKind = self.classifier.parse()?;
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        if !positive(self.c) || self.gamma.is_some_and(|g| !positive(g)) {
+            return Err(LearnError::InvalidParameter(
+                "C (c) and γ (gamma) must be finite and positive".into(),
+            ));
+        }
+        Ok(TrainSpec {
+            features,
+            classifier,
+            c: self.c,
+            gamma: self.gamma,
+            grid: self.grid.then(Grid::default),
+        })
     }
 }
 
@@ -137,7 +175,9 @@ pub struct Output {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Classifier {
     pub classes: Vec<String>,
-    pub classifier: ClassifierKind,
+    /// Named `classifier` in model files.
+    #[serde(rename = "classifier")]
+    pub kind: ClassifierKind,
     /// The feature set as specified (`hand6`, `auto6`, …).
     pub feature_set: String,
     /// Names of the full input row's columns (the 117 features, canonical order).
@@ -503,7 +543,7 @@ pub fn fit_rows(
     };
     Ok(Classifier {
         classes: ds.classes.clone(),
-        classifier: spec.classifier,
+        kind: spec.classifier,
         feature_set: spec.features.to_string(),
         input_names: ds.names.clone(),
         selected: prep.selected,

@@ -27,11 +27,46 @@ pub struct Ward {
     pub alpha: f64,
 }
 
+impl Ward {
+    /// The reflectance in words, for people: the tone of the diffuse part, and how much and
+    /// how sharply the surface mirrors its surroundings.
+    pub fn describe(&self) -> String {
+        let sharpness = match self.alpha {
+            a if a <= 0.0 => "sharp",
+            a if a <= 0.03 => "slightly blurred",
+            _ => "blurred",
+        };
+        let tone = match self.rho_d {
+            d if d < 0.15 => "black",
+            d if d < 0.5 => "grey",
+            _ => "white",
+        };
+        match (self.rho_d, self.rho_s) {
+            (_, s) if s <= 0.0 => format!("{tone} matte"),
+            (d, s) if d < 0.02 && s >= 0.5 => {
+                format!("metal: a mirror with {sharpness} reflections")
+            }
+            (_, s) if s < 0.15 => format!("{tone}, faintly glossy: {sharpness} reflections"),
+            _ => format!("{tone}, glossy: {sharpness} reflections"),
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ClassInfo {
     pub name: String,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ward: Option<Ward>,
+}
+
+impl ClassInfo {
+    /// The class in words: from its Ward parameters when known, else its name.
+    pub fn description(&self) -> String {
+        match &self.ward {
+            Some(ward) => ward.describe(),
+            None => self.name.replace('_', " "),
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -353,6 +388,42 @@ pub fn rfc3339(secs: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_papers_eleven_reflectances_have_eleven_descriptions() {
+        let ward = |rho_d, rho_s, alpha| Ward {
+            rho_d,
+            rho_s,
+            alpha,
+        };
+        let described: Vec<String> = [
+            ward(0.1, 0.0, 0.0),
+            ward(0.9, 0.0, 0.0),
+            ward(0.35, 0.0, 0.0),
+            ward(0.0, 0.75, 0.0),
+            ward(0.05, 0.05, 0.0),
+            ward(0.7, 0.2, 0.0),
+            ward(0.05, 0.05, 0.02),
+            ward(0.7, 0.25, 0.02),
+            ward(0.25, 0.1, 0.0),
+            ward(0.25, 0.1, 0.02),
+            ward(0.0, 0.75, 0.02),
+        ]
+        .iter()
+        .map(Ward::describe)
+        .collect();
+        let unique: std::collections::HashSet<_> = described.iter().collect();
+        assert_eq!(unique.len(), 11, "{described:?}");
+        assert_eq!(described[0], "black matte");
+        assert_eq!(described[3], "metal: a mirror with sharp reflections");
+        assert_eq!(described[7], "white, glossy: slightly blurred reflections");
+        assert_eq!(described[8], "grey, faintly glossy: sharp reflections");
+        let named = ClassInfo {
+            name: "white_shiny".into(),
+            ward: None,
+        };
+        assert_eq!(named.description(), "white shiny");
+    }
 
     #[test]
     fn rfc3339_known_dates() {

@@ -24,6 +24,7 @@ pub fn handle() -> &'static PrometheusHandle {
             tracing::warn!("a metrics recorder was already installed; /metrics will be empty");
         }
         describe();
+        register_at_zero();
         gauge!("reflectance_build_info", "version" => env!("CARGO_PKG_VERSION")).set(1.0);
         spawn_upkeep(handle.clone());
         handle
@@ -92,6 +93,27 @@ fn describe() {
     );
 }
 
+/// Every family whose labels are known in advance is exported from the start, at zero, so
+/// that dashboards and alerts see it before the first event (a counter that appears only
+/// when it first counts cannot be told from one that is missing).
+fn register_at_zero() {
+    counter!("reflectance_requests_shed_total").increment(0);
+    counter!("reflectance_job_record_write_failures_total").increment(0);
+    gauge!("reflectance_http_requests_in_flight").increment(0.0);
+    gauge!("reflectance_job_queue_depth").increment(0.0);
+    for state in JOB_STATES {
+        gauge!("reflectance_jobs", "state" => state).increment(0.0);
+    }
+    for stage in STAGES {
+        let _registered = histogram!("reflectance_stage_duration_seconds", "stage" => stage);
+    }
+}
+
+/// The states of the `reflectance_jobs` gauge.
+const JOB_STATES: [&str; 5] = ["queued", "running", "succeeded", "failed", "cancelled"];
+/// The stages of the `reflectance_stage_duration_seconds` histogram.
+const STAGES: [&str; 3] = ["decode", "features", "predict"];
+
 pub fn request(route: &str, method: &str, status: u16, seconds: f64) {
     let labels = [
         ("route", route.to_string()),
@@ -117,6 +139,9 @@ pub fn shed() {
 pub fn model_active(model: &str, version: u32) {
     gauge!("reflectance_model_active_version", "model" => model.to_string())
         .set(f64::from(version));
+    // A served model's failure counters exist from the start (see `register_at_zero`).
+    counter!("reflectance_model_load_failures_total", "model" => model.to_string()).increment(0);
+    counter!("reflectance_model_fallbacks_total", "model" => model.to_string()).increment(0);
 }
 
 pub fn model_load_failure(model: &str) {

@@ -228,12 +228,16 @@ pub fn run(config: Config) -> Result<(), String> {
         } else {
             None
         };
+        let bound = |listener: &tokio::net::TcpListener, asked| {
+            listener.local_addr().unwrap_or(asked)
+        };
+        let admin_at = admin.as_ref().map(|l| bound(l, config.admin_listen));
         tracing::info!(
-            listen = %config.listen,
-            admin = %if config.admin_enabled() { config.admin_listen.to_string() } else { "off".into() },
             models = %config.models.display(),
             default_model = %config.default_model,
-            "starting"
+            "listening on http://{}{}",
+            bound(&data, config.listen),
+            admin_at.map_or(" (admin plane off: no token)".into(), |a| format!(", admin on http://{a}")),
         );
         let state = build_state(config)?;
         // Listen at once (liveness answers, readiness says "loading"), load meanwhile.

@@ -223,7 +223,10 @@ impl ModelStore {
         });
         let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());
         cache.retain(|m| !(m.name() == name && m.version() == version));
-        tracing::info!(model = name, version, ?previous, "model activated");
+        match previous {
+            Some(previous) => tracing::info!(model = name, version, previous, "model activated"),
+            None => tracing::info!(model = name, version, "model activated"),
+        }
         Ok(Activated { previous, warning })
     }
 

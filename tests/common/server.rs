@@ -128,7 +128,7 @@ pub fn fixture() -> &'static Fixture {
             spec: TrainSpec::new(FeatureSet::Named("hand6"), ClassifierKind::Svm),
             seed: 1,
             cross_validate: true,
-            classes: None,
+            classes: Some(batch::load_classes(&dir.join("classes.json")).unwrap()),
             preprocessing: Default::default(),
         };
         let mut model = train(&table, "train/manifest.csv", &options).unwrap().model;

@@ -31,6 +31,7 @@ async fn blocking<T: Send + 'static>(
 const COMMON: &[&str] = &["type"];
 const LEARN: &[&str] = &[
     "dataset",
+    "manifest",
     "table",
     "features",
     "classifier",
@@ -392,10 +393,12 @@ mod tests {
             let body = serde_json::to_value(&job).unwrap();
             assert!(check_keys(&body).is_ok(), "{body}");
         }
-        let typo = serde_json::json!({"type": "train", "manifest": "m.csv"});
+        let cli_name = serde_json::json!({"type": "train", "manifest": "m.csv"});
+        assert!(check_keys(&cli_name).is_ok());
+        let typo = serde_json::json!({"type": "train", "manifests": "m.csv"});
         let refused = check_keys(&typo).unwrap_err().detail;
         assert!(
-            refused.contains("\"manifest\"") && refused.contains("dataset, table"),
+            refused.contains("\"manifests\"") && refused.contains("dataset, manifest, table"),
             "{refused}"
         );
     }

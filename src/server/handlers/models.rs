@@ -1,27 +1,12 @@
 //! `GET /v1/models` and `GET /v1/models/{name}`.
 
+use crate::inference::ClassOut;
 use crate::server::error::{ApiError, Kind, Problem};
 use crate::server::state::{LoadedModel, SharedState};
 use axum::Json;
 use axum::extract::{Path, State};
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
-
-/// Ward reflectance parameters of a rendered class.
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
-pub struct WardParams {
-    pub rho_d: f64,
-    pub rho_s: f64,
-    pub alpha: f64,
-}
-
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
-pub struct ClassOut {
-    pub name: String,
-    /// Known when the class was rendered from Ward parameters.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub ward: Option<WardParams>,
-}
 
 #[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
 pub struct ModelSummary {
@@ -119,25 +104,14 @@ pub fn detail(model: &LoadedModel, versions: Vec<u32>) -> ModelDetail {
         active_version: f.version,
         versions,
         created: f.created.clone(),
-        classes: f
-            .classes
-            .iter()
-            .map(|c| ClassOut {
-                name: c.name.clone(),
-                ward: c.ward.as_ref().map(|w| WardParams {
-                    rho_d: w.rho_d,
-                    rho_s: w.rho_s,
-                    alpha: w.alpha,
-                }),
-            })
-            .collect(),
+        classes: f.classes.iter().map(ClassOut::from).collect(),
         features: FeatureSetOut {
             set: f.features.set.clone(),
             selected: f.features.selected.clone(),
             extracted: model.feature_names.len(),
         },
         classifier: ClassifierOut {
-            kind: f.classifier.classifier.to_string(),
+            kind: f.classifier.kind.to_string(),
             c,
             gamma,
             calibrated: f.classifier.calibration.is_some(),

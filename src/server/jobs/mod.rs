@@ -49,8 +49,9 @@ pub enum Activate {
 /// by `reflectance features --out`), relative to the data directory.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct LearnParams {
-    /// Manifest CSV relative to the data directory.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    /// Manifest CSV relative to the data directory (`manifest`, the CLI's name, is accepted
+    /// too).
+    #[serde(default, alias = "manifest", skip_serializing_if = "Option::is_none")]
     pub dataset: Option<String>,
     /// Feature table CSV relative to the data directory.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -65,7 +66,7 @@ pub struct LearnParams {
     pub classifier: String,
     /// SVM C.
     #[serde(default = "default_c")]
-    #[schema(default = 100.0)]
+    #[schema(default = default_c)]
     pub c: f64,
     /// SVM γ (default 1 / number of classifier inputs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -109,7 +110,7 @@ fn default_classifier() -> String {
     "svm".into()
 }
 fn default_c() -> f64 {
-    100.0
+    crate::learn::DEFAULT_C
 }
 fn default_seed() -> u64 {
     1
@@ -733,7 +734,11 @@ impl JobManager {
             return;
         };
         finish(&mut record, crate::model::now_rfc3339(), outcome);
-        tracing::info!(job = %id, state = record.state.as_str(), error = record.error.as_deref().unwrap_or(""), "job finished");
+        let state = record.state.as_str();
+        match &record.error {
+            Some(error) => tracing::info!(job = %id, state, %error, "job finished"),
+            None => tracing::info!(job = %id, state, "job finished"),
+        }
         let mut saved = self.write(&record).is_ok();
         let (forgotten, latest) = {
             let mut jobs = self.lock();
@@ -771,7 +776,13 @@ fn finish(record: &mut JobRecord, finished: String, outcome: Result<JobResult, r
     match outcome {
         Ok(result) => {
             record.state = JobState::Succeeded;
-            record.progress.stage = "done".into();
+            // Complete: the last stage's units, or one for a stage without any (publish).
+            let units = record.progress.total.max(1);
+            record.progress = JobProgress {
+                stage: "done".into(),
+                done: units,
+                total: units,
+            };
             record.result = Some(result);
         }
         Err(run::Failure::Cancelled) => {

@@ -6,9 +6,7 @@ use super::{Activate, JobRequest, LearnParams};
 use crate::dataset::{self, DatasetError, FeatureTable};
 use crate::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
 use crate::image::decode::{DecodeOptions, Limits};
-use crate::learn::{
-    self, ClassifierKind, CvReport, Dataset, FeatureSet, Grid, LearnError, TrainSpec,
-};
+use crate::learn::{self, CvReport, Dataset, LearnError, SpecText, TrainSpec};
 use crate::model::registry;
 use crate::model::train::{self, TrainError, TrainOptions};
 use crate::render::Quality;
@@ -197,36 +195,25 @@ fn config_of(p: &LearnParams) -> Result<FeatureConfig, ApiError> {
         dependencies: p.dependency_features,
         capture: p.capture_features,
     };
-    let implied = Extensions::of_spec(&p.features);
     let preprocessing = Preprocessing {
         working_radius: p.working_radius,
         saturation: p.saturation,
     };
-    let config = FeatureConfig::extended(asked.union(implied), preprocessing);
-    config.validate().map_err(|e| invalid(e.to_string()))?;
-    Ok(config)
+    FeatureConfig::for_spec(asked, &p.features, preprocessing).map_err(|e| invalid(e.to_string()))
 }
 
 /// The training specification of learning parameters (feature names are those of the
 /// job's extraction configuration).
 fn spec_of(p: &LearnParams) -> Result<TrainSpec, ApiError> {
     let names = config_of(p)?.names();
-    let features =
-        FeatureSet::parse_with(&p.features, &names).map_err(|e| invalid(e.to_string()))?;
-    let classifier: ClassifierKind = p
-        .classifier
-        .parse()
-        .map_err(|e: LearnError| invalid(e.to_string()))?;
-    if !(p.c.is_finite() && p.c > 0.0) || p.gamma.is_some_and(|g| !(g.is_finite() && g > 0.0)) {
-        return Err(invalid("c and gamma must be finite and positive"));
-    }
-    Ok(TrainSpec {
-        features,
-        classifier,
+    let text = SpecText {
+        features: &p.features,
+        classifier: &p.classifier,
         c: p.c,
         gamma: p.gamma,
-        grid: p.grid.then(Grid::default),
-    })
+        grid: p.grid,
+    };
+    text.parse(&names).map_err(|e| invalid(e.to_string()))
 }
 
 fn check_data(p: &LearnParams, data: &DataDir) -> Result<(), ApiError> {
