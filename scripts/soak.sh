@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Soak and overload test of the release server on loopback (DESIGN §5, issue 6).
+# Soak and overload test of the release server on loopback (docs/design.md §5, issue 6).
 #
 #   scripts/soak.sh                        # 10 minutes of mixed traffic, then 30 s of overload
 #   MINUTES=2 OVERLOAD_SECONDS=10 scripts/soak.sh

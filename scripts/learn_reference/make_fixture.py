@@ -1,6 +1,6 @@
 """Generates tests/fixtures/learn/{table.csv, expected.json}: a synthetic feature table and
-what scikit-learn (libsvm) and an independent numpy/scipy implementation of DESIGN.md §3
-"Automatic selection" compute on it. tests/learn_reference.rs checks the Rust `learn`
+what scikit-learn (libsvm) and an independent numpy/scipy implementation of docs/design.md §3
+"Automatic selection" compute on it. tests/numerics/learn_reference.rs checks the Rust `learn`
 module against them.
 
     pip install -r scripts/learn_reference/requirements.txt

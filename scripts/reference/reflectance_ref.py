@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""Independent float64 numpy reference for the feature extraction of DESIGN.md §3.
+"""Independent float64 numpy reference for the feature extraction of docs/design.md §3.
 
 Dev-only: used to generate golden fixtures under tests/fixtures/.  It is written
-from the specification (DESIGN.md §3 "Numeric conventions"), not from the Rust
+from the specification (docs/design.md §3 "Numeric conventions"), not from the Rust
 code.  Every interpretation choice is marked with "CHOICE:" in a comment and is
 listed in README.md.
 

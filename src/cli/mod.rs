@@ -1,4 +1,4 @@
-//! The command line (DESIGN.md §6 is the contract: extend it, never rename).
+//! The command line (docs/design.md §6 is the contract: extend it, never rename).
 
 mod classify;
 mod features;

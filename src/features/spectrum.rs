@@ -1,4 +1,4 @@
-//! Oriented band powers of the unwrapped image, DESIGN.md §3 "Band powers".
+//! Oriented band powers of the unwrapped image, docs/design.md §3 "Band powers".
 //!
 //! `P = |FFT2(U − mean U)|² / (H·W)²`, so the non-DC powers sum to the variance of U.
 //! Bins are classified exactly as numpy would from `fftfreq` values (Nyquist frequencies are

@@ -13,7 +13,7 @@ pub enum FeatureSet {
     /// One of [`NAMED_SETS`] (the paper's hand-picked sets and our extensions of hand6).
     Named(&'static str),
     All,
-    /// Automatic selection of N features (DESIGN.md §3 "Automatic selection").
+    /// Automatic selection of N features (docs/design.md §3 "Automatic selection").
     Auto(usize),
     /// First N principal components of the standardized features, whitened.
     Pca(usize),

@@ -1,4 +1,4 @@
-//! Automatic feature selection (DESIGN.md §3 "Automatic selection", the paper's §5.3).
+//! Automatic feature selection (docs/design.md §3 "Automatic selection", the paper's §5.3).
 //!
 //! Repeat N times: for every remaining feature fit one Gaussian per class (class mean,
 //! ddof = 1 standard deviation floored at 1e-6 × the feature's overall ddof = 1 standard
@@ -8,7 +8,7 @@
 //! squares over all samples) and replace it by the residual. The classifier then uses the
 //! original values of the chosen features, in the order of selection.
 //!
-//! Clarifications (DESIGN.md leaves them open):
+//! Clarifications (the paper leaves them open; docs/design.md §3 states them):
 //! * "overall std" is the ddof = 1 standard deviation of the feature's *current* values
 //!   (after the residualizations so far), over all training samples.
 //! * A class with a single sample has no ddof = 1 standard deviation: it gets the floor.

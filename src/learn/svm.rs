@@ -7,7 +7,7 @@
 //! one-against-all binary problem, and by the internal cross-validation of the Platt
 //! calibration (which solves the same problems on subsets of the rows). Its element type
 //! is a parameter ([`KernelValue`]: `f64`, or `f32` like libsvm's `Qfloat`); the pipeline
-//! uses `f64` (see `benches/learn.rs` and README for the measurement: with the whole matrix
+//! uses `f64` (see `benches/learn.rs` and docs/performance.md for the measurement: with the whole matrix
 //! in memory, f32 saves memory bandwidth only, and the difference is within noise at these
 //! sizes, while f64 makes training and prediction use identical kernel values).
 

@@ -1,4 +1,4 @@
-//! The model file (DESIGN.md §4): everything needed to classify — the feature-extraction
+//! The model file (docs/design.md §4): everything needed to classify — the feature-extraction
 //! configuration, the feature set, the fitted classifier and its calibration — with the
 //! classes, training provenance, a self-test vector and a SHA-256 of the content.
 //!

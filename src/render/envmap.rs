@@ -1,4 +1,4 @@
-//! Latitude-longitude environment maps (DESIGN.md §3 "Rendering"): row i, column j has
+//! Latitude-longitude environment maps (docs/design.md §3 "Rendering"): row i, column j has
 //! θ = π(i+0.5)/H from +Y and φ = 2π(j+0.5)/W − π, direction
 //! d = (sin θ sin φ, cos θ, −sin θ cos φ). The rendered quantity is Rec. 709 luminance.
 

@@ -1,5 +1,5 @@
 //! Training data: spheres of Ward reflectance rendered under real light probes
-//! (paper §4.2, §6.1; DESIGN.md §3 "Rendering").
+//! (paper §4.2, §6.1; docs/design.md §3 "Rendering").
 //!
 //! Orthographic camera, unit sphere at the origin, viewer direction
 //! `v = (0, sin e, cos e)` (e = 45° by default), image up = +Y orthogonalized against v,
@@ -75,7 +75,7 @@ pub const HALF_WIDTH: f64 = 1.1;
 /// Where the viewer is, and how the environment is turned (for augmentation).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct View {
-    /// Elevation of the viewer above the horizontal, degrees (DESIGN: 45).
+    /// Elevation of the viewer above the horizontal, degrees (docs/design.md §3 "Rendering": 45).
     pub elevation_deg: f64,
     /// Rotation of the environment about +Y, degrees: rendering a map with azimuth
     /// 360·k/W equals rendering the map with its columns rolled right by k.
@@ -497,14 +497,16 @@ pub(crate) mod testing {
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/probes")
     }
 
-    /// A probe from ../shared/data/probes, or None (with a note) when it is absent.
-    pub fn shared_probe(name: &str) -> Option<EnvMap> {
+    /// A probe from ../shared/data/probes (tests that call this are ignored without them,
+    /// see build.rs).
+    pub fn shared_probe(name: &str) -> EnvMap {
         let path = probes_dir().join(name);
-        if !path.exists() {
-            eprintln!("skipping: {} not found", path.display());
-            return None;
-        }
-        Some(EnvMap::load(&path).expect("probe loads"))
+        EnvMap::load(&path).unwrap_or_else(|e| {
+            panic!(
+                "{}: {e} (these tests need ../shared beside the repository)",
+                path.display()
+            )
+        })
     }
 }
 

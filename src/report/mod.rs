@@ -34,7 +34,7 @@ pub enum ReportError {
         source: std::io::Error,
     },
     #[error(
-        "data set {0} is missing: expected {0}/manifest.csv (see README, \"Reproducing the paper's tables\")"
+        "data set {0} is missing: expected {0}/manifest.csv (see docs/accuracy.md, \"Reproducing the paper's tables\")"
     )]
     Missing(String),
     #[error("plot: {0}")]

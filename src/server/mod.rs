@@ -1,4 +1,4 @@
-//! `reflectance serve`: the classification service (DESIGN.md §5).
+//! `reflectance serve`: the classification service (docs/design.md §5).
 //!
 //! * [`config`] — flags and environment;
 //! * [`state`] — readiness, the model store (atomic hot swap), the CPU pool;

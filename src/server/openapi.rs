@@ -1,6 +1,6 @@
 //! The OpenAPI 3.1 document, generated from the handlers' annotations (utoipa). The
-//! committed `openapi.yaml` must equal it: `tests/server_openapi.rs` fails otherwise, and
-//! `REFLECTANCE_UPDATE_OPENAPI=1 cargo test --release --test server_openapi` rewrites it.
+//! committed `openapi.yaml` must equal it: `tests/server/openapi.rs` fails otherwise, and
+//! `REFLECTANCE_UPDATE_OPENAPI=1 cargo test --release --test server openapi` rewrites it.
 
 use super::error::Problem;
 use super::handlers::{admin, classify, health, models, v2};

@@ -18,7 +18,7 @@ pub fn temp_path(path: &Path) -> PathBuf {
 
 /// Test-only crash windows: with `REFLECTANCE_TEST_PAUSE=point=ms[,point=ms…]` in the
 /// environment the calling thread sleeps at the named point, so that the crash-safety
-/// tests (`tests/faults.rs`) can SIGKILL the process there deterministically. Points:
+/// tests (`tests/server/faults.rs`) can SIGKILL the process there deterministically. Points:
 /// `publish` (a new version's files are staged in a hidden directory, not yet renamed into
 /// place), `activate` (a version is swapped in memory, not yet recorded in `ACTIVE`) and
 /// `render-image` (before each image a render batch draws).

@@ -1,4 +1,4 @@
-//! Decoding: bytes → linear luminance plane (+ optional alpha mask), DESIGN.md §3 "Pixels".
+//! Decoding: bytes → linear luminance plane (+ optional alpha mask), docs/design.md §3 "Pixels".
 //!
 //! Integer formats (PNG, JPEG, TIFF, PNM) go through the `image` crate; Radiance `.hdr`,
 //! PFM and OpenEXR are read here (RGBE and PFM by our own small parsers, EXR through the

@@ -5,7 +5,7 @@
 //! point and the test kills it there once the point is observably reached. Also: start-up
 //! when the active version does not load (fallback to the newest version that does).
 
-mod common;
+use crate::common;
 
 use common::server::{Part, TOKEN, copy_dir, free_port, multipart, temp_dir};
 use serde_json::{Value, json};
@@ -462,6 +462,47 @@ fn sigkill_while_a_version_is_activated() {
     server.kill();
     let server = spawn(&base, None);
     assert_eq!(classify(server.port), 2);
+}
+
+/// What an operator sees of a fresh server: where it listens, every metric family at zero,
+/// and logs without Rust debug text, also after an activation and a finished job.
+#[test]
+fn a_fresh_server_says_where_it_listens_and_exports_its_metrics_at_zero() {
+    let base = setup("fresh");
+    let server = spawn(&base, None);
+    let metrics = String::from_utf8(json_call(server.port, "GET", "/metrics", None).body).unwrap();
+    for family in [
+        "reflectance_requests_shed_total 0",
+        "reflectance_job_record_write_failures_total 0",
+        "reflectance_job_queue_depth 0",
+        "reflectance_jobs{state=\"failed\"} 0",
+        "reflectance_model_load_failures_total{model=\"ward6\"} 0",
+        "reflectance_model_fallbacks_total{model=\"ward6\"} 0",
+        "reflectance_stage_duration_seconds_count{stage=\"predict\"} 0",
+        "reflectance_model_active_version{model=\"ward6\"} 1",
+    ] {
+        assert!(metrics.contains(family), "{family} missing:\n{metrics}");
+    }
+    assert_eq!(activate(server.admin, 1).status, 200);
+    let id = accepted(server.admin, &train_job("never"));
+    assert_eq!(finished(server.admin, &id)["state"], "succeeded");
+    let (port, admin) = (server.port, server.admin);
+    server.terminate_within(Duration::from_secs(30));
+    let log = std::fs::read_to_string(base.join("server.log")).unwrap();
+    let listening =
+        format!("listening on http://127.0.0.1:{port}, admin on http://127.0.0.1:{admin}");
+    assert!(log.contains(&listening), "{log}");
+    for line in log.lines() {
+        let event: Value = serde_json::from_str(line).unwrap_or_else(|e| panic!("{e}: {line}"));
+        let fields = event["fields"].as_object().unwrap();
+        for (name, value) in fields {
+            let text = value.to_string();
+            assert!(
+                !text.contains("Some(") && text != "\"None\"" && text != "\"\"",
+                "{name} = {text}: Rust debug text or an empty field in {line}"
+            );
+        }
+    }
 }
 
 #[test]

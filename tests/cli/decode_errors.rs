@@ -1,6 +1,6 @@
 //! Bad input never panics: every corruption is a typed error with a clear message.
 
-mod common;
+use crate::common;
 
 use common::*;
 use reflectance::image::decode::{DecodeError, DecodeOptions, Limits, decode, pfm, rgbe};

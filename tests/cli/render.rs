@@ -1,6 +1,6 @@
 //! `reflectance render` end to end: manifest, images, resume, determinism, features.
 
-mod common;
+use crate::common;
 
 use reflectance::image::decode::rgbe;
 use reflectance::render::envmap::EnvMap;

@@ -1,6 +1,6 @@
 //! `reflectance report`: Tables 1 and 2, JSON and plots, on tiny rendered data sets.
 
-mod common;
+use crate::common;
 
 use reflectance::image::decode::rgbe;
 use reflectance::render::envmap::EnvMap;

@@ -3,9 +3,9 @@
 //! cases: 200/202 and no type); none may panic, hang (every case runs under a time limit)
 //! or answer 5xx. The images are generated here (small, exact, reproducible); crafted
 //! headers patch real encoder output. A summary of the outcomes by problem type is printed
-//! (`cargo test --release --test hostile -- --nocapture`).
+//! (`cargo test --release --test server hostile -- --nocapture`).
 
-mod common;
+use crate::common;
 
 use axum::body::Body;
 use axum::http::Request;

@@ -1,6 +1,6 @@
 //! `reflectance features` end to end, through the real binary.
 
-mod common;
+use crate::common;
 
 use common::fixtures;
 use serde_json::Value;

@@ -1,7 +1,7 @@
 //! Model files and the registry: round trips, refusal of corrupt files, versions, activation,
 //! and train → predict through the real binary.
 
-mod common;
+use crate::common;
 
 use reflectance::dataset::FeatureTable;
 use reflectance::learn::{ClassifierKind, FeatureSet, TrainSpec};

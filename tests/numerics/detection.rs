@@ -4,7 +4,7 @@
 //! shadows, camera noise, lens blur and JPEG at quality 75–95. Found means within 1 px of
 //! the centre and 1 % of the radius.
 //!
-//! `REFLECTANCE_COMPOSITES=N cargo test --release --test detection -- --nocapture` measures
+//! `REFLECTANCE_COMPOSITES=N cargo test --release --test numerics detection -- --nocapture` measures
 //! on N composites (default 36) and prints the rates per background;
 //! `REFLECTANCE_COMPOSITE_DUMP=DIR` writes the missed ones there.
 
@@ -279,6 +279,10 @@ fn composite(
 }
 
 #[test]
+#[cfg_attr(
+    not(shared_data),
+    ignore = "needs ../shared/data/probes beside the repository"
+)]
 fn spheres_are_found_in_photograph_like_composites() {
     let count: usize = std::env::var("REFLECTANCE_COMPOSITES")
         .ok()

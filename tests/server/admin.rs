@@ -2,7 +2,7 @@
 //! (render → train → activation changes what /v1/classify reports), cancellation, the
 //! bounded queue, restarts, activation refusing a corrupt model, data-dir confinement.
 
-mod common;
+use crate::common;
 
 use axum::body::Body;
 use axum::http::Request;

@@ -3,7 +3,7 @@
 //! server_openapi`), it is what the server serves, and every documented operation is
 //! routed by the real routers.
 
-mod common;
+use crate::common;
 
 use axum::body::Body;
 use axum::http::{Method, Request};
@@ -26,7 +26,7 @@ fn committed_document_matches_the_code() {
     assert!(
         committed == generated,
         "openapi.yaml differs from the document generated from the code; regenerate it with\n  \
-         REFLECTANCE_UPDATE_OPENAPI=1 cargo test --release --test server_openapi"
+         REFLECTANCE_UPDATE_OPENAPI=1 cargo test --release --test server openapi"
     );
     assert!(generated.starts_with("openapi: 3.1"));
 }

@@ -1,7 +1,7 @@
 //! The data plane against the real router (in-process): classification of rendered
 //! spheres, every error class as problem+json, models, health, metrics, KServe V2.
 
-mod common;
+use crate::common;
 
 use axum::body::Body;
 use axum::http::Request;
