@@ -1,7 +1,12 @@
 //! Numbers against independent references and physics: golden features (numpy, pyrtools),
 //! the learning layer (scikit-learn), the renderer's known answers, resolution
-//! independence, and sphere detection on photograph-like composites.
+//! independence, sphere detection on photograph-like composites, and typed errors for
+//! every corrupt input.
 
+#[path = "../common/mod.rs"]
+mod common;
+
+mod decode_errors;
 mod detection;
 mod golden;
 mod learn_reference;
