@@ -1,11 +1,12 @@
 //! The feature-extraction configuration every model file records: the unwrap grid, the
 //! pyramid depth, the optional families and the preprocessing.
 
-use super::layout::Layout;
+use super::layout::{BlockLayout, Layout};
 use super::polar::UnwrapConfig;
 use super::sets::named_set;
-use super::{CAPTURE_PREFIX, DEPENDENCY_PREFIX, LOG_PREFIX, RADIAL_PREFIX};
+use super::{CAPTURE_PREFIX, DEPENDENCY_PREFIX, LEVELS, LOG_PREFIX, RADIAL_PREFIX};
 use serde::{Deserialize, Serialize};
+use std::sync::OnceLock;
 
 /// The smallest subband height the 9-tap filters can reflect within.
 const MIN_BAND_ROWS: usize = 9;
@@ -127,7 +128,7 @@ impl Default for FeatureConfig {
     fn default() -> Self {
         FeatureConfig {
             unwrap: UnwrapConfig::default(),
-            levels: 4,
+            levels: LEVELS,
             log_domain: false,
             radial: false,
             dependencies: false,
@@ -260,8 +261,27 @@ impl FeatureConfig {
         }
     }
 
+    /// Where each feature of this configuration sits.
+    pub fn layout(&self) -> Layout {
+        Layout {
+            block: BlockLayout {
+                levels: self.levels,
+                radial: self.radial,
+                dependencies: self.dependencies,
+            },
+            log_domain: self.log_domain,
+            capture: self.capture,
+        }
+    }
+
     /// Canonical feature names for this configuration.
     pub fn names(&self) -> Vec<String> {
-        Layout::of(self).names()
+        self.layout().names()
     }
+}
+
+/// The default configuration's names, computed once.
+pub fn default_names() -> &'static [String] {
+    static NAMES: OnceLock<Vec<String>> = OnceLock::new();
+    NAMES.get_or_init(|| FeatureConfig::default().names())
 }

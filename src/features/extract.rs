@@ -91,7 +91,7 @@ impl Extractor {
         config.validate()?;
         Ok(Extractor {
             spectrum: SpectrumPlan::new(config.unwrap.rows, config.unwrap.cols),
-            layout: Layout::of(&config),
+            layout: config.layout(),
             config,
             angles: Default::default(),
         })

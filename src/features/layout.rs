@@ -2,7 +2,6 @@
 //! order (docs/design.md §3 "The 117 features"): the names, the full extraction and the
 //! subset extraction all index through it, so a new family is added here once.
 
-use super::config::FeatureConfig;
 use super::spectrum::ORIENTATIONS;
 use super::stats::STAT_NAMES;
 use super::{
@@ -10,7 +9,6 @@ use super::{
     RADIAL_RINGS,
 };
 use std::ops::Range;
-use std::sync::OnceLock;
 
 /// Statistics per image or subband: mean, var, skew, kurt, p10, p50, p90.
 pub const STATS: usize = STAT_NAMES.len();
@@ -161,18 +159,6 @@ pub struct Layout {
 }
 
 impl Layout {
-    pub fn of(config: &FeatureConfig) -> Self {
-        Layout {
-            block: BlockLayout {
-                levels: config.levels,
-                radial: config.radial,
-                dependencies: config.dependencies,
-            },
-            log_domain: config.log_domain,
-            capture: config.capture,
-        }
-    }
-
     /// The blocks' features: one image's, or two with the log-domain extension.
     pub fn blocks(&self) -> Range<usize> {
         let blocks = if self.log_domain { 2 } else { 1 };
@@ -212,16 +198,9 @@ impl Layout {
     }
 }
 
-/// The default configuration's names, computed once.
-pub fn default_names() -> &'static [String] {
-    static NAMES: OnceLock<Vec<String>> = OnceLock::new();
-    NAMES.get_or_init(|| FeatureConfig::default().names())
-}
-
 #[cfg(test)]
 mod tests {
-    use super::*;
-    use crate::features::Extensions;
+    use crate::features::{Extensions, FeatureConfig};
     use std::collections::HashSet;
 
     #[test]
@@ -238,7 +217,7 @@ mod tests {
                     levels,
                     ..FeatureConfig::extended(extensions, Default::default())
                 };
-                let layout = Layout::of(&config);
+                let layout = config.layout();
                 let names = layout.names();
                 assert_eq!(names.len(), layout.count());
                 assert!(

@@ -19,11 +19,13 @@ pub mod sets;
 pub mod spectrum;
 pub mod stats;
 
-pub use config::{ConfigError, Extensions, FeatureConfig, Preprocessing};
+pub use config::{ConfigError, Extensions, FeatureConfig, Preprocessing, default_names};
 pub use extract::{CaptureMeasurements, Extractor, Stages};
-pub use layout::{BlockLayout, Layout, default_names};
+pub use layout::{BlockLayout, Layout};
 pub use sets::{NAMED_SETS, named_set};
 
+/// Pyramid levels of the default configuration.
+pub const LEVELS: usize = 4;
 /// Number of features with the default configuration.
 pub const FEATURE_COUNT: usize = 117;
 /// The subband orientations, in order: h (horizontal structure), v (vertical: radial on

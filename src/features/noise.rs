@@ -301,7 +301,7 @@ mod tests {
             inside * shade + (1.0 - inside) * 0.1
         });
         if sigma > 0.0 {
-            crate::render::capture::gaussian_blur(image.view(), sigma)
+            crate::image::blur::gaussian_blur(image.view(), sigma)
         } else {
             image
         }

@@ -1,9 +1,8 @@
 //! The named feature sets: the paper's hand-picked ones and hand6 with our extensions.
 
-use super::config::FeatureConfig;
 use super::layout::BlockLayout;
 use super::stats::STAT_NAMES;
-use super::{BAND_NAMES, CAPTURE_NAMES, DEPENDENCY_PREFIX, LOG_PREFIX, RADIAL_PREFIX};
+use super::{BAND_NAMES, CAPTURE_NAMES, DEPENDENCY_PREFIX, LEVELS, LOG_PREFIX, RADIAL_PREFIX};
 
 /// The named feature sets: the paper's hand-picked ones, the trivial one, and hand6 with
 /// our extensions ([`named_set`] lists their features).
@@ -48,7 +47,7 @@ pub fn named_set(name: &str) -> Option<Vec<String>> {
                 .collect(),
         ),
         "hand6+log" | "hand6+log+radial" | "hand6+log+radial+dep" => {
-            let levels = FeatureConfig::default().levels;
+            let levels = LEVELS;
             let pixels = STAT_NAMES.iter().map(|s| format!("{LOG_PREFIX}pix.{s}"));
             let bands = (1..=levels).flat_map(|k| {
                 BAND_NAMES

@@ -14,7 +14,7 @@
 //! 3. **Confidence**: the fraction of the rim along which a clear edge lies on the fitted
 //!    circle. The best candidate is taken when it is confident enough.
 
-use crate::image::geometry::{Circle, MIN_RADIUS};
+use crate::image::circle::{Circle, MIN_RADIUS};
 use ndarray::{Array2, ArrayView2};
 
 /// The candidate search runs on a copy at most this many pixels across.
@@ -104,7 +104,7 @@ fn working_copy(luminance: ArrayView2<f64>) -> (Array2<f64>, f64) {
     let norm = if p99 > 0.0 { 1.0 / p99 } else { 1.0 };
     let encoded = small.mapv(|v| (v * norm).clamp(0.0, 4.0).powf(1.0 / 2.2));
     (
-        crate::render::capture::gaussian_blur(encoded.view(), 1.0),
+        crate::image::blur::gaussian_blur(encoded.view(), 1.0),
         scale,
     )
 }
@@ -217,7 +217,7 @@ fn vote(edges: &[Edge], (h, w): (usize, usize), min_r: f64, max_r: f64) -> Vec<(
     let mut found: Vec<(f64, f64, f64, f64)> = Vec::new();
     for (bin, (map, seen)) in votes.iter().zip(&directions).enumerate() {
         let r = min_r * RADIUS_RATIO.powf(bin as f64 + 0.5);
-        let smooth = crate::render::capture::gaussian_blur(map.mapv(f64::from).view(), 1.0);
+        let smooth = crate::image::blur::gaussian_blur(map.mapv(f64::from).view(), 1.0);
         let circumference = std::f64::consts::TAU * r;
         for (y, x) in peaks(&smooth, CANDIDATES, (0.5 * r / CELL).max(2.0)) {
             let (y, x) = (y as usize, x as usize);
@@ -472,7 +472,7 @@ fn robust_fit(points: &[(f64, f64, f64)], start: &Circle) -> Option<Circle> {
         if used < RAYS / 8 {
             return None;
         }
-        let [dcx, dcy, dr] = crate::image::geometry::solve3(a, b)?;
+        let [dcx, dcy, dr] = crate::image::circle::solve3(a, b)?;
         c = Circle {
             cx: c.cx + dcx,
             cy: c.cy + dcy,

@@ -1,6 +1,8 @@
 //! From bytes to a located, white-normalized sphere: decoding, the circle (given, fitted to a
 //! mask, or detected), the white reference, and the resampling to the working radius.
 
+pub mod blur;
+pub mod circle;
 pub mod decode;
 pub mod detect;
 pub mod geometry;

@@ -7,7 +7,7 @@
 //! features when larger inputs are first reduced to radius R (measured: the largest hand6
 //! change between r = 116 and r = 400 renders of a chrome sphere drops from 0.95 to 0.04).
 
-use crate::image::geometry::Circle;
+use crate::image::circle::Circle;
 use ndarray::{Array2, ArrayView2};
 
 /// Per output index along one axis: (first source index, weights of consecutive sources).

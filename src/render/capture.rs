@@ -14,6 +14,7 @@
 //! whole effect.
 
 use crate::features::CaptureMeasurements;
+use crate::image::blur::gaussian_blur;
 use crate::image::decode::Encoding;
 use crate::image::geometry::Circle;
 use crate::util::rng::Rng;
@@ -453,36 +454,6 @@ pub fn scale(image: ArrayView2<f64>, factor: f64) -> Array2<f64> {
         let bottom = image[[i1, j]] * (1.0 - fx) + image[[i1, j1]] * fx;
         top * (1.0 - fy) + bottom * fy
     })
-}
-
-/// Separable Gaussian blur of σ px (kernel to 3σ, normalized; borders clamped).
-pub fn gaussian_blur(image: ArrayView2<f64>, sigma: f64) -> Array2<f64> {
-    let reach = (3.0 * sigma).ceil() as isize;
-    let mut kernel: Vec<f64> = (-reach..=reach)
-        .map(|k| (-0.5 * (k as f64 / sigma).powi(2)).exp())
-        .collect();
-    let total: f64 = kernel.iter().sum();
-    kernel.iter_mut().for_each(|k| *k /= total);
-    let (h, w) = image.dim();
-    let pass = |source: ArrayView2<f64>, along_rows: bool| {
-        Array2::from_shape_fn((h, w), |(y, x)| {
-            kernel
-                .iter()
-                .enumerate()
-                .map(|(i, k)| {
-                    let offset = i as isize - reach;
-                    let (sy, sx) = if along_rows {
-                        (y, (x as isize + offset).clamp(0, w as isize - 1) as usize)
-                    } else {
-                        ((y as isize + offset).clamp(0, h as isize - 1) as usize, x)
-                    };
-                    k * source[[sy, sx]]
-                })
-                .sum()
-        })
-    };
-    let rows = pass(image, true);
-    pass(rows.view(), false)
 }
 
 /// sRGB transfer function (IEC 61966-2-1) from linear `v ∈ [0, 1]`.

@@ -30,13 +30,13 @@ const PALETTE: [(u8, u8, u8); 11] = [
     (60, 60, 60),
 ];
 
-fn colour(class: usize) -> RGBColor {
+pub(super) fn colour(class: usize) -> RGBColor {
     let (r, g, b) = PALETTE[class % PALETTE.len()];
     RGBColor(r, g, b)
 }
 
 /// Pale version of a class colour for decision regions.
-fn pale(class: usize) -> RGBColor {
+pub(super) fn pale(class: usize) -> RGBColor {
     let (r, g, b) = PALETTE[class % PALETTE.len()];
     let mix = |c: u8| (f64::from(c) * 0.3 + 255.0 * 0.7) as u8;
     RGBColor(mix(r), mix(g), mix(b))
@@ -62,12 +62,12 @@ fn font_ready() -> bool {
     })
 }
 
-fn plot_error(e: impl std::fmt::Display) -> ReportError {
+pub(super) fn plot_error(e: impl std::fmt::Display) -> ReportError {
     ReportError::Plot(e.to_string())
 }
 
 /// Draw into an RGB buffer with `draw`, then write it as PNG.
-fn render_png(
+pub(super) fn render_png(
     path: &Path,
     (width, height): (u32, u32),
     draw: impl FnOnce(DrawingArea<BitMapBackend, plotters::coord::Shift>) -> Result<(), ReportError>,
@@ -242,98 +242,6 @@ pub fn fig7(table: &FeatureTable, ds: &Dataset, seed: u64, path: &Path) -> Resul
             .border_style(BLACK)
             .draw()
             .map_err(plot_error)?;
-        root.present().map_err(plot_error)
-    })
-}
-
-/// Accuracy against each capture factor ([`super::robustness::FACTORS`]), a panel per
-/// factor and a line per model.
-pub fn robustness(
-    cells: &[super::robustness::Cell],
-    models: &[String],
-    path: &Path,
-) -> Result<(), ReportError> {
-    use super::robustness::FACTORS;
-    let lowest = cells.iter().map(|c| c.accuracy).fold(1.0f64, f64::min);
-    let floor = ((lowest * 100.0 / 10.0).floor() * 10.0).clamp(0.0, 90.0);
-    render_png(path, (1200, 760), |root| {
-        root.fill(&WHITE).map_err(plot_error)?;
-        let (title, body) = root.split_vertically(40);
-        title
-            .draw(&Text::new(
-                "Accuracy through the capture model (one factor at a time)",
-                (10, 10),
-                ("sans-serif", 20),
-            ))
-            .map_err(plot_error)?;
-        let panels = body.split_evenly((2, 3));
-        for ((factor, axis), panel) in FACTORS.iter().zip(panels.iter()) {
-            let values: Vec<&str> = cells
-                .iter()
-                .filter(|c| c.factor == *factor && c.model == models[0])
-                .map(|c| c.value.as_str())
-                .collect();
-            let n = values.len().max(1);
-            let mut chart = ChartBuilder::on(panel)
-                .caption(*factor, ("sans-serif", 16))
-                .margin(10)
-                .x_label_area_size(40)
-                .y_label_area_size(45)
-                .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), floor..100.5f64)
-                .map_err(plot_error)?;
-            let label = |x: &f64| {
-                let k = x.round();
-                if (x - k).abs() < 1e-6 && k >= 0.0 {
-                    values
-                        .get(k as usize)
-                        .map_or(String::new(), |v| v.to_string())
-                } else {
-                    String::new()
-                }
-            };
-            chart
-                .configure_mesh()
-                .x_labels(n)
-                .x_label_formatter(&label)
-                .x_desc(*axis)
-                .y_desc("accuracy (%)")
-                .draw()
-                .map_err(plot_error)?;
-            for (m, model) in models.iter().enumerate() {
-                let points: Vec<(f64, f64)> = values
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(k, v)| {
-                        cells
-                            .iter()
-                            .find(|c| c.factor == *factor && c.value == *v && &c.model == model)
-                            .map(|c| (k as f64, 100.0 * c.accuracy))
-                    })
-                    .collect();
-                chart
-                    .draw_series(LineSeries::new(points.clone(), colour(m).stroke_width(2)))
-                    .map_err(plot_error)?
-                    .label(model.clone())
-                    .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 18, y)], colour(m).stroke_width(2))
-                    });
-                chart
-                    .draw_series(
-                        points
-                            .iter()
-                            .map(|&p| Circle::new(p, 3, colour(m).filled())),
-                    )
-                    .map_err(plot_error)?;
-            }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::LowerLeft)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 11))
-                .draw()
-                .map_err(plot_error)?;
-        }
         root.present().map_err(plot_error)
     })
 }

@@ -5,6 +5,7 @@
 //! with the white and circle a user would report).
 
 use super::ReportError;
+use super::plots::{colour, plot_error, render_png};
 use crate::dataset::{self, Manifest};
 use crate::image::decode::{self, DecodeOptions};
 use crate::image::geometry::Circle;
@@ -13,6 +14,7 @@ use crate::render::capture::{self, CaptureRanges, CaptureSettings, Quantization}
 use crate::util::progress;
 use crate::util::rng::Rng;
 use ndarray::Array2;
+use plotters::prelude::*;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -449,5 +451,92 @@ pub fn write(cells: &[Cell], models: &[String], out: &Path) -> Result<(), Report
     save("robustness.md", markdown(cells, models).as_bytes())?;
     let json = serde_json::to_vec_pretty(cells).map_err(|e| ReportError::Input(e.to_string()))?;
     save("robustness.json", &json)?;
-    super::plots::robustness(cells, models, &out.join("robustness.png"))
+    plot(cells, models, &out.join("robustness.png"))
+}
+
+/// Accuracy against each capture factor ([`FACTORS`]), a panel per
+/// factor and a line per model.
+fn plot(cells: &[Cell], models: &[String], path: &Path) -> Result<(), ReportError> {
+    let lowest = cells.iter().map(|c| c.accuracy).fold(1.0f64, f64::min);
+    let floor = ((lowest * 100.0 / 10.0).floor() * 10.0).clamp(0.0, 90.0);
+    render_png(path, (1200, 760), |root| {
+        root.fill(&WHITE).map_err(plot_error)?;
+        let (title, body) = root.split_vertically(40);
+        title
+            .draw(&Text::new(
+                "Accuracy through the capture model (one factor at a time)",
+                (10, 10),
+                ("sans-serif", 20),
+            ))
+            .map_err(plot_error)?;
+        let panels = body.split_evenly((2, 3));
+        for ((factor, axis), panel) in FACTORS.iter().zip(panels.iter()) {
+            let values: Vec<&str> = cells
+                .iter()
+                .filter(|c| c.factor == *factor && c.model == models[0])
+                .map(|c| c.value.as_str())
+                .collect();
+            let n = values.len().max(1);
+            let mut chart = ChartBuilder::on(panel)
+                .caption(*factor, ("sans-serif", 16))
+                .margin(10)
+                .x_label_area_size(40)
+                .y_label_area_size(45)
+                .build_cartesian_2d(-0.5f64..(n as f64 - 0.5), floor..100.5f64)
+                .map_err(plot_error)?;
+            let label = |x: &f64| {
+                let k = x.round();
+                if (x - k).abs() < 1e-6 && k >= 0.0 {
+                    values
+                        .get(k as usize)
+                        .map_or(String::new(), |v| v.to_string())
+                } else {
+                    String::new()
+                }
+            };
+            chart
+                .configure_mesh()
+                .x_labels(n)
+                .x_label_formatter(&label)
+                .x_desc(*axis)
+                .y_desc("accuracy (%)")
+                .draw()
+                .map_err(plot_error)?;
+            for (m, model) in models.iter().enumerate() {
+                let points: Vec<(f64, f64)> = values
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, v)| {
+                        cells
+                            .iter()
+                            .find(|c| c.factor == *factor && c.value == *v && &c.model == model)
+                            .map(|c| (k as f64, 100.0 * c.accuracy))
+                    })
+                    .collect();
+                chart
+                    .draw_series(LineSeries::new(points.clone(), colour(m).stroke_width(2)))
+                    .map_err(plot_error)?
+                    .label(model.clone())
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 18, y)], colour(m).stroke_width(2))
+                    });
+                chart
+                    .draw_series(
+                        points
+                            .iter()
+                            .map(|&p| plotters::element::Circle::new(p, 3, colour(m).filled())),
+                    )
+                    .map_err(plot_error)?;
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::LowerLeft)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 11))
+                .draw()
+                .map_err(plot_error)?;
+        }
+        root.present().map_err(plot_error)
+    })
 }

@@ -18,6 +18,7 @@ pub mod metrics;
 pub mod openapi;
 pub mod router;
 pub mod state;
+pub mod store;
 
 use config::{Config, LogFormat};
 use state::{AppState, CpuPool, ModelStore, Phase, Readiness, SharedState};

@@ -5,6 +5,8 @@
 use super::error::Problem;
 use super::handlers::{admin, classify, health, models, v2};
 use super::jobs;
+use axum::http::{HeaderValue, header};
+use axum::response::{IntoResponse, Response};
 use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
 use utoipa::openapi::server::Server;
 use utoipa::{Modify, OpenApi};
@@ -59,7 +61,7 @@ impl Modify for Extras {
         health::live,
         health::ready,
         health::metrics,
-        health::openapi,
+        serve,
         v2::server_metadata,
         v2::health_live,
         v2::health_ready,
@@ -99,4 +101,20 @@ pub fn yaml() -> String {
     ApiDoc::openapi()
         .to_yaml()
         .unwrap_or_else(|e| format!("# cannot render the OpenAPI document: {e}\n"))
+}
+
+/// This document.
+#[utoipa::path(
+    get,
+    operation_id = "openapi", path = "/openapi.yaml",
+    tag = "health",
+    responses((status = 200, description = "The OpenAPI 3.1 document", body = Object, content_type = "application/yaml"))
+)]
+pub async fn serve() -> Response {
+    let mut response = yaml().into_response();
+    response.headers_mut().insert(
+        header::CONTENT_TYPE,
+        HeaderValue::from_static("application/yaml"),
+    );
+    response
 }

@@ -133,7 +133,7 @@ pub fn data_router(state: SharedState) -> Router {
         .route("/health/live", get(health::live))
         .route("/health/ready", get(health::ready))
         .route("/metrics", get(health::metrics))
-        .route("/openapi.yaml", get(health::openapi))
+        .route("/openapi.yaml", get(super::openapi::serve))
         .route("/v2", get(v2::server_metadata))
         .route("/v2/health/live", get(v2::health_live))
         .route("/v2/health/ready", get(v2::health_ready))

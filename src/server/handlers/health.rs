@@ -80,19 +80,3 @@ pub async fn metrics(State(state): State<SharedState>) -> Response {
     );
     response
 }
-
-/// This document.
-#[utoipa::path(
-    get,
-    operation_id = "openapi", path = "/openapi.yaml",
-    tag = "health",
-    responses((status = 200, description = "The OpenAPI 3.1 document", body = Object, content_type = "application/yaml"))
-)]
-pub async fn openapi() -> Response {
-    let mut response = crate::server::openapi::yaml().into_response();
-    response.headers_mut().insert(
-        header::CONTENT_TYPE,
-        HeaderValue::from_static("application/yaml"),
-    );
-    response
-}

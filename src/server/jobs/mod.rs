@@ -15,8 +15,8 @@ mod run;
 
 use super::error::{ApiError, Kind};
 use super::metrics;
-use super::state::ModelStore;
 use crate::image::decode::Limits;
+use crate::server::store::ModelStore;
 use crate::util::durable::write_atomic;
 use crate::util::progress::Observer;
 use paths::DataDir;

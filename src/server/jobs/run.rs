@@ -12,7 +12,7 @@ use crate::model::train::{self, TrainError, TrainOptions};
 use crate::render::Quality;
 use crate::render::batch::{self, Augment, BatchSpec, RenderError};
 use crate::server::error::{ApiError, Kind};
-use crate::server::state::ModelStore;
+use crate::server::store::ModelStore;
 use crate::util::progress::Observer;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;

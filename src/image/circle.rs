@@ -1,0 +1,39 @@
+//! A sphere's outline in the image: the circle, the smallest radius extraction accepts, and
+//! the small linear solve that circle fits share.
+
+use serde::{Deserialize, Serialize};
+
+/// Radii below this are refused.
+pub const MIN_RADIUS: f64 = 32.0;
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Circle {
+    pub cx: f64,
+    pub cy: f64,
+    pub r: f64,
+}
+
+/// Gaussian elimination with partial pivoting; None when singular.
+pub(crate) fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
+    for col in 0..3 {
+        let pivot = (col..3).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        if a[pivot][col].abs() < 1e-12 {
+            return None;
+        }
+        a.swap(col, pivot);
+        b.swap(col, pivot);
+        for row in col + 1..3 {
+            let factor = a[row][col] / a[col][col];
+            let pivot_row = a[col];
+            for (target, &p) in a[row].iter_mut().zip(&pivot_row).skip(col) {
+                *target -= factor * p;
+            }
+            b[row] -= factor * b[col];
+        }
+    }
+    let mut x = [0.0; 3];
+    for row in (0..3).rev() {
+        let tail: f64 = (row + 1..3).map(|k| a[row][k] * x[k]).sum();
+        x[row] = (b[row] - tail) / a[row][row];
+    }
+    Some(x)
+}
