@@ -442,24 +442,8 @@ impl<T: KernelValue> Solver<'_, T> {
             let sum = ai + aj;
             ai -= delta;
             aj += delta;
-            if sum > c {
-                if ai > c {
-                    ai = c;
-                    aj = sum - c;
-                }
-            } else if aj < 0.0 {
-                aj = 0.0;
-                ai = sum;
-            }
-            if sum > c {
-                if aj > c {
-                    aj = c;
-                    ai = sum - c;
-                }
-            } else if ai < 0.0 {
-                ai = 0.0;
-                aj = sum;
-            }
+            clip_to_box(&mut ai, &mut aj, sum, c);
+            clip_to_box(&mut aj, &mut ai, sum, c);
         }
         self.alpha[i] = ai;
         self.alpha[j] = aj;
@@ -723,6 +707,21 @@ pub fn argmax(values: &[f64]) -> usize {
         }
     }
     best
+}
+
+/// libsvm's clipping of a pair whose sum is fixed (equal labels): bring `first` under C (when
+/// the sum allows) or `second` up to 0, moving the rest to the other. Called once for each
+/// order of the pair.
+fn clip_to_box(first: &mut f64, second: &mut f64, sum: f64, c: f64) {
+    if sum > c {
+        if *first > c {
+            *first = c;
+            *second = sum - c;
+        }
+    } else if *second < 0.0 {
+        *second = 0.0;
+        *first = sum;
+    }
 }
 
 #[cfg(test)]

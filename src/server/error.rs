@@ -252,6 +252,41 @@ pub struct Problem {
     pub request_id: String,
 }
 
+/// The problems every classification endpoint can answer with, for the OpenAPI document.
+#[derive(utoipa::IntoResponses)]
+pub enum ClassificationProblems {
+    #[response(
+        status = 408,
+        description = "Timed out (`timeout`)",
+        content_type = "application/problem+json"
+    )]
+    Timeout(Problem),
+    #[response(
+        status = 413,
+        description = "Body over the size limit (`body-too-large`) or image over the pixel limits (`image-too-large`)",
+        content_type = "application/problem+json"
+    )]
+    TooLarge(Problem),
+    #[response(status = 429, description = "Saturated (`overloaded`); see Retry-After", content_type = "application/problem+json",
+        headers(("retry-after" = u32, description = "Seconds")))]
+    Overloaded(Problem),
+    #[response(
+        status = 503,
+        description = "Models still loading (`not-ready`); see Retry-After",
+        content_type = "application/problem+json"
+    )]
+    NotReady(Problem),
+}
+
+/// A missing or wrong admin token, for the OpenAPI document of every admin operation.
+#[derive(utoipa::IntoResponses)]
+#[response(
+    status = 401,
+    description = "Missing or wrong token (`unauthorized`)",
+    content_type = "application/problem+json"
+)]
+pub struct Unauthorized(pub Problem);
+
 /// A failure, on its way to becoming a problem+json response.
 #[derive(Debug)]
 pub struct ApiError {

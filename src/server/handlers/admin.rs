@@ -1,6 +1,6 @@
 //! Admin plane: jobs and the model registry (bearer token required).
 
-use crate::server::error::{ApiError, Kind, Problem};
+use crate::server::error::{ApiError, Kind, Problem, Unauthorized};
 use crate::server::jobs::{JobManager, JobRecord, JobRequest, JobState};
 use crate::server::state::SharedState;
 use axum::Json;
@@ -96,7 +96,7 @@ fn check_keys(body: &Value) -> Result<(), ApiError> {
         (status = 202, description = "Queued", body = JobRecord,
          headers(("location" = String, description = "/admin/v1/jobs/{id}"))),
         (status = 400, description = "Malformed JSON (`malformed-request`)", body = Problem, content_type = "application/problem+json"),
-        (status = 401, description = "Missing or wrong token (`unauthorized`)", body = Problem, content_type = "application/problem+json"),
+        Unauthorized,
         (status = 415, description = "Not application/json (`unsupported-media-type`)", body = Problem, content_type = "application/problem+json"),
         (status = 422, description = "Invalid parameters (`invalid-job`, `invalid-field`) or a path that is missing or outside the data directory (`invalid-path`)", body = Problem, content_type = "application/problem+json"),
         (status = 429, description = "Queue full (`job-queue-full`); see Retry-After", body = Problem, content_type = "application/problem+json",
@@ -146,7 +146,7 @@ pub struct JobList {
     params(StateQuery),
     responses(
         (status = 200, description = "Jobs, newest first", body = JobList),
-        (status = 401, description = "Missing or wrong token (`unauthorized`)", body = Problem, content_type = "application/problem+json"),
+        Unauthorized,
         (status = 422, description = "Unknown state (`invalid-field`)", body = Problem, content_type = "application/problem+json"),
     )
 )]
@@ -169,7 +169,7 @@ pub async fn list(
     params(("id" = String, Path, description = "Job id")),
     responses(
         (status = 200, description = "The job", body = JobRecord),
-        (status = 401, description = "Missing or wrong token (`unauthorized`)", body = Problem, content_type = "application/problem+json"),
+        Unauthorized,
         (status = 404, description = "Unknown job (`job-not-found`)", body = Problem, content_type = "application/problem+json"),
     )
 )]
@@ -190,7 +190,7 @@ pub async fn get(
     params(("id" = String, Path, description = "Job id")),
     responses(
         (status = 200, description = "The job: `cancelled` if it was queued, else `running` with `cancel_requested` until it stops", body = JobRecord),
-        (status = 401, description = "Missing or wrong token (`unauthorized`)", body = Problem, content_type = "application/problem+json"),
+        Unauthorized,
         (status = 404, description = "Unknown job (`job-not-found`)", body = Problem, content_type = "application/problem+json"),
         (status = 409, description = "Already finished (`job-finished`)", body = Problem, content_type = "application/problem+json"),
     )
@@ -239,7 +239,7 @@ pub struct VersionList {
     params(("name" = String, Path, description = "Model name", example = "ward6")),
     responses(
         (status = 200, description = "Versions, ascending", body = VersionList),
-        (status = 401, description = "Missing or wrong token (`unauthorized`)", body = Problem, content_type = "application/problem+json"),
+        Unauthorized,
         (status = 404, description = "Unknown model (`model-not-found`)", body = Problem, content_type = "application/problem+json"),
     )
 )]
@@ -306,7 +306,7 @@ pub struct Activation {
     params(("name" = String, Path, description = "Model name", example = "ward6"), ("version" = u32, Path, description = "Version", minimum = 1)),
     responses(
         (status = 200, description = "Activated; requests already running finish on the previous version", body = Activation),
-        (status = 401, description = "Missing or wrong token (`unauthorized`)", body = Problem, content_type = "application/problem+json"),
+        Unauthorized,
         (status = 404, description = "Unknown model or version (`model-not-found`, `version-not-found`)", body = Problem, content_type = "application/problem+json"),
         (status = 422, description = "The version's file is refused (`invalid-model`): the previous version keeps serving", body = Problem, content_type = "application/problem+json"),
     )
@@ -340,7 +340,7 @@ pub async fn activate(
     params(("name" = String, Path, description = "Model name", example = "ward6"), ("version" = u32, Path, description = "Version", minimum = 1)),
     responses(
         (status = 204, description = "Deleted"),
-        (status = 401, description = "Missing or wrong token (`unauthorized`)", body = Problem, content_type = "application/problem+json"),
+        Unauthorized,
         (status = 404, description = "Unknown model or version (`model-not-found`, `version-not-found`)", body = Problem, content_type = "application/problem+json"),
         (status = 409, description = "The version is active (`version-active`)", body = Problem, content_type = "application/problem+json"),
         (status = 503, description = "The registry is read-only or forbidden (`storage-unavailable`)", body = Problem, content_type = "application/problem+json"),

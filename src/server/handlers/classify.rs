@@ -5,7 +5,7 @@
 use crate::image::decode::Encoding;
 use crate::image::geometry;
 use crate::inference::{self, Classified, ClassifyResponse, Input, LocateSpec, WhiteSpec};
-use crate::server::error::{ApiError, Kind, Problem};
+use crate::server::error::{ApiError, ClassificationProblems, Kind, Problem};
 use crate::server::metrics;
 use crate::server::state::SharedState;
 use axum::Json;
@@ -342,6 +342,34 @@ async fn handle(
     Ok(response(classified, started))
 }
 
+/// What both multipart classification operations answer beside their own problems, for the
+/// OpenAPI document.
+#[derive(utoipa::IntoResponses)]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "a type for the OpenAPI document, never built"
+)]
+pub enum MultipartClassification {
+    #[response(status = 200, description = "Classification",
+        headers(
+            ("x-request-id" = String, description = "The request's id (the client's, if it sent a valid one)"),
+            ("x-model-version" = u32, description = "The model version that answered"),
+            ("server-timing" = String, description = "decode, features, predict and total durations in ms")))]
+    Classified(ClassifyResponse),
+    #[response(
+        status = 400,
+        description = "Malformed multipart body (`malformed-request`)",
+        content_type = "application/problem+json"
+    )]
+    Malformed(Problem),
+    #[response(
+        status = 415,
+        description = "Not multipart/form-data (`unsupported-media-type`) or unknown image format (`unsupported-image-format`)",
+        content_type = "application/problem+json"
+    )]
+    Unsupported(Problem),
+}
+
 /// Classify with the default model's active version.
 #[utoipa::path(
     post,
@@ -349,20 +377,10 @@ async fn handle(
     tag = "classification",
     request_body(content = ClassifyForm, content_type = "multipart/form-data"),
     responses(
-        (status = 200, description = "Classification", body = ClassifyResponse,
-         headers(
-            ("x-request-id" = String, description = "The request's id (the client's, if it sent a valid one)"),
-            ("x-model-version" = u32, description = "The model version that answered"),
-            ("server-timing" = String, description = "decode, features, predict and total durations in ms"))),
-        (status = 400, description = "Malformed multipart body (`malformed-request`)", body = Problem, content_type = "application/problem+json"),
+        MultipartClassification,
         (status = 404, description = "Default model not served (`model-not-found`)", body = Problem, content_type = "application/problem+json"),
-        (status = 408, description = "Timed out (`timeout`)", body = Problem, content_type = "application/problem+json"),
-        (status = 413, description = "Body over the size limit (`body-too-large`) or image over the pixel limits (`image-too-large`)", body = Problem, content_type = "application/problem+json"),
-        (status = 415, description = "Not multipart/form-data (`unsupported-media-type`) or unknown image format (`unsupported-image-format`)", body = Problem, content_type = "application/problem+json"),
         (status = 422, description = "Missing image (`missing-field`), unknown or invalid field (`unknown-field`, `invalid-field`), corrupt or unusable image (`corrupt-image`, `invalid-image`), bad circle or mask (`bad-geometry`), bad white reference (`bad-white`)", body = Problem, content_type = "application/problem+json"),
-        (status = 429, description = "Saturated (`overloaded`); see Retry-After", body = Problem, content_type = "application/problem+json",
-         headers(("retry-after" = u32, description = "Seconds"))),
-        (status = 503, description = "Models still loading (`not-ready`); see Retry-After", body = Problem, content_type = "application/problem+json"),
+        ClassificationProblems,
     )
 )]
 pub async fn classify_default(
@@ -381,20 +399,10 @@ pub async fn classify_default(
     params(("name" = String, Path, description = "Model name", example = "ward6"), VersionQuery),
     request_body(content = ClassifyForm, content_type = "multipart/form-data"),
     responses(
-        (status = 200, description = "Classification", body = ClassifyResponse,
-         headers(
-            ("x-request-id" = String, description = "The request's id (the client's, if it sent a valid one)"),
-            ("x-model-version" = u32, description = "The model version that answered"),
-            ("server-timing" = String, description = "decode, features, predict and total durations in ms"))),
-        (status = 400, description = "Malformed multipart body (`malformed-request`)", body = Problem, content_type = "application/problem+json"),
+        MultipartClassification,
         (status = 404, description = "Unknown model or version (`model-not-found`, `version-not-found`)", body = Problem, content_type = "application/problem+json"),
-        (status = 408, description = "Timed out (`timeout`)", body = Problem, content_type = "application/problem+json"),
-        (status = 413, description = "Body over the size limit (`body-too-large`) or image over the pixel limits (`image-too-large`)", body = Problem, content_type = "application/problem+json"),
-        (status = 415, description = "Not multipart/form-data (`unsupported-media-type`) or unknown image format (`unsupported-image-format`)", body = Problem, content_type = "application/problem+json"),
         (status = 422, description = "Missing image (`missing-field`), unknown or invalid field or query parameter (`unknown-field`, `invalid-field`), corrupt or unusable image (`corrupt-image`, `invalid-image`), bad circle or mask (`bad-geometry`), bad white reference (`bad-white`), refused model file (`invalid-model`)", body = Problem, content_type = "application/problem+json"),
-        (status = 429, description = "Saturated (`overloaded`); see Retry-After", body = Problem, content_type = "application/problem+json",
-         headers(("retry-after" = u32, description = "Seconds"))),
-        (status = 503, description = "Models still loading (`not-ready`); see Retry-After", body = Problem, content_type = "application/problem+json"),
+        ClassificationProblems,
     )
 )]
 pub async fn classify_named(

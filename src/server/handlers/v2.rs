@@ -7,7 +7,7 @@
 //! `classes` (BYTES [classes]).
 
 use super::classify::{self, RawInput};
-use crate::server::error::{ApiError, Kind, Problem};
+use crate::server::error::{ApiError, ClassificationProblems, Kind, Problem};
 use crate::server::state::SharedState;
 use axum::Json;
 use axum::extract::rejection::JsonRejection;
@@ -297,13 +297,9 @@ fn raw_input(request: &InferRequest) -> Result<RawInput, ApiError> {
          headers(("x-model-version" = u32, description = "The model version that answered"))),
         (status = 400, description = "Malformed JSON (`malformed-request`)", body = Problem, content_type = "application/problem+json"),
         (status = 404, description = "Unknown model (`model-not-found`)", body = Problem, content_type = "application/problem+json"),
-        (status = 408, description = "Timed out (`timeout`)", body = Problem, content_type = "application/problem+json"),
-        (status = 413, description = "Body over the size limit (`body-too-large`) or image over the pixel limits (`image-too-large`)", body = Problem, content_type = "application/problem+json"),
         (status = 415, description = "Not application/json (`unsupported-media-type`) or unknown image format (`unsupported-image-format`)", body = Problem, content_type = "application/problem+json"),
         (status = 422, description = "Missing image, unknown or invalid inputs, corrupt or unusable image, bad circle or white (`missing-field`, `unknown-field`, `invalid-field`, `corrupt-image`, `invalid-image`, `bad-geometry`, `bad-white`)", body = Problem, content_type = "application/problem+json"),
-        (status = 429, description = "Saturated (`overloaded`); see Retry-After", body = Problem, content_type = "application/problem+json",
-         headers(("retry-after" = u32, description = "Seconds"))),
-        (status = 503, description = "Models still loading (`not-ready`); see Retry-After", body = Problem, content_type = "application/problem+json"),
+        ClassificationProblems,
     ))]
 pub async fn infer(
     State(state): State<SharedState>,

@@ -143,37 +143,26 @@ pub enum Failure {
     Partial(String, Box<JobResult>),
 }
 
-impl From<DatasetError> for Failure {
-    fn from(e: DatasetError) -> Failure {
-        match e {
-            DatasetError::Cancelled => Failure::Cancelled,
-            other => Failure::Error(other.to_string()),
+/// A cancelled run of any layer is a cancelled job; any other error fails it.
+macro_rules! failure_from {
+    ($($error:ident),*) => {$(
+        impl From<$error> for Failure {
+            fn from(e: $error) -> Failure {
+                match e {
+                    $error::Cancelled => Failure::Cancelled,
+                    other => Failure::Error(other.to_string()),
+                }
+            }
         }
-    }
+    )*};
 }
 
-impl From<LearnError> for Failure {
-    fn from(e: LearnError) -> Failure {
-        match e {
-            LearnError::Cancelled => Failure::Cancelled,
-            other => Failure::Error(other.to_string()),
-        }
-    }
-}
+failure_from!(DatasetError, LearnError, RenderError);
 
 impl From<TrainError> for Failure {
     fn from(e: TrainError) -> Failure {
         match e {
             TrainError::Learn(e) => e.into(),
-            other => Failure::Error(other.to_string()),
-        }
-    }
-}
-
-impl From<RenderError> for Failure {
-    fn from(e: RenderError) -> Failure {
-        match e {
-            RenderError::Cancelled => Failure::Cancelled,
             other => Failure::Error(other.to_string()),
         }
     }
