@@ -12,6 +12,13 @@ pub mod inference;
 pub mod learn;
 pub mod model;
 pub mod render;
-pub mod report;
+pub(crate) mod report;
 pub mod server;
 pub mod util;
+
+// The entry points for embedding: a photograph in, a classification out.
+pub use features::{Extractor, FeatureConfig};
+pub use image::decode::{DecodeOptions, decode, decode_file};
+pub use inference::{ClassifyResponse, Input, LoadedModel, classify};
+pub use model::ModelFile;
+pub use model::registry::Registry;

@@ -8,14 +8,14 @@
 //! decoded image, where the sphere is and how bright white is → features).
 
 pub mod analysis;
-pub mod config;
-pub mod extract;
-pub mod layout;
-pub mod log10;
-pub mod noise;
-pub mod polar;
+pub(crate) mod config;
+pub(crate) mod extract;
+pub(crate) mod layout;
+pub(crate) mod log10;
+pub(crate) mod noise;
+pub(crate) mod polar;
 pub mod pyramid;
-pub mod sets;
+pub(crate) mod sets;
 pub mod spectrum;
 pub mod stats;
 

@@ -33,14 +33,6 @@ const MIN_BLOCKS: usize = 64;
 /// Samples at or above this fraction of full scale count as clipped.
 const CLIPPED: f64 = 0.999;
 
-/// The noise at white (a fraction of white; `None` when the annulus is too small or too
-/// clipped to tell) and the clipped fraction of the annulus.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Estimate {
-    pub noise: Option<f64>,
-    pub clipped: f64,
-}
-
 /// Pixel (x, y) lies in the annulus. Squared distances decide all but the points within a
 /// hair of an edge, which `hypot` decides as it always has (the measurements, and so the
 /// models trained on them, do not depend on the shortcut).

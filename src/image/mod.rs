@@ -2,9 +2,9 @@
 //! mask, or detected), the white reference, and the resampling to the working radius.
 
 pub mod blur;
-pub mod circle;
+pub(crate) mod circle;
 pub mod decode;
-pub mod detect;
+pub(crate) mod detect;
 pub mod geometry;
-pub mod resample;
-pub mod white;
+pub(crate) mod resample;
+pub(crate) mod white;

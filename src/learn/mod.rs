@@ -7,13 +7,13 @@
 //! loops collect their results in a fixed order.
 
 pub mod calibration;
-pub mod cv;
-pub mod error;
-pub mod feature_set;
-pub mod knn;
-pub mod matrix;
-pub mod normal;
-pub mod pca;
+pub(crate) mod cv;
+pub(crate) mod error;
+pub(crate) mod feature_set;
+pub(crate) mod knn;
+pub(crate) mod matrix;
+pub(crate) mod normal;
+pub(crate) mod pca;
 pub mod pipeline;
 pub mod scaler;
 pub mod select;

@@ -10,10 +10,10 @@
 pub mod batch;
 pub mod capture;
 pub mod envmap;
-pub mod fastmath;
-pub mod highlights;
-pub mod irradiance;
-pub mod synthetic;
+pub(crate) mod fastmath;
+pub(crate) mod highlights;
+pub(crate) mod irradiance;
+pub(crate) mod synthetic;
 pub mod ward;
 
 use crate::image::geometry::Circle;

@@ -12,7 +12,7 @@
 //! and the procedural illuminations, when the data sets have them).
 
 mod plots;
-pub mod robustness;
+pub(crate) mod robustness;
 
 use crate::dataset::{self, FeatureTable};
 use crate::features::{Extensions, Extractor, FeatureConfig, Preprocessing};

@@ -254,6 +254,7 @@ pub struct Problem {
 
 /// The problems every classification endpoint can answer with, for the OpenAPI document.
 #[derive(utoipa::IntoResponses)]
+#[allow(dead_code, reason = "a type for the OpenAPI document, never built")]
 pub enum ClassificationProblems {
     #[response(
         status = 408,
@@ -280,12 +281,13 @@ pub enum ClassificationProblems {
 
 /// A missing or wrong admin token, for the OpenAPI document of every admin operation.
 #[derive(utoipa::IntoResponses)]
+#[allow(dead_code, reason = "a type for the OpenAPI document, never built")]
 #[response(
     status = 401,
     description = "Missing or wrong token (`unauthorized`)",
     content_type = "application/problem+json"
 )]
-pub struct Unauthorized(pub Problem);
+pub struct Unauthorized(Problem);
 
 /// A failure, on its way to becoming a problem+json response.
 #[derive(Debug)]

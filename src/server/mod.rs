@@ -8,17 +8,17 @@
 //! * [`listener`] — the accept loop and its header deadline;
 //! * [`auth`], [`metrics`], [`jobs`], [`openapi`].
 
-pub mod auth;
+pub(crate) mod auth;
 pub mod config;
-pub mod error;
-pub mod handlers;
-pub mod jobs;
+pub(crate) mod error;
+pub(crate) mod handlers;
+pub(crate) mod jobs;
 pub mod listener;
 pub mod metrics;
 pub mod openapi;
 pub mod router;
 pub mod state;
-pub mod store;
+pub(crate) mod store;
 
 use config::{Config, LogFormat};
 use state::{AppState, CpuPool, ModelStore, Phase, Readiness, SharedState};

@@ -346,6 +346,7 @@ async fn handle(
 /// OpenAPI document.
 #[derive(utoipa::IntoResponses)]
 #[allow(
+    dead_code,
     clippy::large_enum_variant,
     reason = "a type for the OpenAPI document, never built"
 )]

@@ -1,7 +1,7 @@
 //! Request handlers, one module per area.
 
-pub mod admin;
-pub mod classify;
-pub mod health;
-pub mod models;
-pub mod v2;
+pub(crate) mod admin;
+pub(crate) mod classify;
+pub(crate) mod health;
+pub(crate) mod models;
+pub(crate) mod v2;

@@ -10,7 +10,7 @@
 //! records left `queued` or `running` by a previous process become `failed` with the error
 //! `"interrupted"`.
 
-pub mod paths;
+pub(crate) mod paths;
 mod run;
 
 use super::error::{ApiError, Kind};
@@ -28,7 +28,7 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 use utoipa::ToSchema;
 
-pub use run::{CvResult, FoldResult, JobResult, ModelRef, RenderResult};
+pub use run::JobResult;
 
 /// What to do with a trained version.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
