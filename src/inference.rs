@@ -144,9 +144,15 @@ pub fn classify(
     };
     let locate = match input.locate {
         LocateSpec::Circle(c) => Locate::Circle(c),
-        LocateSpec::Mask(bytes) => Locate::Mask(analysis::mask_from_image(&decode_part(
-            "mask: ", &bytes, &options,
-        )?)),
+        LocateSpec::Mask(bytes) => {
+            // A mask holds coverage, not light: its samples are read as stored.
+            let as_stored = DecodeOptions {
+                encoding: Some(Encoding::Linear),
+                ..options
+            };
+            let mask = decode_part("mask: ", &bytes, &as_stored)?;
+            Locate::Mask(analysis::mask_from_image(&mask))
+        }
         LocateSpec::Auto => Locate::Auto,
     };
     let decode_ms = ms(t);

@@ -20,7 +20,7 @@ pub struct FeaturesArgs {
     /// How integer samples are linearized: srgb, linear or gamma:<g>.
     #[arg(long)]
     encoding: Option<String>,
-    /// Dataset manifest (path,class,illumination[,cx,cy,r,white]).
+    /// Dataset manifest (path,class,illumination[,cx,cy,r,white,encoding]).
     #[arg(long, requires = "out")]
     manifest: Option<PathBuf>,
     /// Output CSV for --manifest.

@@ -53,9 +53,9 @@ impl DataArgs {
 /// What to fit.
 #[derive(Args, Debug)]
 pub struct SpecArgs {
-    /// hand6, hand2, mean1, hand6+log, hand6+log+radial, all, auto<N>, pca<N>, or a
-    /// comma-separated list of names. `all`, `auto<N>` and `pca<N>` range over the table's
-    /// columns.
+    /// A named set (hand6, hand2, mean1, hand6+log, hand6+log+radial, hand6+log+radial+dep,
+    /// hand6+cap, hand6+log+cap), all, auto<N>, pca<N>, or a comma-separated list of names.
+    /// `all`, `auto<N>` and `pca<N>` range over the table's columns.
     #[arg(long)]
     features: String,
     /// With --manifest: extensions of the extracted features (implied by sets that name

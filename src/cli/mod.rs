@@ -178,3 +178,24 @@ pub fn main() -> ExitCode {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Cli;
+    use clap::CommandFactory;
+
+    #[test]
+    fn the_help_of_cv_and_train_names_every_feature_set() {
+        let mut cli = Cli::command();
+        for command in ["cv", "train"] {
+            let help = cli
+                .find_subcommand_mut(command)
+                .expect("a subcommand")
+                .render_long_help()
+                .to_string();
+            for set in crate::features::NAMED_SETS {
+                assert!(help.contains(set), "`{command} --help` does not name {set}");
+            }
+        }
+    }
+}

@@ -9,9 +9,10 @@
 //! `REFLECTANCE_COMPOSITE_DUMP=DIR` writes the missed ones there.
 
 use ndarray::Array2;
+use reflectance::image::blur::gaussian_blur;
 use reflectance::image::decode::{DecodeOptions, decode};
 use reflectance::image::geometry::{self, Circle, GeometryError};
-use reflectance::render::capture::{self, gaussian_blur, linear_to_srgb};
+use reflectance::render::capture::{self, linear_to_srgb};
 use reflectance::render::envmap::EnvMap;
 use reflectance::render::ward::Material;
 use reflectance::render::{self, Lighting, Quality, View};

@@ -205,6 +205,37 @@ async fn includes_all_features_and_explanations_and_other_locators() {
     assert_eq!(answer.json()["request_id"], "client-id-42");
 }
 
+/// A mask holds coverage, not light: a mid-grey mask (128 of 255) covers its disc whatever
+/// the request's encoding (sRGB would have made it 0.22 and covered nothing).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_grey_mask_is_read_as_stored() {
+    let server = start(config(&models_copy("grey-mask")));
+    let (image, _, white) = &fixture().held_out[0];
+    let white = white.to_string();
+    let (cx, cy, r) = (47.5, 47.5, 40.0);
+    let samples: Vec<u8> = (0..96 * 96)
+        .map(|i| {
+            let (x, y) = ((i % 96) as f64, (i / 96) as f64);
+            if (x - cx).hypot(y - cy) <= r { 128 } else { 0 }
+        })
+        .collect();
+    let mask = common::png8(96, 96, 1, &samples);
+    for encoding in ["srgb", "linear"] {
+        let fields = [
+            ("image", Part::File(image)),
+            ("white", Part::Text(&white)),
+            ("mask", Part::File(&mask)),
+            ("encoding", Part::Text(encoding)),
+        ];
+        let doc = send(&server.data, post_multipart("/v1/classify", &fields))
+            .await
+            .json();
+        assert_eq!(doc["geometry"]["method"], "mask", "{encoding}: {doc}");
+        let fitted = doc["geometry"]["r"].as_f64().unwrap();
+        assert!((fitted - r).abs() < 1.0, "{encoding}: r {fitted}");
+    }
+}
+
 fn png_sphere() -> Vec<u8> {
     common::sphere_png(200, 90.0)
 }

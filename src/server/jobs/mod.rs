@@ -56,7 +56,8 @@ pub struct LearnParams {
     /// Feature table CSV relative to the data directory.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub table: Option<String>,
-    /// hand6, hand2, mean1, all, auto<N>, pca<N>, or a comma-separated list of names.
+    /// A named set (hand6, hand2, mean1, hand6+log, hand6+log+radial, hand6+log+radial+dep,
+    /// hand6+cap, hand6+log+cap), all, auto<N>, pca<N>, or a comma-separated list of names.
     #[serde(default = "default_features")]
     #[schema(default = "hand6")]
     pub features: String,
