@@ -3,7 +3,6 @@
 use super::{CliResult, LimitArgs};
 use crate::dataset::{self, FeatureTable};
 use crate::features::{Extractor, FeatureConfig};
-use crate::image::decode::DecodeOptions;
 use crate::learn::{CvReport, DEFAULT_C, Dataset, SpecText, TrainSpec};
 use crate::model::registry::{self, Registry};
 use crate::model::train::{self, TrainOptions};
@@ -40,10 +39,7 @@ impl DataArgs {
         let manifest = dataset::read_manifest(path).map_err(|e| e.to_string())?;
         manifest.require_labels().map_err(|e| e.to_string())?;
         let extractor = Extractor::new(config).map_err(|e| e.to_string())?;
-        let options = DecodeOptions {
-            encoding: None,
-            limits: limits.limits(),
-        };
+        let options = limits.decode_options();
         let table = dataset::extract_manifest(&extractor, &manifest, &options)
             .map_err(|e| e.to_string())?;
         Ok((table, path.display().to_string()))
@@ -288,10 +284,7 @@ pub fn predict(args: PredictArgs) -> CliResult {
     let model = registry.load(&name, version).map_err(|e| e.to_string())?;
     let extractor = Extractor::new(model.features.config).map_err(|e| e.to_string())?;
     let manifest = dataset::read_manifest(&args.manifest).map_err(|e| e.to_string())?;
-    let options = DecodeOptions {
-        encoding: None,
-        limits: args.limits.limits(),
-    };
+    let options = args.limits.decode_options();
     let table =
         dataset::extract_manifest(&extractor, &manifest, &options).map_err(|e| e.to_string())?;
     let classes = &model.classifier.classes;

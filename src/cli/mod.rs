@@ -69,6 +69,25 @@ impl LimitArgs {
             max_pixels: self.max_pixels,
         }
     }
+
+    /// Decoding within these limits, each file with its own encoding (a manifest's column,
+    /// else sRGB).
+    pub fn decode_options(&self) -> crate::image::decode::DecodeOptions {
+        crate::image::decode::DecodeOptions {
+            encoding: None,
+            limits: self.limits(),
+        }
+    }
+}
+
+/// The seed of a long run's random streams and the decoding limits (`report`,
+/// `robustness`).
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    #[command(flatten)]
+    pub limits: LimitArgs,
 }
 
 /// Where the sphere is in one image and how bright white is there (`features IMAGE`,

@@ -1,7 +1,6 @@
 //! `reflectance report --data DIR [--out DIR]`: the paper's Tables 1 and 2 on our data.
 
-use super::{CliResult, LimitArgs};
-use crate::image::decode::DecodeOptions;
+use super::{CliResult, RunArgs};
 use crate::report;
 use clap::Args;
 use std::path::PathBuf;
@@ -14,19 +13,15 @@ pub struct ReportArgs {
     /// Output folder for report.md, report.json and the plots (default DATA/report).
     #[arg(long)]
     out: Option<PathBuf>,
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
     #[command(flatten)]
-    limits: LimitArgs,
+    run: RunArgs,
 }
 
 pub fn run(args: ReportArgs) -> CliResult {
     let out = args.out.unwrap_or_else(|| report::default_out(&args.data));
-    let options = DecodeOptions {
-        encoding: None,
-        limits: args.limits.limits(),
-    };
-    let result = report::run(&args.data, &out, args.seed, &options).map_err(|e| e.to_string())?;
+    let options = args.run.limits.decode_options();
+    let result =
+        report::run(&args.data, &out, args.run.seed, &options).map_err(|e| e.to_string())?;
     print!("{}", report::markdown(&result));
     eprintln!("written to {}", out.display());
     Ok(())

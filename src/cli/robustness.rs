@@ -2,9 +2,8 @@
 //! of models on a manifest's renders captured as photographs, one capture factor at a time
 //! (Markdown, JSON and a PNG plot).
 
-use super::{CliResult, LimitArgs};
+use super::{CliResult, RunArgs};
 use crate::dataset;
-use crate::image::decode::DecodeOptions;
 use crate::render::capture::CaptureRanges;
 use crate::report::robustness;
 use clap::Args;
@@ -23,18 +22,13 @@ pub struct RobustnessArgs {
     /// manifest's folder).
     #[arg(long)]
     out: Option<PathBuf>,
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
     #[command(flatten)]
-    limits: LimitArgs,
+    run: RunArgs,
 }
 
 pub fn run(args: RobustnessArgs) -> CliResult {
     let manifest = dataset::read_manifest(&args.manifest).map_err(|e| e.to_string())?;
-    let options = DecodeOptions {
-        encoding: None,
-        limits: args.limits.limits(),
-    };
+    let options = args.run.limits.decode_options();
     let images = robustness::test_images(&manifest, &options).map_err(|e| e.to_string())?;
     let mut radii: Vec<f64> = images.iter().map(|i| i.circle.r).collect();
     radii.sort_by(f64::total_cmp);
@@ -44,8 +38,8 @@ pub fn run(args: RobustnessArgs) -> CliResult {
     let models = robustness::load_models(&args.model).map_err(|e| e.to_string())?;
     let names: Vec<String> = models.iter().map(|(n, _)| n.clone()).collect();
     let settings = robustness::sweep(&CaptureRanges::default(), radius);
-    let cells =
-        robustness::evaluate(&models, &images, &settings, args.seed).map_err(|e| e.to_string())?;
+    let cells = robustness::evaluate(&models, &images, &settings, args.run.seed)
+        .map_err(|e| e.to_string())?;
     let out = args.out.unwrap_or_else(|| {
         args.manifest
             .parent()
