@@ -90,7 +90,8 @@ fn giant_and_empty_headers_are_refused_before_decoding() {
             ),
             "{w}×{h}: {e:?}"
         );
-        assert!(e.to_string().contains("limit"), "{e}");
+        // Either way the message says what the limits are.
+        assert!(e.to_string().contains("20000×20000"), "{e}");
     }
     assert!(matches!(
         err(&png_with_header_size(0, 10)),

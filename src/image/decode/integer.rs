@@ -21,13 +21,17 @@ pub(crate) fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<LinearImag
         _ => return Err(DecodeError::UnsupportedFormat),
     };
     reader.limits(image_limits(&options.limits));
-    let mut decoder = reader.into_decoder().map_err(|e| map_error(e, format))?;
+    let limits = &options.limits;
+    let mut decoder = reader
+        .into_decoder()
+        .map_err(|e| map_error(e, format, limits))?;
     let (width, height) = decoder.dimensions();
     options.limits.check(u64::from(width), u64::from(height))?;
     let orientation = decoder
         .orientation()
         .unwrap_or(image::metadata::Orientation::NoTransforms);
-    let mut image = DynamicImage::from_decoder(decoder).map_err(|e| map_error(e, format))?;
+    let mut image =
+        DynamicImage::from_decoder(decoder).map_err(|e| map_error(e, format, limits))?;
     image.apply_orientation(orientation);
     to_linear(image, format, options.encoding)
 }
@@ -41,9 +45,12 @@ fn image_limits(limits: &Limits) -> image::Limits {
     out
 }
 
-fn map_error(error: ImageError, format: Format) -> DecodeError {
+fn map_error(error: ImageError, format: Format, limits: &Limits) -> DecodeError {
     match error {
-        ImageError::Limits(e) => DecodeError::LimitExceeded(e.to_string()),
+        ImageError::Limits(e) => DecodeError::LimitExceeded(format!(
+            "{e} (the limits: {}×{} and {} pixels)",
+            limits.max_width, limits.max_height, limits.max_pixels
+        )),
         ImageError::Unsupported(e) => DecodeError::Unsupported {
             format,
             detail: e.to_string(),

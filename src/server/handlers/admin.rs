@@ -61,13 +61,15 @@ fn check_keys(body: &Value) -> Result<(), ApiError> {
         "cross_validate" => &[],
         "render" => &["probes", "classes", "out", "size", "seed", "captures"],
         _ => {
-            return Err(ApiError::new(
-                Kind::InvalidJob,
-                format!(
-                    "type must be train, cross_validate or render, not {:?}",
-                    map.get("type").unwrap_or(&Value::Null)
-                ),
-            ));
+            let detail = match map.get("type") {
+                None => {
+                    "the job has no type: give \"type\": train, cross_validate or render".into()
+                }
+                Some(other) => {
+                    format!("type must be train, cross_validate or render, not {other}")
+                }
+            };
+            return Err(ApiError::new(Kind::InvalidJob, detail));
         }
     };
     let learn = if kind == "render" { &[][..] } else { LEARN };
@@ -393,6 +395,8 @@ mod tests {
             let body = serde_json::to_value(&job).unwrap();
             assert!(check_keys(&body).is_ok(), "{body}");
         }
+        let untyped = check_keys(&serde_json::json!({"name": "ward6"})).unwrap_err();
+        assert!(untyped.detail.contains("no type"), "{}", untyped.detail);
         let cli_name = serde_json::json!({"type": "train", "manifest": "m.csv"});
         assert!(check_keys(&cli_name).is_ok());
         let typo = serde_json::json!({"type": "train", "manifests": "m.csv"});
