@@ -22,12 +22,17 @@ COPY --from=planner /app/recipe.json recipe.json
 RUN cargo chef cook --release --recipe-path recipe.json
 COPY . .
 RUN cargo build --release --locked --bin reflectance \
- && strip target/release/reflectance
+ && strip target/release/reflectance \
+ && mkdir -p /out/data
 
 FROM gcr.io/distroless/cc-debian12:nonroot AS runtime
 WORKDIR /srv
 COPY --from=builder /app/target/release/reflectance /usr/local/bin/reflectance
+# The shipped models only (.dockerignore leaves out what local serving or training added).
 COPY models /srv/models
+# The data directory of admin jobs, owned by the user the server runs as (distroless has no
+# shell to create it at run time).
+COPY --from=builder --chown=65532:65532 /out/data /srv/data
 ENV REFLECTANCE_MODELS=/srv/models \
     REFLECTANCE_DEFAULT_MODEL=ward6 \
     REFLECTANCE_LISTEN=0.0.0.0:8080 \
@@ -35,7 +40,8 @@ ENV REFLECTANCE_MODELS=/srv/models \
     REFLECTANCE_LOG_FORMAT=json
 USER nonroot:nonroot
 EXPOSE 8080
+# Checks the port of REFLECTANCE_LISTEN (on loopback), so a changed port needs no change here.
 HEALTHCHECK --interval=10s --timeout=3s --start-period=20s --retries=3 \
-  CMD ["/usr/local/bin/reflectance", "healthcheck", "--addr", "127.0.0.1:8080"]
+  CMD ["/usr/local/bin/reflectance", "healthcheck"]
 ENTRYPOINT ["/usr/local/bin/reflectance"]
 CMD ["serve"]

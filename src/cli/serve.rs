@@ -187,13 +187,10 @@ pub fn run(args: ServeArgs) -> CliResult {
 
 #[derive(Args, Debug)]
 pub struct HealthcheckArgs {
-    /// Address of the data plane.
-    #[arg(
-        long,
-        env = "REFLECTANCE_HEALTHCHECK_ADDR",
-        default_value = "127.0.0.1:8080"
-    )]
-    addr: String,
+    /// Address of the data plane (default: where `serve` listens, from REFLECTANCE_LISTEN,
+    /// with an unspecified address such as 0.0.0.0 checked on loopback).
+    #[arg(long, env = "REFLECTANCE_HEALTHCHECK_ADDR")]
+    addr: Option<String>,
     /// Path to GET.
     #[arg(long, default_value = "/health/ready")]
     path: String,
@@ -205,12 +202,17 @@ pub struct HealthcheckArgs {
 /// GET the path over plain HTTP/1.1 (no client library needed in the container).
 pub fn healthcheck(args: HealthcheckArgs) -> CliResult {
     let timeout = Duration::from_secs_f64(args.timeout.clamp(0.1, 60.0));
-    let addr: SocketAddr = args
-        .addr
-        .to_socket_addrs()
-        .map_err(|e| format!("{}: {e}", args.addr))?
-        .next()
-        .ok_or_else(|| format!("{}: no address", args.addr))?;
+    let listen = std::env::var("REFLECTANCE_LISTEN").ok();
+    let addr = args.addr.as_deref().map_or_else(
+        || served_address(listen.as_deref().unwrap_or(defaults::LISTEN)),
+        |given| {
+            given
+                .to_socket_addrs()
+                .map_err(|e| format!("{given}: {e}"))?
+                .next()
+                .ok_or_else(|| format!("{given}: no address"))
+        },
+    )?;
     let mut stream =
         TcpStream::connect_timeout(&addr, timeout).map_err(|e| format!("{addr}: {e}"))?;
     stream
@@ -231,5 +233,34 @@ pub fn healthcheck(args: HealthcheckArgs) -> CliResult {
         Ok(())
     } else {
         Err(format!("{addr}{} answered {status:?}", args.path))
+    }
+}
+
+/// Where to reach a server listening on `listen`: the same port, on loopback when it
+/// listens on every address.
+fn served_address(listen: &str) -> Result<SocketAddr, String> {
+    let mut addr: SocketAddr = listen
+        .parse()
+        .map_err(|e| format!("REFLECTANCE_LISTEN {listen:?}: {e}"))?;
+    if addr.ip().is_unspecified() {
+        addr.set_ip(match addr {
+            SocketAddr::V4(_) => std::net::Ipv4Addr::LOCALHOST.into(),
+            SocketAddr::V6(_) => std::net::Ipv6Addr::LOCALHOST.into(),
+        });
+    }
+    Ok(addr)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::served_address;
+
+    #[test]
+    fn the_health_check_reaches_the_listening_port_on_loopback() {
+        let at = |listen| served_address(listen).map(|a| a.to_string());
+        assert_eq!(at("0.0.0.0:9000").as_deref(), Ok("127.0.0.1:9000"));
+        assert_eq!(at("[::]:9000").as_deref(), Ok("[::1]:9000"));
+        assert_eq!(at("10.1.2.3:8080").as_deref(), Ok("10.1.2.3:8080"));
+        assert!(at("not an address").is_err());
     }
 }

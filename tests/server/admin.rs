@@ -759,6 +759,19 @@ fn a_job_interrupted_by_a_restart_is_failed_and_sigterm_stops_cleanly() {
     };
     assert!(check(format!("127.0.0.1:{port}")));
     assert!(!check(format!("127.0.0.1:{}", free_port())));
+    // Without --addr it checks where `serve` listens (REFLECTANCE_LISTEN), on loopback.
+    let from_listen = |listen: String| {
+        std::process::Command::new(bin)
+            .arg("healthcheck")
+            .env("REFLECTANCE_LISTEN", listen)
+            .env_remove("REFLECTANCE_HEALTHCHECK_ADDR")
+            .output()
+            .unwrap()
+            .status
+            .success()
+    };
+    assert!(from_listen(format!("0.0.0.0:{port}")));
+    assert!(!from_listen(format!("0.0.0.0:{}", free_port())));
 
     // SIGTERM: readiness goes away, the process exits 0.
     let mut second = second;
