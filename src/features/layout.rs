@@ -165,11 +165,6 @@ impl Layout {
         0..blocks * self.block.count()
     }
 
-    /// Where the log10 image's block starts (with the log-domain extension).
-    pub fn log_block(&self) -> usize {
-        self.block.count()
-    }
-
     /// The capture measurements (empty without the extension).
     pub fn capture(&self) -> Range<usize> {
         let start = self.blocks().end;
