@@ -3,10 +3,11 @@
 //! and `reflectance classify` all call [`classify`] and give the same [`ClassifyResponse`].
 
 use crate::features::Extractor;
-use crate::features::analysis::{self, AnalysisError, Locate, WhiteInput};
+use crate::features::analysis::{self, Analysis, AnalysisError, Locate, WhiteInput};
 use crate::image::decode::{self, DecodeError, DecodeOptions, Encoding};
+use crate::image::display;
 use crate::image::geometry::{self, Method as GeometryMethod};
-use crate::image::white::Method as WhiteMethod;
+use crate::image::white::{Method as WhiteMethod, Rect};
 use crate::learn::LearnError;
 use crate::model::{ClassInfo, ModelError, ModelFile};
 use bytes::Bytes;
@@ -56,7 +57,15 @@ impl LoadedModel {
 /// How white is given, before decoding.
 pub enum WhiteSpec {
     Value(f64),
-    Card { bytes: Bytes, reflectance: f64 },
+    Card {
+        bytes: Bytes,
+        reflectance: f64,
+    },
+    /// A white card inside the photograph.
+    Rect {
+        rect: Rect,
+        reflectance: f64,
+    },
     Missing,
 }
 
@@ -75,6 +84,7 @@ pub struct Input {
     pub encoding: Option<Encoding>,
     pub include_features: bool,
     pub include_explain: bool,
+    pub include_images: bool,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -103,6 +113,7 @@ pub struct Classified {
     /// The classifier's inputs (the selected features, or the principal components).
     pub selected: Vec<f64>,
     pub explain: Option<Vec<Neighbour>>,
+    pub images: Option<ImagesOut>,
     pub include_features: bool,
     pub decode_ms: f64,
     pub features_ms: f64,
@@ -140,6 +151,7 @@ pub fn classify(
             image: decode_part("white_image: ", &bytes, &options)?,
             reflectance,
         },
+        WhiteSpec::Rect { rect, reflectance } => WhiteInput::Rect { rect, reflectance },
         WhiteSpec::Missing => WhiteInput::Missing,
     };
     let locate = match input.locate {
@@ -171,6 +183,9 @@ pub fn classify(
         wanted,
         envelope.is_some(),
     )?;
+    let images = input
+        .include_images
+        .then(|| images_of(&model.extractor, &image, &analysis));
     drop(image);
     let features_ms = ms(t);
     let t = Instant::now();
@@ -203,6 +218,7 @@ pub fn classify(
                     class: e.class.clone(),
                     illumination: e.illumination.clone(),
                     distance,
+                    thumbnail: e.thumbnail.clone(),
                 })
                 .collect(),
         )
@@ -216,11 +232,64 @@ pub fn classify(
         analysis,
         selected,
         explain,
+        images,
         include_features: input.include_features,
         decode_ms,
         features_ms,
         predict_ms,
         model,
+    })
+}
+
+/// Where the sphere is in a photograph, before classifying it.
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct LocateResponse {
+    pub request_id: String,
+    /// The image's size in pixels (after its EXIF orientation), the circle's coordinate frame.
+    pub width: usize,
+    pub height: usize,
+    /// The detected sphere (or the image's alpha channel's); absent when none was found or
+    /// its annulus would not fit the image (a warning says why).
+    pub geometry: Option<GeometryOut>,
+    pub warnings: Vec<String>,
+    /// With `include=preview`: the image as a grey PNG data URL (longest side at most
+    /// 1024 px, brightest 1 % clipped), for formats a browser cannot show (HDR, PFM, EXR,
+    /// TIFF).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preview: Option<String>,
+}
+
+/// Longest side of a located image's preview, in pixels.
+pub const PREVIEW_SIDE: usize = 1024;
+
+/// Decode and find the sphere as classification would without a circle (blocking).
+pub fn locate(
+    model: &LoadedModel,
+    bytes: &[u8],
+    options: &DecodeOptions,
+    preview: bool,
+) -> Result<LocateResponse, InferenceError> {
+    let image = decode_part("", bytes, options)?;
+    let mut warnings = image.warnings.clone();
+    let geometry = match analysis::locate(&image, &Locate::Auto, &model.extractor) {
+        Ok((g, more)) => {
+            warnings.extend(more);
+            Some(GeometryOut::from(&g))
+        }
+        Err(e) => {
+            warnings.push(format!("no usable sphere found: {e}"));
+            None
+        }
+    };
+    Ok(LocateResponse {
+        request_id: String::new(),
+        width: image.width(),
+        height: image.height(),
+        geometry,
+        warnings,
+        preview: preview.then(|| {
+            display::data_url(&display::preview_png(image.luminance.view(), PREVIEW_SIDE))
+        }),
     })
 }
 
@@ -302,6 +371,18 @@ pub struct GeometryOut {
     pub confidence: Option<f64>,
 }
 
+impl From<&geometry::Geometry> for GeometryOut {
+    fn from(g: &geometry::Geometry) -> GeometryOut {
+        GeometryOut {
+            cx: g.cx,
+            cy: g.cy,
+            r: g.r,
+            method: g.method,
+            confidence: g.confidence,
+        }
+    }
+}
+
 #[derive(Clone, Debug, Serialize, ToSchema)]
 pub struct WhiteOut {
     pub value: f64,
@@ -326,6 +407,58 @@ pub struct Neighbour {
     pub class: String,
     pub illumination: String,
     pub distance: f64,
+    /// A small picture of the training image (PNG data URL), when the model has one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thumbnail: Option<String>,
+}
+
+/// With `include=images`: what the features see, as 8-bit grey PNG data URLs.
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct ImagesOut {
+    /// The unwrapped annulus divided by white (angle across, radius down, at the model's
+    /// working radius and saturation; white is full brightness, brighter clips).
+    pub annulus: String,
+    /// The wavelet pyramid's oriented subbands, finest scale first; mid-grey is 0 and each is
+    /// scaled to its own 99th percentile of |value|.
+    pub subbands: Vec<SubbandImage>,
+}
+
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct SubbandImage {
+    /// 1 is the finest.
+    pub scale: usize,
+    /// `h` (horizontal structure), `v` (vertical: radial on the sphere) or `d` (diagonal),
+    /// as in the feature names (`wav.s1.h.var`).
+    #[schema(example = "h")]
+    pub orientation: String,
+    pub image: String,
+}
+
+/// The annulus and subbands that `analysis` came from.
+fn images_of(extractor: &Extractor, image: &decode::LinearImage, analysis: &Analysis) -> ImagesOut {
+    let circle = analysis.geometry.circle();
+    let stages = extractor.stages(image.luminance.view(), &circle, analysis.white.value);
+    let picture =
+        |values: &ndarray::Array2<f64>| display::data_url(&display::signed_png(values.view()));
+    let subbands = stages
+        .pyramid
+        .levels
+        .iter()
+        .enumerate()
+        .flat_map(|(level, bands)| {
+            [("h", &bands.h), ("v", &bands.v), ("d", &bands.d)].map(|(orientation, values)| {
+                SubbandImage {
+                    scale: level + 1,
+                    orientation: orientation.to_string(),
+                    image: picture(values),
+                }
+            })
+        })
+        .collect();
+    ImagesOut {
+        annulus: display::data_url(&display::luminance_png(stages.unwrapped.view())),
+        subbands,
+    }
 }
 
 #[derive(Clone, Debug, Serialize, ToSchema)]
@@ -346,6 +479,9 @@ pub struct ClassifyResponse {
     /// With `include=explain`: the 3 nearest training images, nearest first.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub explain: Option<Vec<Neighbour>>,
+    /// With `include=images`: the unwrapped annulus and the pyramid's subbands.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub images: Option<ImagesOut>,
 }
 
 impl Classified {
@@ -369,7 +505,6 @@ impl Classified {
                 ward: None,
             }),
         };
-        let g = self.analysis.geometry;
         ClassifyResponse {
             request_id,
             model: ModelId {
@@ -387,13 +522,7 @@ impl Classified {
                     values: self.analysis.values.clone(),
                 }),
             },
-            geometry: GeometryOut {
-                cx: g.cx,
-                cy: g.cy,
-                r: g.r,
-                method: g.method,
-                confidence: g.confidence,
-            },
+            geometry: GeometryOut::from(&self.analysis.geometry),
             white: WhiteOut {
                 value: self.analysis.white.value,
                 method: self.analysis.white.method,
@@ -406,6 +535,7 @@ impl Classified {
                 total: total_ms,
             },
             explain: self.explain,
+            images: self.images,
         }
     }
 }

@@ -60,19 +60,17 @@ fn input(args: &ClassifyArgs) -> Result<Input, String> {
             crate::image::white::given(*v).map_err(|e| e.to_string())?;
             WhiteSpec::Value(*v)
         }
-        (None, Some(path)) => {
-            if !(sphere.white_reflectance > 0.0 && sphere.white_reflectance <= 1.0) {
-                return Err(crate::image::white::WhiteError::BadReflectance(
-                    sphere.white_reflectance,
-                )
-                .to_string());
-            }
-            WhiteSpec::Card {
-                bytes: read(path, "white image")?,
-                reflectance: sphere.white_reflectance,
-            }
-        }
-        (None, None) => WhiteSpec::Missing,
+        (None, Some(path)) => WhiteSpec::Card {
+            bytes: read(path, "white image")?,
+            reflectance: sphere.card_reflectance()?,
+        },
+        (None, None) => match sphere.white_rect {
+            Some(rect) => WhiteSpec::Rect {
+                rect,
+                reflectance: sphere.card_reflectance()?,
+            },
+            None => WhiteSpec::Missing,
+        },
     };
     let locate = match (sphere.cx, sphere.cy, sphere.r, &sphere.mask) {
         (Some(cx), Some(cy), Some(r), _) => {
@@ -94,6 +92,7 @@ fn input(args: &ClassifyArgs) -> Result<Input, String> {
         encoding: args.encoding,
         include_features: args.all_features,
         include_explain: args.explain,
+        include_images: false,
     })
 }
 

@@ -88,7 +88,13 @@ fn single(args: &FeaturesArgs, extractor: &Extractor, options: &DecodeOptions) -
             image: decode(card, options)?,
             reflectance: sphere.white_reflectance,
         },
-        (None, None) => WhiteInput::Missing,
+        (None, None) => match sphere.white_rect {
+            Some(rect) => WhiteInput::Rect {
+                rect,
+                reflectance: sphere.white_reflectance,
+            },
+            None => WhiteInput::Missing,
+        },
     };
     let result =
         analysis::analyze(extractor, &image, &locate, &white).map_err(|e| e.to_string())?;

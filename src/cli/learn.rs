@@ -1,7 +1,7 @@
 //! `reflectance cv`, `train` and `predict`.
 
 use super::{CliResult, LimitArgs};
-use crate::dataset::{self, FeatureTable};
+use crate::dataset::{self, FeatureTable, Manifest};
 use crate::features::{Extractor, FeatureConfig};
 use crate::learn::{CvReport, DEFAULT_C, Dataset, SpecText, TrainSpec};
 use crate::model::registry::{self, Registry};
@@ -31,9 +31,19 @@ impl DataArgs {
         limits: &LimitArgs,
         config: FeatureConfig,
     ) -> Result<(FeatureTable, String), String> {
+        self.load_with_manifest(limits, config)
+            .map(|(table, label, _)| (table, label))
+    }
+
+    /// [`DataArgs::load`], and the manifest when the data came as one.
+    fn load_with_manifest(
+        &self,
+        limits: &LimitArgs,
+        config: FeatureConfig,
+    ) -> Result<(FeatureTable, String, Option<Manifest>), String> {
         if let Some(table) = &self.table {
             let t = FeatureTable::read(table).map_err(|e| e.to_string())?;
-            return Ok((t, table.display().to_string()));
+            return Ok((t, table.display().to_string(), None));
         }
         let path = self.manifest.as_ref().ok_or("give --manifest or --table")?;
         let manifest = dataset::read_manifest(path).map_err(|e| e.to_string())?;
@@ -42,7 +52,7 @@ impl DataArgs {
         let options = limits.decode_options();
         let table = dataset::extract_manifest(&extractor, &manifest, &options)
             .map_err(|e| e.to_string())?;
-        Ok((table, path.display().to_string()))
+        Ok((table, path.display().to_string(), Some(manifest)))
     }
 }
 
@@ -222,7 +232,9 @@ pub fn train(args: TrainArgs) -> CliResult {
         .map(load_classes)
         .transpose()
         .map_err(|e| e.to_string())?;
-    let (table, label) = args.data.load(&args.limits, args.spec.config()?)?;
+    let (table, label, manifest) = args
+        .data
+        .load_with_manifest(&args.limits, args.spec.config()?)?;
     let options = TrainOptions {
         name: args.name.clone(),
         spec: args.spec.spec(&table.names)?,
@@ -230,6 +242,7 @@ pub fn train(args: TrainArgs) -> CliResult {
         cross_validate: !args.no_cv,
         classes,
         preprocessing: args.spec.extensions.preprocessing(),
+        images: manifest,
     };
     let bar = progress::bar(0, "train");
     let mut trained =

@@ -9,6 +9,7 @@ mod robustness;
 mod serve;
 
 use crate::features::Extensions;
+use crate::image::white::{Rect, WhiteError};
 use clap::{Args, Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -109,15 +110,30 @@ pub struct SphereArgs {
     #[arg(long, conflicts_with_all = ["cx", "cy", "r"])]
     pub mask: Option<std::path::PathBuf>,
     /// Linear luminance of an ideal white surface facing the viewer at the sphere.
-    #[arg(long, allow_negative_numbers = true, conflicts_with = "white_image")]
+    #[arg(long, allow_negative_numbers = true, conflicts_with = "card")]
     pub white: Option<f64>,
     /// A crop of a white card photographed with the sphere: its median luminance is the
     /// white reference.
-    #[arg(long)]
+    #[arg(long, group = "card")]
     pub white_image: Option<std::path::PathBuf>,
+    /// A white card inside the image itself: the rectangle X,Y,W,H in pixels (left, top,
+    /// width, height) whose median luminance is the white reference.
+    #[arg(long, group = "card", allow_hyphen_values = true)]
+    pub white_rect: Option<Rect>,
     /// Reflectance of the white card in (0, 1] (white = card median / reflectance).
-    #[arg(long, requires = "white_image", default_value_t = 1.0)]
+    #[arg(long, requires = "card", default_value_t = 1.0)]
     pub white_reflectance: f64,
+}
+
+impl SphereArgs {
+    /// The card's reflectance, checked.
+    pub fn card_reflectance(&self) -> Result<f64, String> {
+        let r = self.white_reflectance;
+        match r > 0.0 && r <= 1.0 {
+            true => Ok(r),
+            false => Err(WhiteError::BadReflectance(r).to_string()),
+        }
+    }
 }
 
 /// Extensions of the feature bank beyond the paper's 117 features (docs/design.md §8).

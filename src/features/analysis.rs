@@ -28,6 +28,11 @@ pub enum WhiteInput {
         image: LinearImage,
         reflectance: f64,
     },
+    /// A white card inside the image itself.
+    Rect {
+        rect: white::Rect,
+        reflectance: f64,
+    },
     Missing,
 }
 
@@ -102,11 +107,17 @@ pub fn locate(
 }
 
 /// Resolve the white reference, with a warning when there is none.
-pub fn resolve_white(input: &WhiteInput) -> Result<(White, Option<String>), WhiteError> {
+pub fn resolve_white(
+    input: &WhiteInput,
+    image: &LinearImage,
+) -> Result<(White, Option<String>), WhiteError> {
     match input {
         WhiteInput::Value(v) => Ok((white::given(*v)?, None)),
         WhiteInput::Card { image, reflectance } => {
             Ok((white::from_card(image, *reflectance)?, None))
+        }
+        WhiteInput::Rect { rect, reflectance } => {
+            Ok((white::from_rect(image, rect, *reflectance)?, None))
         }
         WhiteInput::Missing => Ok((white::missing(), Some(white::MISSING_WARNING.to_string()))),
     }
@@ -151,7 +162,7 @@ pub fn analyze_subset(
     measure: bool,
 ) -> Result<Analysis, AnalysisError> {
     let mut warnings = image.warnings.clone();
-    let (white, white_warning) = resolve_white(white_input)?;
+    let (white, white_warning) = resolve_white(white_input, image)?;
     check_scale(image, white.value)?;
     let (geometry, geometry_warnings) = locate(image, how, extractor)?;
     warnings.extend(geometry_warnings);

@@ -5,6 +5,7 @@ pub mod blur;
 pub(crate) mod circle;
 pub mod decode;
 pub(crate) mod detect;
+pub mod display;
 pub mod geometry;
 pub(crate) mod resample;
 pub(crate) mod white;

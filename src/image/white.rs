@@ -1,15 +1,20 @@
 //! White reference (paper §5.4): the linear luminance an ideal white Lambertian surface
-//! facing the viewer would have at the sphere. Given as a number, measured from a white-card
-//! image (median luminance, divided by the card's reflectance), or absent.
+//! facing the viewer would have at the sphere. Given as a number, measured from a white card
+//! (median luminance, divided by the card's reflectance) in a separate crop or in a
+//! rectangle of the photograph itself, or absent.
 
 use crate::image::decode::LinearImage;
+use ndarray::s;
 use serde::Serialize;
+use std::ops::Range;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Method {
     Given,
     WhiteImage,
+    /// A rectangle of the photograph (a white card beside the sphere).
+    WhiteRect,
     /// No reference: the image is taken as already normalized (white = 1).
     None,
 }
@@ -28,6 +33,61 @@ pub enum WhiteError {
     BadReflectance(f64),
     #[error("the white image is black (median luminance {0}); it cannot serve as a reference")]
     BlackImage(f64),
+    #[error("white_rect must be x,y,w,h: four finite numbers with w, h > 0, not {0:?}")]
+    RectSyntax(String),
+    #[error(
+        "white_rect {rect} is not inside the {width} × {height} image",
+        rect = .rect.to_string()
+    )]
+    RectOutside {
+        rect: Rect,
+        width: usize,
+        height: usize,
+    },
+}
+
+/// A rectangle of the image in pixels: left, top, width, height (x across, y down).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rect {
+    pub x: f64,
+    pub y: f64,
+    pub w: f64,
+    pub h: f64,
+}
+
+impl std::fmt::Display for Rect {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{},{},{},{}", self.x, self.y, self.w, self.h)
+    }
+}
+
+impl std::str::FromStr for Rect {
+    type Err = WhiteError;
+
+    /// `x,y,w,h`, e.g. `10,20,64,48`.
+    fn from_str(text: &str) -> Result<Rect, WhiteError> {
+        let bad = || WhiteError::RectSyntax(text.to_string());
+        let numbers: Vec<f64> = text
+            .split(',')
+            .map(|t| t.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
+            .collect::<Option<_>>()
+            .ok_or_else(bad)?;
+        match numbers[..] {
+            [x, y, w, h] if w > 0.0 && h > 0.0 => Ok(Rect { x, y, w, h }),
+            _ => Err(bad()),
+        }
+    }
+}
+
+impl Rect {
+    /// The pixels it covers, as row and column ranges (any pixel it touches), or `None`
+    /// when it reaches outside the image.
+    fn pixels(&self, width: usize, height: usize) -> Option<(Range<usize>, Range<usize>)> {
+        let (x0, y0) = (self.x.floor(), self.y.floor());
+        let (x1, y1) = ((self.x + self.w).ceil(), (self.y + self.h).ceil());
+        let inside = x0 >= 0.0 && y0 >= 0.0 && x1 <= width as f64 && y1 <= height as f64;
+        inside.then_some((y0 as usize..y1 as usize, x0 as usize..x1 as usize))
+    }
 }
 
 pub const MISSING_WARNING: &str =
@@ -48,10 +108,7 @@ pub fn given(value: f64) -> Result<White, WhiteError> {
 /// White from a crop of a white card of reflectance `card_reflectance` (1 = ideal white):
 /// the median of its luminance (pixels inside its alpha mask, if it has one).
 pub fn from_card(card: &LinearImage, card_reflectance: f64) -> Result<White, WhiteError> {
-    if !(card_reflectance > 0.0 && card_reflectance <= 1.0) {
-        return Err(WhiteError::BadReflectance(card_reflectance));
-    }
-    let mut values: Vec<f64> = match &card.alpha_mask {
+    let values: Vec<f64> = match &card.alpha_mask {
         Some(mask) => card
             .luminance
             .iter()
@@ -61,13 +118,50 @@ pub fn from_card(card: &LinearImage, card_reflectance: f64) -> Result<White, Whi
             .collect(),
         None => card.luminance.iter().copied().collect(),
     };
+    from_samples(values, card_reflectance, Method::WhiteImage)
+}
+
+/// White from a white card inside the photograph: the median luminance of the pixels
+/// `rect` touches (inside the alpha mask, if the image has one).
+pub fn from_rect(
+    image: &LinearImage,
+    rect: &Rect,
+    card_reflectance: f64,
+) -> Result<White, WhiteError> {
+    let (width, height) = (image.width(), image.height());
+    let (rows, cols) = rect.pixels(width, height).ok_or(WhiteError::RectOutside {
+        rect: *rect,
+        width,
+        height,
+    })?;
+    let luminance = image.luminance.slice(s![rows.clone(), cols.clone()]);
+    let values: Vec<f64> = match &image.alpha_mask {
+        Some(mask) => luminance
+            .iter()
+            .zip(mask.slice(s![rows, cols]))
+            .filter(|(_, inside)| **inside)
+            .map(|(v, _)| *v)
+            .collect(),
+        None => luminance.iter().copied().collect(),
+    };
+    from_samples(values, card_reflectance, Method::WhiteRect)
+}
+
+fn from_samples(
+    mut values: Vec<f64>,
+    card_reflectance: f64,
+    method: Method,
+) -> Result<White, WhiteError> {
+    if !(card_reflectance > 0.0 && card_reflectance <= 1.0) {
+        return Err(WhiteError::BadReflectance(card_reflectance));
+    }
     let median = median(&mut values);
     if median.is_nan() || median <= 0.0 {
         return Err(WhiteError::BlackImage(median));
     }
     Ok(White {
         value: median / card_reflectance,
-        method: Method::WhiteImage,
+        method,
     })
 }
 
@@ -134,5 +228,61 @@ mod tests {
             Err(WhiteError::BlackImage(0.0))
         );
         assert!(from_card(&card(&[1.0]), 0.0).is_err());
+    }
+
+    #[test]
+    fn rect_syntax() {
+        let r: Rect = "1, 2.5,3,4".parse().unwrap();
+        assert_eq!(
+            r,
+            Rect {
+                x: 1.0,
+                y: 2.5,
+                w: 3.0,
+                h: 4.0
+            }
+        );
+        for bad in [
+            "",
+            "1,2,3",
+            "1,2,3,4,5",
+            "1,2,0,4",
+            "1,2,3,-4",
+            "a,2,3,4",
+            "1,2,inf,4",
+        ] {
+            assert_eq!(
+                bad.parse::<Rect>(),
+                Err(WhiteError::RectSyntax(bad.into())),
+                "{bad}"
+            );
+        }
+    }
+
+    #[test]
+    fn rect_median_covers_every_touched_pixel() {
+        // 4 × 3 image, value = 10·row + column.
+        let mut image = card(&[0.0; 12]);
+        image.luminance = Array2::from_shape_fn((3, 4), |(y, x)| (10 * y + x) as f64);
+        // Columns 1..3 and rows 1..3 (the fractional edges round outwards): 11 12 21 22.
+        let white = from_rect(&image, &"1.5,1,1.2,2".parse().unwrap(), 0.5).unwrap();
+        assert_eq!(white.value, 16.5 / 0.5);
+        assert_eq!(white.method, Method::WhiteRect);
+        let whole = from_rect(&image, &"0,0,4,3".parse().unwrap(), 1.0).unwrap();
+        assert_eq!(whole.value, 11.5);
+        for outside in ["-1,0,2,2", "3,0,1.5,1", "0,2,1,2"] {
+            let err = from_rect(&image, &outside.parse().unwrap(), 1.0).unwrap_err();
+            assert!(
+                matches!(
+                    err,
+                    WhiteError::RectOutside {
+                        width: 4,
+                        height: 3,
+                        ..
+                    }
+                ),
+                "{outside}"
+            );
+        }
     }
 }

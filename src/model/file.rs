@@ -112,6 +112,9 @@ pub struct Exemplar {
     pub class: String,
     pub illumination: String,
     pub inputs: Vec<f64>,
+    /// A small picture of the training image (a PNG data URL), when training could read it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thumbnail: Option<String>,
 }
 
 /// A feature vector and the probabilities the model must give it.

@@ -1,9 +1,11 @@
 //! From a feature table to a verified model file: fit the pipeline, cross-validate it,
 //! and record provenance and a self-test vector.
 
-use crate::dataset::{FeatureTable, Sample};
+use crate::dataset::{Entry, FeatureTable, Manifest, Sample};
 use crate::features::stats;
 use crate::features::{CAPTURE_NAMES, Extensions, FeatureConfig, Preprocessing};
+use crate::image::decode::{self, DecodeOptions};
+use crate::image::display;
 use crate::learn::{self, CvReport, Dataset, LearnError, TrainSpec};
 use crate::model::{
     self, ClassInfo, CvSummary, Exemplar, FeatureSpec, ModelError, ModelFile, Provenance, SelfTest,
@@ -12,8 +14,10 @@ use crate::model::{
 use crate::render::capture::{self, CaptureEnvelope, CaptureRanges};
 use crate::render::ward::Material;
 use crate::util::progress::{Observer, Silent};
+use rayon::prelude::*;
 use serde_json::json;
 use std::collections::BTreeMap;
+use std::collections::HashMap;
 
 #[derive(Debug, thiserror::Error)]
 pub enum TrainError {
@@ -38,6 +42,9 @@ pub struct TrainOptions {
     /// How the training spheres were preprocessed (working radius, saturation), recorded
     /// so that serving does the same (the table must have been extracted with it).
     pub preprocessing: Preprocessing,
+    /// The manifest the table was extracted from: exemplars get thumbnails of its images
+    /// (`None`: no thumbnails).
+    pub images: Option<Manifest>,
 }
 
 pub struct Trained {
@@ -73,6 +80,51 @@ fn capture_envelope(table: &FeatureTable) -> Option<CaptureEnvelope> {
         noise_p99: p99(CAPTURE_NAMES[0], |log| 10f64.powf(log)),
         clipped_p99: p99(CAPTURE_NAMES[1], |fraction| fraction),
     })
+}
+
+/// Longer side of an exemplar's thumbnail, in pixels.
+pub const THUMBNAIL_SIDE: usize = 48;
+
+/// A thumbnail of each exemplar whose manifest row's image decodes (the others keep none).
+fn attach_thumbnails(exemplars: &mut [Exemplar], manifest: &Manifest) {
+    let rows: HashMap<&str, &Entry> = manifest
+        .entries
+        .iter()
+        .map(|e| (e.path.as_str(), e))
+        .collect();
+    exemplars.par_iter_mut().for_each(|e| {
+        e.thumbnail = rows.get(e.path.as_str()).and_then(|row| thumbnail(row));
+    });
+}
+
+/// The sphere of a manifest row (its circle with a margin, or the whole image) divided by
+/// the row's white, as a PNG data URL.
+fn thumbnail(row: &Entry) -> Option<String> {
+    let options = DecodeOptions {
+        encoding: row.encoding,
+        ..Default::default()
+    };
+    let image = decode::decode_file(&row.file, &options).ok()?;
+    let luminance = image.luminance.view();
+    let (h, w) = luminance.dim();
+    let crop = match row.circle {
+        Some(c) => {
+            let reach = 1.05 * c.r;
+            let span = |centre: f64, n: usize| {
+                let lo = (centre - reach).floor().clamp(0.0, n as f64) as usize;
+                let hi = (centre + reach).ceil().clamp(0.0, n as f64) as usize;
+                lo..hi.max(lo + 1).min(n)
+            };
+            luminance.slice_move(ndarray::s![span(c.cy, h), span(c.cx, w)])
+        }
+        None => luminance,
+    };
+    let white = row.white.unwrap_or(1.0);
+    let normalized = crop.mapv(|v| v / white);
+    Some(display::data_url(&display::thumbnail_png(
+        normalized.view(),
+        THUMBNAIL_SIDE,
+    )))
 }
 
 /// Fit a model on `table`; `dataset` names the data (a path as given).
@@ -145,7 +197,11 @@ pub fn train_with(
             class: sample.class.clone(),
             illumination: sample.illumination.clone(),
             inputs: classifier.transform(&ds.x.row(i).to_vec())?,
+            thumbnail: None,
         });
+    }
+    if let Some(manifest) = &options.images {
+        attach_thumbnails(&mut exemplars, manifest);
     }
     let spec = &options.spec;
     let model = ModelFile {

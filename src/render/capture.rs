@@ -16,6 +16,7 @@
 use crate::features::CaptureMeasurements;
 use crate::image::blur::gaussian_blur;
 use crate::image::decode::Encoding;
+use crate::image::display::{grey_png, linear_to_srgb};
 use crate::image::geometry::Circle;
 use crate::util::rng::Rng;
 use ndarray::{Array2, ArrayView2};
@@ -456,15 +457,6 @@ pub fn scale(image: ArrayView2<f64>, factor: f64) -> Array2<f64> {
     })
 }
 
-/// sRGB transfer function (IEC 61966-2-1) from linear `v ∈ [0, 1]`.
-pub fn linear_to_srgb(v: f64) -> f64 {
-    if v <= 0.003_130_8 {
-        12.92 * v
-    } else {
-        1.055 * v.powf(1.0 / 2.4) - 0.055
-    }
-}
-
 /// Quantize normalized linear samples (in [0, 1]) and encode them.
 fn encode(samples: ArrayView2<f64>, quantization: Quantization) -> Result<Vec<u8>, CaptureError> {
     use image::ImageEncoder;
@@ -479,9 +471,7 @@ fn encode(samples: ArrayView2<f64>, quantization: Quantization) -> Result<Vec<u8
     };
     let mut out = Vec::new();
     match quantization {
-        Quantization::Srgb8 => image::codecs::png::PngEncoder::new(&mut out)
-            .write_image(&srgb8(), width, height, image::ExtendedColorType::L8)
-            .map_err(fail)?,
+        Quantization::Srgb8 => out = grey_png(w, h, &srgb8()).map_err(fail)?,
         Quantization::Linear16 => {
             let bytes: Vec<u8> = samples
                 .iter()

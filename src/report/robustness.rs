@@ -268,6 +268,7 @@ pub fn evaluate(
                         encoding: shot.encoding,
                         include_features: false,
                         include_explain: false,
+                        include_images: false,
                     };
                     let classes = &model.file.classifier.classes;
                     let truth = classes.iter().position(|c| *c == image.class);

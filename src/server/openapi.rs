@@ -3,7 +3,7 @@
 //! `REFLECTANCE_UPDATE_OPENAPI=1 cargo test --release --test server openapi` rewrites it.
 
 use super::error::Problem;
-use super::handlers::{admin, classify, health, models, v2};
+use super::handlers::{admin, classify, health, locate, models, v2, web};
 use super::jobs;
 use axum::http::{HeaderValue, header};
 use axum::response::{IntoResponse, Response};
@@ -52,10 +52,11 @@ impl Modify for Extras {
             on 127.0.0.1:8081.",
         license(name = "see the repository")
     ),
-    servers((url = "http://localhost:8080", description = "data plane")),
+    servers((url = "/", description = "data plane (this server)")),
     paths(
         classify::classify_default,
         classify::classify_named,
+        locate::locate,
         models::list,
         models::get,
         health::live,
@@ -75,11 +76,15 @@ impl Modify for Extras {
         admin::versions,
         admin::activate,
         admin::delete_version,
+        web::index,
+        web::docs,
+        web::asset,
     ),
     components(schemas(
         Problem,
         classify::ClassifyForm,
         crate::inference::ClassifyResponse,
+        locate::LocateForm,
         jobs::JobRequest,
         jobs::JobRecord,
         jobs::JobState,
@@ -92,6 +97,7 @@ impl Modify for Extras {
         (name = "health", description = "Health, metrics, this document"),
         (name = "kserve-v2", description = "Open Inference Protocol (KServe V2 REST)"),
         (name = "admin", description = "Admin plane: jobs and registry (bearer token)"),
+        (name = "page", description = "The page for people, and this reference (HTML)"),
     )
 )]
 pub struct ApiDoc;

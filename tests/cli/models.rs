@@ -31,6 +31,7 @@ fn trained(name: &str) -> ModelFile {
         cross_validate: false,
         classes: None,
         preprocessing: Default::default(),
+        images: None,
     };
     train(&table(), "fixture", &options).unwrap().model
 }

@@ -130,6 +130,7 @@ pub fn fixture() -> &'static Fixture {
             cross_validate: true,
             classes: Some(batch::load_classes(&dir.join("classes.json")).unwrap()),
             preprocessing: Default::default(),
+            images: Some(manifest.clone()),
         };
         let mut model = train(&table, "train/manifest.csv", &options).unwrap().model;
         let models = dir.join("models");

@@ -11,8 +11,9 @@
 use ndarray::Array2;
 use reflectance::image::blur::gaussian_blur;
 use reflectance::image::decode::{DecodeOptions, decode};
+use reflectance::image::display::linear_to_srgb;
 use reflectance::image::geometry::{self, Circle, GeometryError};
-use reflectance::render::capture::{self, linear_to_srgb};
+use reflectance::render::capture;
 use reflectance::render::envmap::EnvMap;
 use reflectance::render::ward::Material;
 use reflectance::render::{self, Lighting, Quality, View};

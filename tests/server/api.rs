@@ -801,3 +801,216 @@ async fn warns_about_photographs_outside_the_captures_of_training() {
         "{small:?}"
     );
 }
+
+/// The PNG inside a `data:image/png;base64,…` URL, decoded.
+fn data_url_png(url: &Value) -> image::DynamicImage {
+    let encoded = url
+        .as_str()
+        .and_then(|u| u.strip_prefix("data:image/png;base64,"))
+        .unwrap_or_else(|| panic!("not a PNG data URL: {url}"));
+    let png = base64::engine::general_purpose::STANDARD
+        .decode(encoded)
+        .unwrap();
+    image::load_from_memory_with_format(&png, image::ImageFormat::Png).unwrap()
+}
+
+/// What the page asks of the service: the circle before classifying, a white card inside
+/// the photograph, the pictures of the features' input, thumbnails of the neighbours.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn locates_reads_a_white_card_in_the_photo_and_draws_what_the_features_see() {
+    let server = start(config(&models_copy("page-api")));
+    let (image, class, white) = &fixture().held_out[0];
+    let located = |fields: Vec<(&'static str, Part<'static>)>| {
+        send(&server.data, post_multipart("/v1/locate", &fields))
+    };
+    let image: &'static [u8] = image.clone().leak();
+    let doc = located(vec![("image", Part::File(image))]).await.json();
+    assert_eq!(
+        (doc["width"].as_u64(), doc["height"].as_u64()),
+        (Some(96), Some(96))
+    );
+    let g = &doc["geometry"];
+    assert_eq!(g["method"], "auto", "{doc}");
+    assert!((g["cx"].as_f64().unwrap() - 47.5).abs() < 1.0, "{doc}");
+    assert!((g["r"].as_f64().unwrap() - 43.64).abs() < 1.0, "{doc}");
+    assert!(doc.get("preview").is_none());
+    let doc = located(vec![
+        ("image", Part::File(image)),
+        ("include", Part::Text("preview")),
+    ])
+    .await
+    .json();
+    let preview = data_url_png(&doc["preview"]);
+    assert_eq!((preview.width(), preview.height()), (96, 96));
+    // Nothing found is an answer, not an error.
+    let blank = common::png8(120, 100, 1, &[0; 12_000]).leak();
+    let doc = located(vec![("image", Part::File(blank))]).await.json();
+    assert_eq!(doc["geometry"], Value::Null, "{doc}");
+    assert!(
+        doc["warnings"].to_string().contains("no usable sphere"),
+        "{doc}"
+    );
+    for (fields, status, slug) in [
+        (
+            vec![("image", Part::File(b"not an image" as &[u8]))],
+            415,
+            "unsupported-image-format",
+        ),
+        (
+            vec![("image", Part::File(image)), ("cx", Part::Text("4"))],
+            422,
+            "unknown-field",
+        ),
+        (
+            vec![
+                ("image", Part::File(image)),
+                ("include", Part::Text("explain")),
+            ],
+            422,
+            "invalid-field",
+        ),
+        (
+            vec![("include", Part::Text("preview"))],
+            422,
+            "missing-field",
+        ),
+    ] {
+        located(fields).await.problem(status, slug);
+    }
+
+    // A white card inside the photograph: the median of the pixels the rectangle touches,
+    // divided by the card's reflectance.
+    let mut samples = vec![40u8; 200 * 200];
+    for y in 150..190 {
+        for x in 10..60 {
+            samples[y * 200 + x] = 200;
+        }
+    }
+    let photo = common::png8(200, 200, 1, &samples);
+    let classify = |rect: &'static str, more: Vec<(&'static str, Part<'static>)>| {
+        let photo = photo.clone().leak();
+        let mut fields = vec![
+            ("image", Part::File(&*photo)),
+            ("cx", Part::Text("99.5")),
+            ("cy", Part::Text("80")),
+            ("r", Part::Text("60")),
+            ("white_rect", Part::Text(rect)),
+        ];
+        fields.extend(more);
+        send(&server.data, post_multipart("/v1/classify", &fields))
+    };
+    let doc = classify(
+        "12,152,40.5,30",
+        vec![("white_reflectance", Part::Text("0.8"))],
+    )
+    .await
+    .json();
+    assert_eq!(doc["white"]["method"], "white_rect", "{doc}");
+    let card = reflectance::image::decode::srgb_to_linear(200.0 / 255.0);
+    assert!(
+        (doc["white"]["value"].as_f64().unwrap() - card / 0.8).abs() < 1e-12,
+        "{doc}"
+    );
+    let outside = classify("190,0,20,10", vec![])
+        .await
+        .problem(422, "bad-white");
+    assert!(
+        outside["detail"].as_str().unwrap().contains("200 × 200"),
+        "{outside}"
+    );
+    classify("1,2,3", vec![]).await.problem(422, "bad-white");
+    classify("1,2,3,4", vec![("white", Part::Text("0.5"))])
+        .await
+        .problem(422, "bad-white");
+    classify("1,2,3,4", vec![("white_reflectance", Part::Text("1.5"))])
+        .await
+        .problem(422, "bad-white");
+
+    // The annulus and the subbands as pictures, and the neighbours' thumbnails.
+    let white = white.to_string();
+    let mut fields = classify_fields(&image[..], &white);
+    fields.push(("include", Part::Text("images,explain")));
+    let doc = send(&server.data, post_multipart("/v1/classify", &fields))
+        .await
+        .json();
+    assert_eq!(doc["label"], class.as_str(), "{doc}");
+    let annulus = data_url_png(&doc["images"]["annulus"]);
+    assert_eq!((annulus.width(), annulus.height()), (448, 96));
+    let subbands = doc["images"]["subbands"].as_array().unwrap();
+    assert_eq!(subbands.len(), 12);
+    for (k, band) in subbands.iter().enumerate() {
+        let scale = k / 3 + 1;
+        assert_eq!(band["scale"], scale);
+        assert_eq!(band["orientation"], ["h", "v", "d"][k % 3]);
+        let picture = data_url_png(&band["image"]);
+        assert_eq!(
+            (picture.width(), picture.height()),
+            (448 >> scale, 96 >> scale)
+        );
+    }
+    for neighbour in doc["explain"].as_array().unwrap() {
+        let thumbnail = data_url_png(&neighbour["thumbnail"]);
+        assert_eq!(thumbnail.width().max(thumbnail.height()), 48, "{neighbour}");
+    }
+}
+
+/// The page and the API reference: embedded, linked by content hash, cached accordingly.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn serves_the_page_and_the_api_reference_with_their_assets() {
+    let server = start(config(&models_copy("page-assets")));
+    let page = send(&server.data, get("/")).await;
+    assert_eq!(page.status, 200);
+    assert_eq!(
+        page.header("content-type"),
+        Some("text/html; charset=utf-8")
+    );
+    assert_eq!(page.header("cache-control"), Some("no-cache"));
+    let policy = page.header("content-security-policy").unwrap();
+    assert!(policy.starts_with("default-src 'self'"), "{policy}");
+    let html = String::from_utf8(page.body.clone()).unwrap();
+    let assets: Vec<&str> = html
+        .split("\"/assets/")
+        .skip(1)
+        .filter_map(|rest| rest.split('"').next())
+        .collect();
+    assert_eq!(assets.len(), 2, "{html}");
+    let mut weight = html.len();
+    for asset in &assets {
+        let answer = send(&server.data, get(&format!("/assets/{asset}"))).await;
+        assert_eq!(answer.status, 200, "{asset}");
+        assert_eq!(
+            answer.header("cache-control"),
+            Some("public, max-age=31536000, immutable")
+        );
+        assert_eq!(answer.header("etag"), Some(format!("\"{asset}\"").as_str()));
+        weight += answer.body.len();
+    }
+    assert!(weight <= 200_000, "the page weighs {weight} bytes");
+    let stale = assets[0].replacen('.', ".0", 1);
+    send(&server.data, get(&format!("/assets/{stale}")))
+        .await
+        .problem(404, "not-found");
+
+    let docs = send(&server.data, get("/docs")).await;
+    assert_eq!(docs.status, 200);
+    let html = String::from_utf8(docs.body).unwrap();
+    for name in [
+        "swagger-ui-bundle.",
+        "swagger-ui.",
+        "docs.",
+        "swagger-ui-LICENSE.",
+    ] {
+        let link = html
+            .split("\"/assets/")
+            .skip(1)
+            .filter_map(|rest| rest.split('"').next())
+            .find(|a| a.starts_with(name))
+            .unwrap_or_else(|| panic!("{name} not linked"));
+        assert_eq!(
+            send(&server.data, get(&format!("/assets/{link}")))
+                .await
+                .status,
+            200
+        );
+    }
+}

@@ -13,14 +13,14 @@ use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-struct Reply {
-    status: u16,
+pub(crate) struct Reply {
+    pub(crate) status: u16,
     head: String,
-    body: Vec<u8>,
+    pub(crate) body: Vec<u8>,
 }
 
 impl Reply {
-    fn json(&self) -> Value {
+    pub(crate) fn json(&self) -> Value {
         serde_json::from_slice(&self.body).unwrap_or(Value::Null)
     }
     fn header(&self, name: &str) -> Option<String> {
@@ -32,7 +32,7 @@ impl Reply {
 }
 
 /// One HTTP/1.1 exchange over a fresh connection.
-fn exchange(
+pub(crate) fn exchange(
     port: u16,
     method: &str,
     path: &str,
@@ -44,22 +44,43 @@ fn exchange(
     stream.set_read_timeout(Some(timeout)).ok()?;
     write!(
         stream,
-        "{method} {path} HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer {TOKEN}\r\n\
+        "{method} {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nAuthorization: Bearer {TOKEN}\r\n\
          Content-Type: {content_type}\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
         body.len()
     )
     .ok()?;
     stream.write_all(body).ok()?;
+    read_reply(&mut stream)
+}
+
+/// A response: up to its `Content-Length` when it has one (a peer may keep the connection
+/// open despite `Connection: close`), else to the end of the stream.
+fn read_reply(stream: &mut std::net::TcpStream) -> Option<Reply> {
     let mut raw = Vec::new();
-    stream.read_to_end(&mut raw).ok()?;
+    let mut chunk = [0u8; 16384];
+    loop {
+        if let Some(reply) = parse_reply(&raw, false) {
+            return Some(reply);
+        }
+        match stream.read(&mut chunk).ok()? {
+            0 => return parse_reply(&raw, true),
+            n => raw.extend_from_slice(&chunk[..n]),
+        }
+    }
+}
+
+/// The response in `raw`, once complete (or `at_end` of the stream).
+fn parse_reply(raw: &[u8], at_end: bool) -> Option<Reply> {
     let split = raw.windows(4).position(|w| w == b"\r\n\r\n")?;
     let head = String::from_utf8_lossy(&raw[..split]).into_owned();
-    let status = head.split_whitespace().nth(1)?.parse().ok()?;
-    Some(Reply {
-        status,
+    let reply = Reply {
+        status: head.split_whitespace().nth(1)?.parse().ok()?,
         head,
         body: raw[split + 4..].to_vec(),
-    })
+    };
+    let length = reply.header("content-length").and_then(|n| n.parse().ok());
+    let complete = at_end || length.is_some_and(|n: usize| reply.body.len() >= n);
+    complete.then_some(reply)
 }
 
 fn json_call(port: u16, method: &str, path: &str, body: Option<&Value>) -> Reply {
@@ -108,9 +129,9 @@ fn classify(port: u16) -> u32 {
         .expect("x-model-version")
 }
 
-struct Server {
+pub(crate) struct Server {
     child: std::process::Child,
-    port: u16,
+    pub(crate) port: u16,
     admin: u16,
 }
 
@@ -177,7 +198,7 @@ struct Launch<'a> {
     read_only: Vec<PathBuf>,
 }
 
-fn spawn(base: &Path, pause: Option<&str>) -> Server {
+pub(crate) fn spawn(base: &Path, pause: Option<&str>) -> Server {
     launch(
         base,
         Launch {
@@ -321,7 +342,7 @@ fn set_writable(dir: &Path, writable: bool) {
     std::fs::set_permissions(dir, permissions).unwrap();
 }
 
-fn wait_until(limit: Duration, what: &str, mut ok: impl FnMut() -> bool) {
+pub(crate) fn wait_until(limit: Duration, what: &str, mut ok: impl FnMut() -> bool) {
     let deadline = Instant::now() + limit;
     while !ok() {
         assert!(Instant::now() < deadline, "timed out waiting for {what}");
@@ -331,7 +352,7 @@ fn wait_until(limit: Duration, what: &str, mut ok: impl FnMut() -> bool) {
 
 /// A registry holding a copy of the shipped `ward6` version 1, and a data directory with
 /// the fixture feature table.
-fn setup(name: &str) -> PathBuf {
+pub(crate) fn setup(name: &str) -> PathBuf {
     let base = temp_dir(name);
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     copy_dir(&root.join("models/ward6"), &base.join("models/ward6"));

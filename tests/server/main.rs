@@ -9,3 +9,4 @@ mod api;
 mod faults;
 mod hostile;
 mod openapi;
+mod page;

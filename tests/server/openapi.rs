@@ -7,7 +7,7 @@ use crate::common;
 
 use axum::body::Body;
 use axum::http::{Method, Request};
-use common::server::{TOKEN, config, models_copy, send, start, temp_dir, with_token};
+use common::server::{TOKEN, config, get, models_copy, send, start, temp_dir, with_token};
 use serde_json::Value;
 use std::path::Path;
 
@@ -61,6 +61,15 @@ async fn every_documented_operation_is_routed_and_served() {
         reflectance::server::openapi::yaml()
     );
 
+    // An asset's hashed name, as the page links it.
+    let page = send(&server.data, get("/")).await;
+    let page = String::from_utf8(page.body).unwrap();
+    let asset = page
+        .split("\"/assets/")
+        .nth(1)
+        .and_then(|rest| rest.split('"').next())
+        .expect("the page links an asset");
+
     let doc = document();
     let paths = doc["paths"].as_object().unwrap();
     let mut operations = 0;
@@ -68,7 +77,8 @@ async fn every_documented_operation_is_routed_and_served() {
         let concrete = path
             .replace("{name}", "ward6")
             .replace("{version}", "1")
-            .replace("{id}", "no-such-job");
+            .replace("{id}", "no-such-job")
+            .replace("{file}", asset);
         for method in ["get", "post", "delete", "put", "patch"] {
             let Some(op) = item.get(method) else { continue };
             operations += 1;
@@ -109,7 +119,7 @@ async fn every_documented_operation_is_routed_and_served() {
             assert!(op["operationId"].is_string(), "{method} {path}");
         }
     }
-    assert_eq!(operations, 21);
+    assert_eq!(operations, 25);
 }
 
 /// Every property a response carries is in its schema, and every required one is there.

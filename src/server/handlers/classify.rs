@@ -4,6 +4,7 @@
 
 use crate::image::decode::Encoding;
 use crate::image::geometry;
+use crate::image::white::{Rect, WhiteError};
 use crate::inference::{self, Classified, ClassifyResponse, Input, LocateSpec, WhiteSpec};
 use crate::server::error::{ApiError, ClassificationProblems, Kind, Problem};
 use crate::server::metrics;
@@ -33,7 +34,12 @@ pub struct ClassifyForm {
     /// A crop of a white card (its median luminance is the white reference); not with `white`.
     #[schema(value_type = String, format = Binary, required = false)]
     white_image: Option<Vec<u8>>,
-    /// Reflectance of the white card in (0, 1] (default 1); only with `white_image`.
+    /// A white card inside the photograph: the rectangle `x,y,w,h` in pixels (left, top,
+    /// width, height; every pixel it touches counts); not with `white` or `white_image`.
+    #[schema(value_type = String, required = false, example = "40,300,120,80")]
+    white_rect: Option<String>,
+    /// Reflectance of the white card in (0, 1] (default 1); only with `white_image` or
+    /// `white_rect`.
     #[schema(value_type = f64, required = false)]
     white_reflectance: Option<f64>,
     /// Sphere centre x (column) in pixels; give cx, cy and r together.
@@ -51,9 +57,10 @@ pub struct ClassifyForm {
     /// How integer samples are linearized: `srgb` (default), `linear` or `gamma:<g>`.
     #[schema(value_type = String, required = false, example = "srgb")]
     encoding: Option<String>,
-    /// Extra output: `features` (all extracted features) and/or `explain` (nearest training
-    /// images); comma-separated or repeated.
-    #[schema(value_type = String, required = false, example = "features,explain")]
+    /// Extra output: `features` (all extracted features), `explain` (nearest training
+    /// images, with thumbnails) and/or `images` (the unwrapped annulus and the subbands as
+    /// PNG); comma-separated or repeated.
+    #[schema(value_type = String, required = false, example = "features,explain,images")]
     include: Option<String>,
 }
 
@@ -93,6 +100,7 @@ pub struct RawInput {
     pub white: Option<String>,
     pub white_image: Option<Bytes>,
     pub white_reflectance: Option<String>,
+    pub white_rect: Option<String>,
     pub cx: Option<String>,
     pub cy: Option<String>,
     pub r: Option<String>,
@@ -102,8 +110,48 @@ pub struct RawInput {
 }
 
 impl RawInput {
+    /// The white reference: at most one of `white`, `white_image` and `white_rect`, and
+    /// `white_reflectance` only with a card.
+    fn white_spec(&mut self) -> Result<WhiteSpec, ApiError> {
+        let bad = |detail: &str| ApiError::new(Kind::BadWhite, detail.to_string());
+        let given = [
+            self.white.is_some(),
+            self.white_image.is_some(),
+            self.white_rect.is_some(),
+        ];
+        if given.iter().filter(|&&g| g).count() > 1 {
+            return Err(bad("give one of white, white_image and white_rect"));
+        }
+        let reflectance = match &self.white_reflectance {
+            None => 1.0,
+            Some(_) if !(given[1] || given[2]) => {
+                return Err(bad(
+                    "white_reflectance applies to white_image or white_rect only",
+                ));
+            }
+            Some(text) => number("white_reflectance", text)?,
+        };
+        if !(reflectance > 0.0 && reflectance <= 1.0) {
+            return Err(WhiteError::BadReflectance(reflectance).into());
+        }
+        if let Some(text) = self.white.take() {
+            let value = number("white", &text)?;
+            crate::image::white::given(value)?;
+            return Ok(WhiteSpec::Value(value));
+        }
+        if let Some(bytes) = self.white_image.take() {
+            return Ok(WhiteSpec::Card { bytes, reflectance });
+        }
+        if let Some(text) = self.white_rect.take() {
+            let rect = text.parse::<Rect>()?;
+            return Ok(WhiteSpec::Rect { rect, reflectance });
+        }
+        Ok(WhiteSpec::Missing)
+    }
+
     /// Check the combination of fields and parse the numbers (before any decoding).
-    pub fn validate(self) -> Result<Input, ApiError> {
+    pub fn validate(mut self) -> Result<Input, ApiError> {
+        let white = self.white_spec()?;
         let image = self
             .image
             .ok_or_else(|| ApiError::new(Kind::MissingField, "the image field is required"))?;
@@ -113,44 +161,6 @@ impl RawInput {
                 "the image field is empty",
             ));
         }
-        let white = match (self.white, self.white_image) {
-            (Some(_), Some(_)) => {
-                return Err(ApiError::new(
-                    Kind::BadWhite,
-                    "give white or white_image, not both",
-                ));
-            }
-            (Some(text), None) => {
-                if self.white_reflectance.is_some() {
-                    return Err(ApiError::new(
-                        Kind::BadWhite,
-                        "white_reflectance applies to white_image only",
-                    ));
-                }
-                let value = number("white", &text)?;
-                crate::image::white::given(value)?;
-                WhiteSpec::Value(value)
-            }
-            (None, Some(bytes)) => {
-                let reflectance = match &self.white_reflectance {
-                    Some(t) => number("white_reflectance", t)?,
-                    None => 1.0,
-                };
-                if !(reflectance > 0.0 && reflectance <= 1.0) {
-                    return Err(crate::image::white::WhiteError::BadReflectance(reflectance).into());
-                }
-                WhiteSpec::Card { bytes, reflectance }
-            }
-            (None, None) => {
-                if self.white_reflectance.is_some() {
-                    return Err(ApiError::new(
-                        Kind::BadWhite,
-                        "white_reflectance applies to white_image only",
-                    ));
-                }
-                WhiteSpec::Missing
-            }
-        };
         let parse = |f: &str, t: &Option<String>| t.as_deref().map(|t| number(f, t)).transpose();
         let circle = geometry::given(
             parse("cx", &self.cx)?,
@@ -183,20 +193,8 @@ impl RawInput {
             .as_deref()
             .map(|t| t.parse::<Encoding>())
             .transpose()?;
-        let (mut include_features, mut include_explain) = (false, false);
-        for item in self.include.iter().flat_map(|s| s.split(',')) {
-            match item.trim() {
-                "features" => include_features = true,
-                "explain" => include_explain = true,
-                "" => {}
-                other => {
-                    return Err(ApiError::new(
-                        Kind::InvalidField,
-                        format!("include: unknown value {other:?} (expected features, explain)"),
-                    ));
-                }
-            }
-        }
+        let [include_features, include_explain, include_images] =
+            includes(&self.include, ["features", "explain", "images"])?;
         Ok(Input {
             image,
             white,
@@ -204,13 +202,38 @@ impl RawInput {
             encoding,
             include_features,
             include_explain,
+            include_images,
         })
     }
 }
 
+/// Which of `known` the `include` values (comma-separated or repeated) name.
+pub fn includes<const N: usize>(
+    values: &[String],
+    known: [&str; N],
+) -> Result<[bool; N], ApiError> {
+    let mut wanted = [false; N];
+    for item in values.iter().flat_map(|s| s.split(',')).map(str::trim) {
+        match known.iter().position(|k| *k == item) {
+            Some(i) => wanted[i] = true,
+            None if item.is_empty() => {}
+            None => {
+                return Err(ApiError::new(
+                    Kind::InvalidField,
+                    format!(
+                        "include: unknown value {item:?} (expected {})",
+                        known.join(", ")
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(wanted)
+}
+
 const TEXT_FIELD_LIMIT: usize = 1024;
 
-async fn read_form(mut multipart: Multipart) -> Result<RawInput, ApiError> {
+pub(crate) async fn read_form(mut multipart: Multipart) -> Result<RawInput, ApiError> {
     let mut raw = RawInput::default();
     while let Some(field) = multipart.next_field().await? {
         let name = field.name().unwrap_or_default().to_string();
@@ -232,7 +255,8 @@ async fn read_form(mut multipart: Multipart) -> Result<RawInput, ApiError> {
                     return Err(duplicate());
                 }
             }
-            "white" | "white_reflectance" | "cx" | "cy" | "r" | "encoding" | "include" => {
+            "white" | "white_reflectance" | "white_rect" | "cx" | "cy" | "r" | "encoding"
+            | "include" => {
                 let bytes = field.bytes().await?;
                 if bytes.len() > TEXT_FIELD_LIMIT {
                     return Err(ApiError::new(
@@ -249,6 +273,7 @@ async fn read_form(mut multipart: Multipart) -> Result<RawInput, ApiError> {
                 let slot = match name.as_str() {
                     "white" => &mut raw.white,
                     "white_reflectance" => &mut raw.white_reflectance,
+                    "white_rect" => &mut raw.white_rect,
                     "cx" => &mut raw.cx,
                     "cy" => &mut raw.cy,
                     "r" => &mut raw.r,
@@ -267,7 +292,7 @@ async fn read_form(mut multipart: Multipart) -> Result<RawInput, ApiError> {
                     Kind::UnknownField,
                     format!(
                         "unknown field {other:?} (expected image, white, white_image, \
-                         white_reflectance, cx, cy, r, mask, encoding, include)"
+                         white_rect, white_reflectance, cx, cy, r, mask, encoding, include)"
                     ),
                 ));
             }

@@ -3,5 +3,7 @@
 pub(crate) mod admin;
 pub(crate) mod classify;
 pub(crate) mod health;
+pub(crate) mod locate;
 pub(crate) mod models;
 pub(crate) mod v2;
+pub(crate) mod web;

@@ -3,7 +3,7 @@
 
 use super::paths::DataDir;
 use super::{Activate, JobRequest, LearnParams};
-use crate::dataset::{self, DatasetError, FeatureTable};
+use crate::dataset::{self, DatasetError, FeatureTable, Manifest};
 use crate::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
 use crate::image::decode::{DecodeOptions, Limits};
 use crate::learn::{self, CvReport, Dataset, LearnError, SpecText, TrainSpec};
@@ -273,11 +273,11 @@ fn load_table(
     data: &DataDir,
     limits: &Limits,
     observer: &dyn Observer,
-) -> Result<(FeatureTable, String), Failure> {
+) -> Result<(FeatureTable, String, Option<Manifest>), Failure> {
     if let Some(t) = &p.table {
         let path = data.existing("table", t).map_err(Failure::Error)?;
         let table = FeatureTable::read(&path)?;
-        return Ok((table, t.clone()));
+        return Ok((table, t.clone(), None));
     }
     let rel = p.dataset.as_deref().unwrap_or_default();
     let path = data.existing("dataset", rel).map_err(Failure::Error)?;
@@ -295,7 +295,7 @@ fn load_table(
     };
     observer.stage("features");
     let table = dataset::extract_manifest_with(&extractor, &manifest, &options, observer)?;
-    Ok((table, rel.to_string()))
+    Ok((table, rel.to_string(), Some(manifest)))
 }
 
 /// Run a job to completion (or cancellation).
@@ -322,7 +322,7 @@ pub fn execute(
                 }
                 None => None,
             };
-            let (table, label) = load_table(p, data, limits, observer)?;
+            let (table, label, manifest) = load_table(p, data, limits, observer)?;
             let options = TrainOptions {
                 name: name.clone(),
                 spec,
@@ -336,6 +336,7 @@ pub fn execute(
                         .preprocessing(),
                     None => Preprocessing::default(),
                 },
+                images: manifest,
             };
             let mut trained = train::train_with(&table, &label, &options, observer)?;
             if observer.cancelled() {
@@ -441,7 +442,7 @@ pub fn execute(
         }
         JobRequest::CrossValidate { data: p } => {
             let spec = spec_of(p).map_err(|e| Failure::Error(e.detail))?;
-            let (table, _) = load_table(p, data, limits, observer)?;
+            let (table, _, _) = load_table(p, data, limits, observer)?;
             let ds = Dataset::from_table(&table)?;
             observer.stage("cross_validate");
             let report = learn::cross_validate_with(&ds, &spec, p.seed, observer)?;

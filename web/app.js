@@ -1,0 +1,499 @@
+// The classification page: pick or drop a photograph, the server finds the sphere
+// (POST /v1/locate), the user checks or corrects the circle and the white reference, then
+// POST /v1/models/{name}/classify answers with probabilities, pictures and neighbours.
+"use strict";
+
+const $ = (id) => document.getElementById(id);
+
+const state = {
+  file: null,
+  picture: null, // an <img> (or the server's preview) drawn in image coordinates
+  width: 0,
+  height: 0,
+  circle: null, // {cx, cy, r} in image pixels
+  rect: null, // white card {x, y, w, h} in image pixels
+  drag: null, // what the pointer moves: "centre", "rim", "rect"
+  models: [],
+};
+
+const MIN_RADIUS = 32;
+
+// ---- messages -------------------------------------------------------------------------
+
+function status(text) {
+  $("status").textContent = text;
+}
+
+function showError(title, detail) {
+  $("error-title").textContent = title;
+  $("error-detail").textContent = detail || "";
+  $("error").hidden = false;
+}
+
+function clearError() {
+  $("error").hidden = true;
+}
+
+/** Throws {title, detail} from a problem document (or whatever the server said). */
+async function fail(response) {
+  let problem = { title: `HTTP ${response.status}`, detail: response.statusText };
+  try {
+    const body = await response.json();
+    problem = { title: body.title || problem.title, detail: body.detail || "" };
+  } catch (_) {
+    // Not JSON: keep the status line.
+  }
+  throw problem;
+}
+
+async function post(url, form) {
+  let response;
+  try {
+    response = await fetch(url, { method: "POST", body: form });
+  } catch (e) {
+    throw { title: "The server cannot be reached", detail: String(e) };
+  }
+  if (!response.ok) {
+    await fail(response);
+  }
+  return response.json();
+}
+
+// ---- models ---------------------------------------------------------------------------
+
+async function loadModels() {
+  try {
+    const response = await fetch("/v1/models");
+    if (!response.ok) {
+      await fail(response);
+    }
+    const list = await response.json();
+    state.models = list.models;
+    const select = $("model");
+    select.replaceChildren();
+    for (const m of list.models) {
+      const option = document.createElement("option");
+      option.value = m.name;
+      option.textContent = `${m.name} (${m.classes.length} classes)`;
+      option.selected = m.name === list.default_model;
+      select.append(option);
+    }
+  } catch (problem) {
+    showError(problem.title || "Models", problem.detail || String(problem));
+  }
+}
+
+// ---- the photograph -------------------------------------------------------------------
+
+function loadBrowserImage(file) {
+  return new Promise((resolve) => {
+    const img = new Image();
+    const url = URL.createObjectURL(file);
+    img.onload = () => resolve(img);
+    img.onerror = () => {
+      URL.revokeObjectURL(url);
+      resolve(null);
+    };
+    img.src = url;
+  });
+}
+
+function loadDataUrl(url) {
+  return new Promise((resolve, reject) => {
+    const img = new Image();
+    img.onload = () => resolve(img);
+    img.onerror = () => reject({ title: "Preview", detail: "the server's preview does not load" });
+    img.src = url;
+  });
+}
+
+async function choose(file) {
+  if (!file) {
+    return;
+  }
+  clearError();
+  $("result").hidden = true;
+  document.body.classList.remove("answered");
+  $("stage").hidden = true;
+  state.file = file;
+  state.rect = null;
+  $("white-rect").value = "";
+  status(`Finding the sphere in ${file.name}…`);
+  try {
+    const shown = await loadBrowserImage(file);
+    const form = new FormData();
+    form.append("image", file);
+    if (!shown) {
+      form.append("include", "preview");
+    }
+    const located = await post("/v1/locate", form);
+    state.width = located.width;
+    state.height = located.height;
+    state.picture = shown || (await loadDataUrl(located.preview));
+    const g = located.geometry;
+    state.circle = g
+      ? { cx: g.cx, cy: g.cy, r: g.r }
+      : {
+          cx: (located.width - 1) / 2,
+          cy: (located.height - 1) / 2,
+          r: Math.max(MIN_RADIUS, Math.min(located.width, located.height) / 3),
+        };
+    $("stage").hidden = false;
+    syncInputs();
+    draw();
+    const found = g
+      ? `Sphere found (confidence ${g.confidence !== undefined ? g.confidence.toFixed(2) : "n/a"}). Check the circle, then Classify.`
+      : "No sphere found: place the circle on it, then Classify.";
+    status(found);
+    if (located.warnings.length) {
+      showError("Note", located.warnings.join(" "));
+    }
+    $("classify").focus();
+  } catch (problem) {
+    status("");
+    showError(problem.title || "Error", problem.detail || String(problem));
+  }
+}
+
+// ---- drawing --------------------------------------------------------------------------
+
+/** Image pixels per canvas pixel, and the canvas's CSS pixels per canvas pixel. */
+function scales() {
+  const canvas = $("canvas");
+  const box = canvas.getBoundingClientRect();
+  return { toCanvas: canvas.width / state.width, cssPerCanvas: box.width / canvas.width };
+}
+
+function draw() {
+  const canvas = $("canvas");
+  const ratio = window.devicePixelRatio || 1;
+  const cssWidth = canvas.parentElement.clientWidth || 600;
+  const maxHeight = window.innerHeight * 0.7;
+  const cssScale = Math.min(cssWidth / state.width, maxHeight / state.height);
+  canvas.width = Math.max(1, Math.round(state.width * cssScale * ratio));
+  canvas.height = Math.max(1, Math.round(state.height * cssScale * ratio));
+  canvas.style.width = `${Math.round(state.width * cssScale)}px`;
+  const ctx = canvas.getContext("2d");
+  const k = canvas.width / state.width;
+  ctx.clearRect(0, 0, canvas.width, canvas.height);
+  ctx.drawImage(state.picture, 0, 0, canvas.width, canvas.height);
+  const line = Math.max(2, 2 * ratio);
+  if (state.rect) {
+    const { x, y, w, h } = state.rect;
+    ctx.lineWidth = line;
+    ctx.setLineDash([6 * ratio, 4 * ratio]);
+    ctx.strokeStyle = "#ffd400";
+    ctx.strokeRect(x * k, y * k, w * k, h * k);
+    ctx.setLineDash([]);
+  }
+  const { cx, cy, r } = state.circle;
+  // Pixel centres are at integer coordinates: pixel (0, 0) spans −½…½.
+  const px = (v) => (v + 0.5) * k;
+  ctx.lineWidth = line;
+  ctx.strokeStyle = "#00e0ff";
+  ctx.beginPath();
+  ctx.arc(px(cx), px(cy), r * k, 0, 2 * Math.PI);
+  ctx.stroke();
+  for (const [x, y] of [[cx, cy], [cx + r, cy]]) {
+    ctx.fillStyle = "#00e0ff";
+    ctx.beginPath();
+    ctx.arc(px(x), px(y), 6 * ratio, 0, 2 * Math.PI);
+    ctx.fill();
+    ctx.strokeStyle = "#003040";
+    ctx.stroke();
+  }
+}
+
+function syncInputs() {
+  const { cx, cy, r } = state.circle;
+  $("cx").value = cx.toFixed(1);
+  $("cy").value = cy.toFixed(1);
+  $("r").value = r.toFixed(1);
+  if (state.rect) {
+    const { x, y, w, h } = state.rect;
+    $("white-rect").value = [x, y, w, h].map((v) => Math.round(v)).join(",");
+  }
+}
+
+function setCircle(cx, cy, r) {
+  if (![cx, cy, r].every(Number.isFinite)) {
+    return;
+  }
+  state.circle = { cx, cy, r: Math.max(1, r) };
+  syncInputs();
+  draw();
+}
+
+// ---- pointer and keyboard -------------------------------------------------------------
+
+function imagePoint(event) {
+  const canvas = $("canvas");
+  const box = canvas.getBoundingClientRect();
+  const x = ((event.clientX - box.left) / box.width) * state.width - 0.5;
+  const y = ((event.clientY - box.top) / box.height) * state.height - 0.5;
+  return { x, y };
+}
+
+function whiteMode() {
+  return document.querySelector('input[name="white-mode"]:checked').value;
+}
+
+function onPointerDown(event) {
+  if (!state.circle) {
+    return;
+  }
+  const p = imagePoint(event);
+  const { cx, cy, r } = state.circle;
+  const { toCanvas, cssPerCanvas } = scales();
+  const grab = 14 / (toCanvas * cssPerCanvas); // 14 CSS pixels, in image pixels
+  const fromCentre = Math.hypot(p.x - cx, p.y - cy);
+  if (Math.hypot(p.x - (cx + r), p.y - cy) < grab || Math.abs(fromCentre - r) < grab / 2) {
+    state.drag = { what: "rim" };
+  } else if (fromCentre < grab || (whiteMode() !== "rect" && fromCentre < r)) {
+    state.drag = { what: "centre", dx: cx - p.x, dy: cy - p.y };
+  } else if (whiteMode() === "rect") {
+    state.drag = { what: "rect", x0: p.x, y0: p.y };
+  } else {
+    return;
+  }
+  $("canvas").setPointerCapture(event.pointerId);
+  event.preventDefault();
+}
+
+function onPointerMove(event) {
+  const drag = state.drag;
+  if (!drag) {
+    return;
+  }
+  const p = imagePoint(event);
+  const { cx, cy, r } = state.circle;
+  if (drag.what === "centre") {
+    setCircle(p.x + drag.dx, p.y + drag.dy, r);
+  } else if (drag.what === "rim") {
+    setCircle(cx, cy, Math.hypot(p.x - cx, p.y - cy));
+  } else {
+    const clamp = (v, n) => Math.min(Math.max(v, 0), n);
+    const x0 = clamp(Math.min(drag.x0, p.x) + 0.5, state.width);
+    const y0 = clamp(Math.min(drag.y0, p.y) + 0.5, state.height);
+    const x1 = clamp(Math.max(drag.x0, p.x) + 0.5, state.width);
+    const y1 = clamp(Math.max(drag.y0, p.y) + 0.5, state.height);
+    state.rect = { x: x0, y: y0, w: Math.max(1, x1 - x0), h: Math.max(1, y1 - y0) };
+    syncInputs();
+    draw();
+  }
+}
+
+function onPointerUp() {
+  state.drag = null;
+}
+
+function onKey(event) {
+  if (!state.circle) {
+    return;
+  }
+  // "+" needs Shift on many keyboards, so Shift scales the arrows only.
+  const step = event.shiftKey ? 10 : 1;
+  const { cx, cy, r } = state.circle;
+  const moves = {
+    ArrowLeft: [-step, 0, 0],
+    ArrowRight: [step, 0, 0],
+    ArrowUp: [0, -step, 0],
+    ArrowDown: [0, step, 0],
+    "+": [0, 0, 1],
+    "=": [0, 0, 1],
+    "-": [0, 0, -1],
+    _: [0, 0, -1],
+    PageUp: [0, 0, 10],
+    PageDown: [0, 0, -10],
+  };
+  const move = moves[event.key];
+  if (!move) {
+    return;
+  }
+  event.preventDefault();
+  setCircle(cx + move[0], cy + move[1], r + move[2]);
+  status(`Circle: centre (${state.circle.cx.toFixed(1)}, ${state.circle.cy.toFixed(1)}), radius ${state.circle.r.toFixed(1)}`);
+}
+
+// ---- classify -------------------------------------------------------------------------
+
+function whiteFields(form) {
+  const mode = whiteMode();
+  if (mode === "value") {
+    form.append("white", $("white-value").value);
+  } else if (mode === "rect") {
+    form.append("white_rect", $("white-rect").value);
+  }
+  if (mode === "rect") {
+    form.append("white_reflectance", $("white-reflectance").value);
+  }
+}
+
+async function classify() {
+  if (!state.file) {
+    return;
+  }
+  clearError();
+  const button = $("classify");
+  button.disabled = true;
+  status("Classifying…");
+  try {
+    const form = new FormData();
+    form.append("image", state.file);
+    form.append("cx", $("cx").value);
+    form.append("cy", $("cy").value);
+    form.append("r", $("r").value);
+    whiteFields(form);
+    form.append("include", "explain,images");
+    const model = encodeURIComponent($("model").value);
+    const answer = await post(`/v1/models/${model}/classify`, form);
+    show(answer);
+    status(`Classified in ${answer.timing_ms.total.toFixed(0)} ms by ${answer.model.name} v${answer.model.version}.`);
+  } catch (problem) {
+    status("");
+    showError(problem.title || "Error", problem.detail || String(problem));
+  } finally {
+    button.disabled = false;
+  }
+}
+
+function element(tag, text, className) {
+  const e = document.createElement(tag);
+  if (text !== undefined) {
+    e.textContent = text;
+  }
+  if (className) {
+    e.className = className;
+  }
+  return e;
+}
+
+function showBars(probabilities, label) {
+  const bars = $("bars");
+  bars.replaceChildren();
+  for (const { label: name, p } of probabilities) {
+    const li = element("li", undefined, name === label ? "top" : "");
+    const percent = `${(100 * p).toFixed(1)} %`;
+    li.setAttribute("aria-label", `${name}: ${percent}`);
+    const track = element("span", undefined, "track");
+    const fill = element("span", undefined, "fill");
+    fill.style.width = `${Math.max(0, Math.min(100, 100 * p))}%`;
+    fill.style.display = "block";
+    track.append(fill);
+    track.setAttribute("aria-hidden", "true");
+    li.append(element("span", name, "name"), track, element("span", percent, "value"));
+    bars.append(li);
+  }
+}
+
+function showImages(images) {
+  const subbands = $("subbands");
+  subbands.replaceChildren();
+  if (!images) {
+    $("annulus").removeAttribute("src");
+    return;
+  }
+  $("annulus").src = images.annulus;
+  const words = { h: "horizontal", v: "vertical", d: "diagonal" };
+  for (const band of images.subbands) {
+    const figure = element("figure");
+    const img = element("img");
+    img.src = band.image;
+    img.alt = `Wavelet subband, scale ${band.scale}, ${words[band.orientation] || band.orientation}`;
+    figure.append(img, element("figcaption", `scale ${band.scale}, ${words[band.orientation] || band.orientation}`));
+    subbands.append(figure);
+  }
+}
+
+function showNeighbours(explain) {
+  const list = $("neighbours");
+  list.replaceChildren();
+  for (const n of explain || []) {
+    const li = element("li");
+    if (n.thumbnail) {
+      const img = element("img");
+      img.src = n.thumbnail;
+      img.alt = `Training image: class ${n.class} under ${n.illumination}`;
+      li.append(img);
+    }
+    li.append(element("strong", n.class), document.createTextNode(` ${n.illumination}`));
+    li.append(element("div", `distance ${n.distance.toFixed(2)}`, "small"));
+    list.append(li);
+  }
+}
+
+function show(answer) {
+  $("label").textContent = answer.label;
+  $("description").textContent = answer.class.description;
+  const w = answer.class.ward;
+  $("ward").textContent = w
+    ? `Ward parameters: ρd = ${w.rho_d}, ρs = ${w.rho_s}, α = ${w.alpha}`
+    : "";
+  showBars(answer.probabilities, answer.label);
+  const warnings = $("warnings");
+  warnings.replaceChildren(...answer.warnings.map((text) => element("li", text)));
+  $("warnings-box").hidden = answer.warnings.length === 0;
+  showImages(answer.images);
+  showNeighbours(answer.explain);
+  $("result").hidden = false;
+  const beside = document.body.classList.contains("answered") || window.innerWidth >= 1120;
+  document.body.classList.add("answered");
+  state.picture && draw();
+  if (!beside) {
+    $("result-title").scrollIntoView({ behavior: "smooth", block: "start" });
+  }
+}
+
+// ---- wiring ---------------------------------------------------------------------------
+
+function wire() {
+  const drop = $("drop");
+  $("file").addEventListener("change", (e) => choose(e.target.files[0]));
+  drop.addEventListener("dragover", (e) => {
+    e.preventDefault();
+    drop.classList.add("over");
+  });
+  drop.addEventListener("dragleave", () => drop.classList.remove("over"));
+  drop.addEventListener("drop", (e) => {
+    e.preventDefault();
+    drop.classList.remove("over");
+    choose(e.dataTransfer.files[0]);
+  });
+  // A photo dropped anywhere on the page is taken, not opened by the browser.
+  document.addEventListener("dragover", (e) => e.preventDefault());
+  document.addEventListener("drop", (e) => {
+    e.preventDefault();
+    if (e.dataTransfer.files.length) {
+      choose(e.dataTransfer.files[0]);
+    }
+  });
+  const canvas = $("canvas");
+  canvas.addEventListener("pointerdown", onPointerDown);
+  canvas.addEventListener("pointermove", onPointerMove);
+  canvas.addEventListener("pointerup", onPointerUp);
+  canvas.addEventListener("pointercancel", onPointerUp);
+  canvas.addEventListener("keydown", onKey);
+  for (const id of ["cx", "cy", "r"]) {
+    $(id).addEventListener("change", () =>
+      setCircle(Number($("cx").value), Number($("cy").value), Number($("r").value)),
+    );
+  }
+  $("white-rect").addEventListener("change", () => {
+    const [x, y, w, h] = $("white-rect").value.split(",").map(Number);
+    state.rect = [x, y, w, h].every(Number.isFinite) ? { x, y, w, h } : null;
+    draw();
+  });
+  for (const radio of document.querySelectorAll('input[name="white-mode"]')) {
+    radio.addEventListener("change", () => {
+      $("rect-help").hidden = whiteMode() !== "rect";
+      if (whiteMode() === "value") {
+        $("white-value").focus();
+      }
+    });
+  }
+  $("classify").addEventListener("click", classify);
+  window.addEventListener("resize", () => state.picture && draw());
+  loadModels();
+}
+
+document.addEventListener("DOMContentLoaded", wire);
