@@ -6,6 +6,7 @@ use crate::features::analysis::{self, AnalysisError, Locate, WhiteInput};
 use crate::image::decode::{self, DecodeOptions};
 use crate::image::geometry::Circle;
 use crate::util::progress;
+use crate::util::shard::Shard;
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -166,6 +167,13 @@ pub fn read_manifest(path: &Path) -> Result<Manifest, DatasetError> {
 }
 
 impl Manifest {
+    /// Only the rows of `shard`'s block (their line numbers kept for errors).
+    pub fn shard(mut self, shard: Shard) -> Manifest {
+        let block = shard.block(self.entries.len());
+        self.entries = self.entries.drain(block).collect();
+        self
+    }
+
     /// Fails with the first row lacking a class or illumination.
     pub fn require_labels(&self) -> Result<(), DatasetError> {
         for e in &self.entries {

@@ -1,4 +1,5 @@
-//! `reflectance features IMAGE …` (JSON) and `reflectance features --manifest M --out F` (CSV).
+//! `reflectance features IMAGE …` (JSON) and `reflectance features --manifest M --out F
+//! [--shard I/N]` (CSV).
 
 use super::{CliResult, LimitArgs, SphereArgs};
 use crate::dataset::{self, Manifest};
@@ -6,9 +7,10 @@ use crate::features::Extractor;
 use crate::features::analysis::{self, Locate, WhiteInput};
 use crate::image::decode::{self, DecodeOptions, Encoding};
 use crate::image::geometry::Circle;
+use crate::util::shard::Shard;
 use clap::Args;
 use serde::Serialize;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Args, Debug)]
 pub struct FeaturesArgs {
@@ -26,6 +28,11 @@ pub struct FeaturesArgs {
     /// Output CSV for --manifest.
     #[arg(long, requires = "manifest")]
     out: Option<PathBuf>,
+    /// With --manifest: only the rows of shard I of N (zero-based; the I-th of N contiguous
+    /// blocks), written beside --out as F.shard-IIII-of-NNNN.csv (its path is printed);
+    /// `reflectance merge` joins the parts into the table of the whole manifest.
+    #[arg(long, value_name = "I/N", requires = "manifest")]
+    shard: Option<Shard>,
     #[command(flatten)]
     extensions: super::ExtensionArgs,
     #[command(flatten)]
@@ -54,14 +61,34 @@ pub fn run(args: FeaturesArgs) -> CliResult {
         limits: args.limits.limits(),
     };
     match (&args.manifest, &args.out) {
-        (Some(manifest), Some(out)) => {
-            let manifest: Manifest = dataset::read_manifest(manifest).map_err(|e| e.to_string())?;
-            let table = dataset::extract_manifest(&extractor, &manifest, &options)
-                .map_err(|e| e.to_string())?;
-            table.write(out).map_err(|e| e.to_string())
-        }
+        (Some(manifest), Some(out)) => table(manifest, out, args.shard, &extractor, &options),
         _ => single(&args, &extractor, &options),
     }
+}
+
+/// The feature table of a manifest, or of a shard's block of its rows (written beside `out`,
+/// its path printed).
+fn table(
+    manifest: &Path,
+    out: &Path,
+    shard: Option<Shard>,
+    extractor: &Extractor,
+    options: &DecodeOptions,
+) -> CliResult {
+    let manifest: Manifest = dataset::read_manifest(manifest).map_err(|e| e.to_string())?;
+    let manifest = match shard {
+        Some(shard) => manifest.shard(shard),
+        None => manifest,
+    };
+    let table =
+        dataset::extract_manifest(extractor, &manifest, options).map_err(|e| e.to_string())?;
+    let Some(shard) = shard else {
+        return table.write(out).map_err(|e| e.to_string());
+    };
+    let part = shard.part_path(out);
+    table.write(&part).map_err(|e| e.to_string())?;
+    println!("{}", part.display());
+    Ok(())
 }
 
 fn single(args: &FeaturesArgs, extractor: &Extractor, options: &DecodeOptions) -> CliResult {

@@ -3,6 +3,7 @@
 mod classify;
 mod features;
 mod learn;
+mod merge;
 mod render;
 mod report;
 mod robustness;
@@ -30,6 +31,9 @@ enum Command {
     Features(features::FeaturesArgs),
     /// Render Ward spheres under light probes: every probe × class, with a manifest.
     Render(render::RenderArgs),
+    /// Join the parts of a manifest or feature table that `--shard I/N` runs wrote, in shard
+    /// order, into the file of the unsharded run.
+    Merge(merge::MergeArgs),
     /// Leave-one-illumination-out cross-validation.
     Cv(learn::CvArgs),
     /// Train a model and write it as a new version into a model registry.
@@ -196,6 +200,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Features(args) => features::run(args),
         Command::Render(args) => render::run(args),
+        Command::Merge(args) => merge::run(args),
         Command::Cv(args) => learn::cv(args),
         Command::Train(args) => learn::train(args),
         Command::Predict(args) => learn::predict(args),

@@ -1,8 +1,10 @@
-//! `reflectance render --probes DIR|LIST --classes C.json --out DIR [--size N] [--seed S]`.
+//! `reflectance render --probes DIR|LIST --classes C.json --out DIR [--size N] [--seed S]
+//! [--shard I/N]`.
 
 use super::CliResult;
 use crate::render::Quality;
 use crate::render::batch::{self, Augment, BatchSpec};
+use crate::util::shard::Shard;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -55,6 +57,12 @@ pub struct RenderArgs {
     /// Lattice points of the lobe quadrature (for α ≤ 0.02; more for broader lobes).
     #[arg(long, default_value_t = Quality::default().lobe_points)]
     lobe_points: usize,
+    /// Render only shard I of N (zero-based, e.g. an indexed job's completion index): the
+    /// I-th of N contiguous blocks of the images, byte-identical to the whole run's, with
+    /// the parts manifest.shard-IIII-of-NNNN.csv (and captures.shard-….csv) instead of
+    /// manifest.csv; `reflectance merge` joins the parts.
+    #[arg(long, value_name = "I/N")]
+    shard: Option<Shard>,
 }
 
 pub fn run(args: RenderArgs) -> CliResult {
@@ -78,6 +86,7 @@ pub fn run(args: RenderArgs) -> CliResult {
             captures: args.captures,
             capture_ranges: Default::default(),
         },
+        shard: args.shard,
     };
     let start = std::time::Instant::now();
     let summary = batch::render_dataset(&spec).map_err(|e| e.to_string())?;

@@ -1,7 +1,8 @@
 //! Rendering whole datasets: every probe × class (× augmentation views), in parallel,
 //! deterministic for a seed, resumable, with `manifest.csv`
 //! (`path,class,illumination,cx,cy,r,white`; illumination = probe file stem, or
-//! `<stem>@<variant>` for augmented views).
+//! `<stem>@<variant>` for augmented views). A shard renders one contiguous block of the
+//! same images and writes its part of the manifest ([`crate::util::shard`]).
 
 use super::envmap::{EnvMap, EnvMapError};
 use super::ward::{Material, MaterialError};
@@ -12,6 +13,7 @@ use crate::render::capture::{self, CaptureRanges, CaptureSettings};
 use crate::util::durable::write_atomic;
 use crate::util::progress;
 use crate::util::rng::Rng;
+use crate::util::shard::Shard;
 use rayon::prelude::*;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -206,6 +208,11 @@ impl Augment {
         1 + self.contrasts.len() + self.reductions.len()
     }
 
+    /// How many views [`variants`] makes of a probe, whatever its map's width.
+    fn views(&self) -> usize {
+        self.rotations.max(1) + self.elevations.len() + self.lightings() - 1
+    }
+
     /// Lighting `k` of a probe whose map is `map`.
     fn lighting(&self, map: &EnvMap, k: usize) -> EnvMap {
         let contrasts = self.contrasts.len();
@@ -227,6 +234,9 @@ pub struct BatchSpec {
     pub seed: u64,
     pub quality: Quality,
     pub augment: Augment,
+    /// Render only this shard's block of the images, and write its parts of `manifest.csv`
+    /// and `captures.csv` ([`Shard::part_path`]) instead of the whole files.
+    pub shard: Option<Shard>,
 }
 
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -318,7 +328,7 @@ fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
 }
 
 /// Render every probe × variant × class into `spec.out`; images already complete are
-/// skipped (resume). Writes `manifest.csv` last, atomically.
+/// skipped (resume). Writes `manifest.csv` (or the shard's part of it) last, atomically.
 pub fn render_dataset(spec: &BatchSpec) -> Result<BatchSummary, RenderError> {
     render_dataset_with(spec, &progress::Silent)
 }
@@ -357,25 +367,7 @@ pub fn render_dataset_with(
     validate(spec)?;
     std::fs::create_dir_all(&spec.out).map_err(io_error(&spec.out))?;
     let probes = probes_of(spec);
-    // Jobs in manifest order: probe, view, class.
-    let mut jobs = Vec::new();
-    for (pi, probe) in probes.iter().enumerate() {
-        let views = match probe.source {
-            Source::File(_) => variants(&spec.augment, probe.map()?.width),
-            Source::Synthetic { .. } => variants(&Augment::default(), 0),
-        };
-        for variant in views {
-            for (ci, class) in spec.classes.iter().enumerate() {
-                let name = format!("{}{}__{}", probe.stem, variant.suffix, class.name);
-                jobs.push(Job {
-                    probe: pi,
-                    variant: variant.clone(),
-                    class: ci,
-                    name,
-                });
-            }
-        }
-    }
+    let jobs = jobs_of(spec, &probes)?;
     let expected_len =
         pfm::encode_gray(spec.size, spec.size, &vec![0.0; spec.size * spec.size]).len() as u64;
     let complete = |job: &Job| {
@@ -409,6 +401,57 @@ pub fn render_dataset_with(
         skipped: jobs.len() - rendered,
         manifest,
     })
+}
+
+/// The jobs in manifest order (probe, view, class), only those of the spec's shard. The
+/// numbering of the whole list needs only how many views each probe has, so the maps of
+/// probes with no job in the shard are never loaded.
+fn jobs_of(spec: &BatchSpec, probes: &[Probe]) -> Result<Vec<Job>, RenderError> {
+    let views = |probe: &Probe| match probe.source {
+        Source::File(_) => spec.augment.views(),
+        Source::Synthetic { .. } => 1,
+    };
+    let per_probe = |probe: &Probe| views(probe) * spec.classes.len();
+    let total = probes.iter().map(per_probe).sum();
+    let block = spec.shard.map_or(0..total, |shard| shard.block(total));
+    let mut jobs = Vec::with_capacity(block.len());
+    let mut first = 0;
+    for (pi, probe) in probes.iter().enumerate() {
+        let own = first..first + per_probe(probe);
+        first = own.end;
+        if own.end <= block.start || own.start >= block.end {
+            continue;
+        }
+        let variants = match probe.source {
+            Source::File(_) => variants(&spec.augment, probe.map()?.width),
+            Source::Synthetic { .. } => variants(&Augment::default(), 0),
+        };
+        debug_assert_eq!(variants.len(), views(probe));
+        let all = variants.iter().flat_map(|variant| {
+            let classes = spec.classes.iter().enumerate();
+            classes.map(move |(ci, class)| (variant, ci, class))
+        });
+        for (k, (variant, ci, class)) in all.enumerate() {
+            if block.contains(&(own.start + k)) {
+                jobs.push(Job {
+                    probe: pi,
+                    variant: variant.clone(),
+                    class: ci,
+                    name: format!("{}{}__{}", probe.stem, variant.suffix, class.name),
+                });
+            }
+        }
+    }
+    Ok(jobs)
+}
+
+/// Where a whole-run file of the data set goes, or this shard's part of it.
+fn output_path(spec: &BatchSpec, file: &str) -> PathBuf {
+    let path = spec.out.join(file);
+    match spec.shard {
+        Some(shard) => shard.part_path(&path),
+        None => path,
+    }
 }
 
 /// Render one image unless it is `complete`, then write whichever of its captures are
@@ -570,10 +613,10 @@ fn write_manifest(
         }
     }
     if with_captures {
-        let path = spec.out.join("captures.csv");
+        let path = output_path(spec, "captures.csv");
         write_atomic(&path, settings.as_bytes()).map_err(io_error(&path))?;
     }
-    let path = spec.out.join("manifest.csv");
+    let path = output_path(spec, "manifest.csv");
     write_atomic(&path, text.as_bytes()).map_err(io_error(&path))?;
     Ok(path)
 }
@@ -598,4 +641,24 @@ fn capture_row(path: &str, s: &CaptureSettings) -> String {
         s.quantization,
         tail.join(",")
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_view_count_does_not_need_the_map() {
+        let augment = Augment {
+            rotations: 3,
+            elevations: vec![30.0, 60.0],
+            contrasts: vec![0.7],
+            reductions: vec![2, 4],
+            ..Augment::default()
+        };
+        for width in [1, 64, 1000] {
+            assert_eq!(variants(&augment, width).len(), augment.views());
+        }
+        assert_eq!(variants(&Augment::default(), 64).len(), 1);
+    }
 }

@@ -1,5 +1,5 @@
 //! The command line through the real binary: features, render, report, train → predict,
-//! model files and the registry.
+//! model files and the registry, sharded runs and their merge.
 
 #[path = "../common/mod.rs"]
 mod common;
@@ -8,3 +8,4 @@ mod features;
 mod models;
 mod render;
 mod report;
+mod shard;

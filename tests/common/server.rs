@@ -107,6 +107,7 @@ fn render(dir: &Path, probes: Vec<PathBuf>, out: &str) -> PathBuf {
         seed: 1,
         quality: Quality::default(),
         augment: Augment::default(),
+        shard: None,
     };
     batch::render_dataset(&spec).unwrap().manifest
 }

@@ -479,6 +479,7 @@ pub fn execute(
                     captures: *captures,
                     ..Augment::default()
                 },
+                shard: None,
             };
             observer.stage("render");
             let summary = batch::render_dataset_with(&spec, observer)?;
