@@ -29,7 +29,7 @@ pub struct FeaturesArgs {
     #[arg(long, requires = "manifest")]
     out: Option<PathBuf>,
     /// With --manifest: only the rows of shard I of N (zero-based; the I-th of N contiguous
-    /// blocks), written beside --out as F.shard-IIII-of-NNNN.csv (its path is printed);
+    /// blocks), written beside --out as F.shard-I-of-N.csv (its path is printed);
     /// `reflectance merge` joins the parts into the table of the whole manifest.
     #[arg(long, value_name = "I/N", requires = "manifest")]
     shard: Option<Shard>,

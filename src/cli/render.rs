@@ -59,7 +59,7 @@ pub struct RenderArgs {
     lobe_points: usize,
     /// Render only shard I of N (zero-based, e.g. an indexed job's completion index): the
     /// I-th of N contiguous blocks of the images, byte-identical to the whole run's, with
-    /// the parts manifest.shard-IIII-of-NNNN.csv (and captures.shard-….csv) instead of
+    /// the parts manifest.shard-I-of-N.csv (and captures.shard-….csv) instead of
     /// manifest.csv; `reflectance merge` joins the parts.
     #[arg(long, value_name = "I/N")]
     shard: Option<Shard>,

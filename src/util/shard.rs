@@ -75,14 +75,15 @@ impl Shard {
     }
 
     /// The partial file of this shard beside `path`: `dir/manifest.csv` →
-    /// `dir/manifest.shard-0002-of-0004.csv` (at least four digits, so names sort in order).
+    /// `dir/manifest.shard-2-of-4.csv`. The numbers are not padded, so that a Kubernetes
+    /// Indexed Job can spell a pod's part as `…shard-$(JOB_COMPLETION_INDEX)-of-4.csv`;
+    /// `merge` orders parts by their numbers, not by name.
     pub fn part_path(&self, path: &Path) -> PathBuf {
         let name = path
             .file_name()
             .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
         let (stem, extension) = split_extension(&name);
-        let width = self.count.to_string().len().max(4);
-        let tag = format!("shard-{:0width$}-of-{:0width$}", self.index, self.count);
+        let tag = format!("shard-{}-of-{}", self.index, self.count);
         path.with_file_name(format!("{stem}.{tag}{extension}"))
     }
 
@@ -317,13 +318,13 @@ mod tests {
     fn part_names_round_trip() {
         let shard = Shard::new(2, 4).unwrap();
         let part = shard.part_path(Path::new("out/manifest.csv"));
-        assert_eq!(part, Path::new("out/manifest.shard-0002-of-0004.csv"));
+        assert_eq!(part, Path::new("out/manifest.shard-2-of-4.csv"));
         assert_eq!(
             Shard::of_part(&part).unwrap(),
             (shard, "manifest.csv".to_string())
         );
         let wide = Shard::new(7, 12345).unwrap().part_path(Path::new("table"));
-        assert_eq!(wide, Path::new("table.shard-00007-of-12345"));
+        assert_eq!(wide, Path::new("table.shard-7-of-12345"));
         assert_eq!(Shard::of_part(&wide).unwrap().1, "table");
         for bad in [
             "manifest.csv",

@@ -38,7 +38,7 @@ fn text(path: &Path) -> &str {
 fn parts(whole: &Path) -> Vec<PathBuf> {
     let (stem, extension) = text(whole).rsplit_once('.').unwrap();
     (0..4)
-        .map(|i| PathBuf::from(format!("{stem}.shard-{i:04}-of-0004.{extension}")))
+        .map(|i| PathBuf::from(format!("{stem}.shard-{i}-of-4.{extension}")))
         .collect()
 }
 
