@@ -928,7 +928,7 @@ async fn locates_reads_a_white_card_in_the_photo_and_draws_what_the_features_see
 
     // The annulus and the subbands as pictures, and the neighbours' thumbnails.
     let white = white.to_string();
-    let mut fields = classify_fields(&image[..], &white);
+    let mut fields = classify_fields(image, &white);
     fields.push(("include", Part::Text("images,explain")));
     let doc = send(&server.data, post_multipart("/v1/classify", &fields))
         .await
