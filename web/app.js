@@ -429,6 +429,12 @@ function show(answer) {
   $("ward").textContent = w
     ? `Ward parameters: ρd = ${w.rho_d}, ρs = ${w.rho_s}, α = ${w.alpha}`
     : "";
+  $("rendered-box").hidden = !w;
+  if (w) {
+    const query = new URLSearchParams({ rho_d: w.rho_d, rho_s: w.rho_s, alpha: w.alpha, size: 192 });
+    $("rendered").src = `/v1/preview?${query}`;
+    $("rendered").alt = `A sphere of class ${answer.label}, rendered`;
+  }
   showBars(answer.probabilities, answer.label);
   const warnings = $("warnings");
   warnings.replaceChildren(...answer.warnings.map((text) => element("li", text)));

@@ -3,6 +3,7 @@
 mod classify;
 mod features;
 mod learn;
+mod materials;
 mod merge;
 mod render;
 mod report;
@@ -31,6 +32,9 @@ enum Command {
     Features(features::FeaturesArgs),
     /// Render Ward spheres under light probes: every probe × class, with a manifest.
     Render(render::RenderArgs),
+    /// Write a class file of materials over continuous Ward parameters (a seeded
+    /// Latin-hypercube design) for `render --classes`.
+    Materials(materials::MaterialsArgs),
     /// Join the parts of a manifest or feature table that `--shard I/N` runs wrote, in shard
     /// order, into the file of the unsharded run.
     Merge(merge::MergeArgs),
@@ -201,6 +205,7 @@ pub fn main() -> ExitCode {
         Command::Features(args) => features::run(args),
         Command::Render(args) => render::run(args),
         Command::Merge(args) => merge::run(args),
+        Command::Materials(args) => materials::run(args),
         Command::Cv(args) => learn::cv(args),
         Command::Train(args) => learn::train(args),
         Command::Predict(args) => learn::predict(args),

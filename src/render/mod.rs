@@ -9,10 +9,12 @@
 
 pub mod batch;
 pub mod capture;
+pub mod design;
 pub mod envmap;
 pub(crate) mod fastmath;
 pub(crate) mod highlights;
 pub(crate) mod irradiance;
+pub mod preview;
 pub(crate) mod synthetic;
 pub mod ward;
 

@@ -404,6 +404,12 @@ impl From<WhiteError> for ApiError {
     }
 }
 
+impl From<crate::render::preview::PreviewError> for ApiError {
+    fn from(e: crate::render::preview::PreviewError) -> ApiError {
+        ApiError::new(Kind::InvalidField, e.to_string())
+    }
+}
+
 impl From<AnalysisError> for ApiError {
     fn from(e: AnalysisError) -> ApiError {
         match e {

@@ -3,7 +3,7 @@
 //! `REFLECTANCE_UPDATE_OPENAPI=1 cargo test --release --test server openapi` rewrites it.
 
 use super::error::Problem;
-use super::handlers::{admin, classify, health, locate, models, v2, web};
+use super::handlers::{admin, classify, health, locate, models, preview, v2, web};
 use super::jobs;
 use axum::http::{HeaderValue, header};
 use axum::response::{IntoResponse, Response};
@@ -57,6 +57,7 @@ impl Modify for Extras {
         classify::classify_default,
         classify::classify_named,
         locate::locate,
+        preview::preview,
         models::list,
         models::get,
         health::live,

@@ -3,7 +3,7 @@
 //! catching, the per-request timeout and the body limit.
 
 use super::error::{self, ApiError, Kind, REQUEST_ID};
-use super::handlers::{admin, classify, health, locate, models, v2, web};
+use super::handlers::{admin, classify, health, locate, models, preview, v2, web};
 use super::metrics;
 use super::state::SharedState;
 use axum::Router;
@@ -131,6 +131,7 @@ pub fn data_router(state: SharedState) -> Router {
         .route("/docs", get(web::docs))
         .route("/assets/{file}", get(web::asset))
         .route("/v1/locate", post(locate::locate))
+        .route("/v1/preview", get(preview::preview))
         .route("/v1/models", get(models::list))
         .route("/v1/models/{name}", get(models::get))
         .route("/v1/models/{name}/classify", post(classify::classify_named))

@@ -292,3 +292,72 @@ fn bad_inputs_are_reported() {
         assert!(stderr.contains(needle), "{needle}: {stderr}");
     }
 }
+
+/// `materials` writes a class file of continuous Ward parameters that `render` takes.
+#[test]
+fn materials_design_a_class_file_that_render_takes() {
+    let dir = temp_dir("materials");
+    let file = dir.join("materials.json");
+    let file_arg = file.to_str().unwrap();
+    let out = run(&[
+        "materials",
+        "--count",
+        "8",
+        "--seed",
+        "5",
+        "--out",
+        file_arg,
+    ]);
+    common::assert_success(&out);
+    let first = std::fs::read(&file).unwrap();
+    common::assert_success(&run(&[
+        "materials",
+        "--count",
+        "8",
+        "--seed",
+        "5",
+        "--out",
+        file_arg,
+    ]));
+    assert_eq!(std::fs::read(&file).unwrap(), first, "not deterministic");
+    let doc: serde_json::Value = serde_json::from_slice(&first).unwrap();
+    let classes = doc["classes"].as_array().unwrap();
+    assert_eq!(classes.len(), 8);
+    let names: Vec<&str> = classes
+        .iter()
+        .map(|c| c["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names[0], "m0001");
+    assert_eq!(names[7], "m0008");
+    for c in classes {
+        let (d, s, a) = (
+            c["rho_d"].as_f64().unwrap(),
+            c["rho_s"].as_f64().unwrap(),
+            c["alpha"].as_f64().unwrap(),
+        );
+        assert!((0.0..=0.8).contains(&s) && d >= 0.0 && d + s <= 1.0, "{c}");
+        assert!(a == 0.0 || (0.005..=0.2).contains(&a), "{c}");
+    }
+    // Two of the eight through the renderer, under one probe.
+    let list = probes(&dir);
+    let render_out = dir.join("rendered");
+    let out = run(&[
+        "render",
+        "--probes",
+        list.to_str().unwrap(),
+        "--classes",
+        file_arg,
+        "--out",
+        render_out.to_str().unwrap(),
+        "--size",
+        "72",
+        "--shard",
+        "0/4",
+    ]);
+    common::assert_success(&out);
+    let part = std::fs::read_to_string(render_out.join("manifest.shard-0-of-4.csv")).unwrap();
+    assert_eq!(part.lines().count(), 1 + 4, "{part}");
+    assert!(part.contains(",m0001,"), "{part}");
+    let out = run(&["materials", "--count", "0", "--out", file_arg]);
+    assert_eq!(out.status.code(), Some(2));
+}

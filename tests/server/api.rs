@@ -1014,3 +1014,44 @@ async fn serves_the_page_and_the_api_reference_with_their_assets() {
         );
     }
 }
+
+/// `GET /v1/preview`: a rendered sphere of given Ward parameters, the same every time.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn previews_a_material_as_a_png() {
+    let server = start(config(&models_copy("preview")));
+    let uri = "/v1/preview?rho_d=0.7&rho_s=0.25&alpha=0.01&probe=sky-2&size=80";
+    let first = send(&server.data, get(uri)).await;
+    assert_eq!(
+        first.status,
+        200,
+        "{}",
+        String::from_utf8_lossy(&first.body)
+    );
+    assert_eq!(first.header("content-type"), Some("image/png"));
+    assert_eq!(first.header("cache-control"), Some("public, max-age=86400"));
+    let picture = image::load_from_memory(&first.body).unwrap().to_luma8();
+    assert_eq!(picture.dimensions(), (80, 80));
+    // Background black, the sphere lit.
+    assert_eq!(picture.get_pixel(0, 0).0[0], 0);
+    assert!(picture.get_pixel(40, 40).0[0] > 0);
+    let again = send(&server.data, get(uri)).await;
+    assert_eq!(again.body, first.body);
+    let default = send(&server.data, get("/v1/preview?rho_d=0.7&rho_s=0&alpha=0")).await;
+    let picture = image::load_from_memory(&default.body).unwrap();
+    assert_eq!((picture.width(), picture.height()), (192, 192));
+    for (query, words) in [
+        ("rho_s=0.1&alpha=0", "rho_d"),
+        ("rho_d=0.8&rho_s=0.5&alpha=0", "rho_d + rho_s"),
+        ("rho_d=0.1&rho_s=0.1&alpha=0.9", "alpha 0.9"),
+        ("rho_d=0.1&rho_s=0.1&alpha=0&probe=studio", "sky-1, sky-2"),
+        ("rho_d=0.1&rho_s=0.1&alpha=0&size=1000", "size 1000"),
+        ("rho_d=0.1&rho_s=0.1&alpha=0&colour=red", "colour"),
+        ("rho_d=x&rho_s=0.1&alpha=0", "rho_d"),
+    ] {
+        let problem = send(&server.data, get(&format!("/v1/preview?{query}")))
+            .await
+            .problem(422, "invalid-field");
+        let detail = problem["detail"].as_str().unwrap();
+        assert!(detail.contains(words), "{query}: {detail}");
+    }
+}

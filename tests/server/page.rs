@@ -353,16 +353,22 @@ fn classify_and_read_the_answer(browser: &Browser) {
         })
         .sum();
     assert!((total - 100.0).abs() < 0.5, "{bars:?}");
+    browser.wait_for(
+        "the rendered class",
+        "document.getElementById('rendered').complete && document.getElementById('rendered').naturalWidth",
+    );
     let shown = browser.script(
         "const loaded = (img) => img.complete && img.naturalWidth > 0; \
          return { annulus: loaded(document.getElementById('annulus')), \
                   subbands: [...document.querySelectorAll('#subbands img')].filter(loaded).length, \
                   neighbours: document.querySelectorAll('#neighbours li').length, \
                   thumbnails: [...document.querySelectorAll('#neighbours img')].filter(loaded).length, \
+                  rendered: loaded(document.getElementById('rendered')), \
                   description: document.getElementById('description').textContent, \
                   ward: document.getElementById('ward').textContent };",
     );
     assert_eq!(shown["annulus"], true, "{shown}");
+    assert_eq!(shown["rendered"], true, "{shown}");
     assert_eq!(shown["subbands"].as_u64().unwrap() % 3, 0, "{shown}");
     assert!(shown["subbands"].as_u64().unwrap() >= 9, "{shown}");
     assert_eq!(shown["neighbours"], 3, "{shown}");

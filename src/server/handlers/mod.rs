@@ -5,5 +5,6 @@ pub(crate) mod classify;
 pub(crate) mod health;
 pub(crate) mod locate;
 pub(crate) mod models;
+pub(crate) mod preview;
 pub(crate) mod v2;
 pub(crate) mod web;

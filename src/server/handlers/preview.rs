@@ -1,0 +1,114 @@
+//! `GET /v1/preview`: a sphere of given Ward parameters, rendered, as a PNG (what an
+//! estimate or a class looks like). Renders run on the CPU pool behind admission; the last
+//! answers are kept, since the same parameters always give the same picture.
+
+use crate::render::preview;
+use crate::render::ward::Material;
+use crate::server::error::{ApiError, ClassificationProblems, Problem};
+use crate::server::state::SharedState;
+use axum::extract::rejection::QueryRejection;
+use axum::extract::{Query, State};
+use axum::http::header;
+use axum::response::{IntoResponse, Response};
+use serde::Deserialize;
+use std::collections::VecDeque;
+use std::sync::{Arc, Mutex};
+use utoipa::IntoParams;
+
+#[derive(Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
+#[serde(deny_unknown_fields)]
+pub struct PreviewQuery {
+    /// Diffuse reflectance ρd ≥ 0 (ρd + ρs ≤ 1).
+    rho_d: f64,
+    /// Specular reflectance ρs ≥ 0.
+    rho_s: f64,
+    /// Ward roughness α: 0 is a mirror; at most 0.5.
+    alpha: f64,
+    /// The illumination: `sky-1` (default) … `sky-4`, procedural maps with the statistics of
+    /// natural light.
+    probe: Option<String>,
+    /// Image size in pixels, 72–384 (default 192); the sphere's radius is size / 2.2.
+    size: Option<usize>,
+}
+
+const DEFAULT_SIZE: usize = 192;
+const CACHED: usize = 64;
+
+type Key = (u64, u64, u64, String, usize);
+
+/// The most recently used previews, oldest first.
+fn cache() -> &'static Mutex<VecDeque<(Key, Arc<Vec<u8>>)>> {
+    static CACHE: Mutex<VecDeque<(Key, Arc<Vec<u8>>)>> = Mutex::new(VecDeque::new());
+    &CACHE
+}
+
+fn cached(key: &Key) -> Option<Arc<Vec<u8>>> {
+    let mut cache = cache().lock().unwrap_or_else(|e| e.into_inner());
+    let at = cache.iter().position(|(k, _)| k == key)?;
+    let entry = cache.remove(at)?;
+    let png = entry.1.clone();
+    cache.push_back(entry);
+    Some(png)
+}
+
+fn remember(key: Key, png: Arc<Vec<u8>>) {
+    let mut cache = cache().lock().unwrap_or_else(|e| e.into_inner());
+    if cache.len() >= CACHED {
+        cache.pop_front();
+    }
+    cache.push_back((key, png));
+}
+
+/// A sphere of these Ward parameters, rendered under a built-in illumination.
+#[utoipa::path(
+    get,
+    operation_id = "preview", path = "/v1/preview",
+    tag = "classification",
+    params(PreviewQuery),
+    responses(
+        (status = 200, description = "The rendered sphere, 8-bit grey sRGB (an ideal white surface at 70 % of full scale)", content_type = "image/png", body = Vec<u8>),
+        (status = 422, description = "Missing, unknown or invalid parameter (`invalid-field`)", body = Problem, content_type = "application/problem+json"),
+        ClassificationProblems,
+    )
+)]
+pub async fn preview(
+    State(state): State<SharedState>,
+    query: Result<Query<PreviewQuery>, QueryRejection>,
+) -> Result<Response, ApiError> {
+    let Query(q) = query?;
+    let material = Material {
+        name: "preview".into(),
+        rho_d: q.rho_d,
+        rho_s: q.rho_s,
+        alpha: q.alpha,
+    };
+    let probe = q.probe.unwrap_or_else(|| preview::PROBES[0].to_string());
+    let size = q.size.unwrap_or(DEFAULT_SIZE);
+    preview::check(&material, &probe, size)?;
+    let key = (
+        q.rho_d.to_bits(),
+        q.rho_s.to_bits(),
+        q.alpha.to_bits(),
+        probe.clone(),
+        size,
+    );
+    let png = match cached(&key) {
+        Some(png) => png,
+        None => {
+            let permit = state.cpu.admit()?;
+            let png = state
+                .cpu
+                .run(permit, move || Ok(preview::png(&material, &probe, size)?))
+                .await?;
+            let png = Arc::new(png);
+            remember(key, png.clone());
+            png
+        }
+    };
+    let headers = [
+        (header::CONTENT_TYPE, "image/png"),
+        (header::CACHE_CONTROL, "public, max-age=86400"),
+    ];
+    Ok((headers, png.as_ref().clone()).into_response())
+}
