@@ -15,6 +15,7 @@ pub(crate) mod matrix;
 pub(crate) mod normal;
 pub(crate) mod pca;
 pub mod pipeline;
+pub mod regress;
 pub mod scaler;
 pub mod select;
 pub mod svm;

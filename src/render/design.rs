@@ -34,10 +34,7 @@ impl Default for Ranges {
 /// within it, the strata shuffled.
 fn latin_column(n: usize, rng: &mut Rng) -> Vec<f64> {
     let mut strata: Vec<usize> = (0..n).collect();
-    for i in (1..n).rev() {
-        let j = rng.below(i as u64 + 1) as usize;
-        strata.swap(i, j);
-    }
+    rng.shuffle(&mut strata);
     strata
         .into_iter()
         .map(|s| (s as f64 + rng.next_f64()) / n as f64)

@@ -35,11 +35,13 @@ pub struct PreviewQuery {
 const DEFAULT_SIZE: usize = 192;
 const CACHED: usize = 64;
 
+/// (ρd, ρs, α as bits, probe, size).
 type Key = (u64, u64, u64, String, usize);
+type Entry = (Key, Arc<Vec<u8>>);
 
 /// The most recently used previews, oldest first.
-fn cache() -> &'static Mutex<VecDeque<(Key, Arc<Vec<u8>>)>> {
-    static CACHE: Mutex<VecDeque<(Key, Arc<Vec<u8>>)>> = Mutex::new(VecDeque::new());
+fn cache() -> &'static Mutex<VecDeque<Entry>> {
+    static CACHE: Mutex<VecDeque<Entry>> = Mutex::new(VecDeque::new());
     &CACHE
 }
 
