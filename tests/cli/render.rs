@@ -299,27 +299,21 @@ fn materials_design_a_class_file_that_render_takes() {
     let dir = temp_dir("materials");
     let file = dir.join("materials.json");
     let file_arg = file.to_str().unwrap();
-    let out = run(&[
-        "materials",
-        "--count",
-        "8",
-        "--seed",
-        "5",
-        "--out",
-        file_arg,
-    ]);
-    common::assert_success(&out);
-    let first = std::fs::read(&file).unwrap();
-    common::assert_success(&run(&[
-        "materials",
-        "--count",
-        "8",
-        "--seed",
-        "5",
-        "--out",
-        file_arg,
-    ]));
-    assert_eq!(std::fs::read(&file).unwrap(), first, "not deterministic");
+    let design = || {
+        let args = [
+            "materials",
+            "--count",
+            "8",
+            "--seed",
+            "5",
+            "--out",
+            file_arg,
+        ];
+        common::assert_success(&run(&args));
+        std::fs::read(&file).unwrap()
+    };
+    let first = design();
+    assert_eq!(design(), first, "not deterministic");
     let doc: serde_json::Value = serde_json::from_slice(&first).unwrap();
     let classes = doc["classes"].as_array().unwrap();
     assert_eq!(classes.len(), 8);

@@ -382,6 +382,12 @@ pub enum MultipartClassification {
             ("x-model-version" = u32, description = "The model version that answered"),
             ("server-timing" = String, description = "decode, features, predict and total durations in ms")))]
     Classified(ClassifyResponse),
+}
+
+/// What every multipart operation may answer about its body, for the OpenAPI document.
+#[derive(utoipa::IntoResponses)]
+#[allow(dead_code, reason = "a type for the OpenAPI document, never built")]
+pub enum MultipartProblems {
     #[response(
         status = 400,
         description = "Malformed multipart body (`malformed-request`)",
@@ -404,6 +410,7 @@ pub enum MultipartClassification {
     request_body(content = ClassifyForm, content_type = "multipart/form-data"),
     responses(
         MultipartClassification,
+        MultipartProblems,
         (status = 404, description = "Default model not served (`model-not-found`)", body = Problem, content_type = "application/problem+json"),
         (status = 422, description = "Missing image (`missing-field`), unknown or invalid field (`unknown-field`, `invalid-field`), corrupt or unusable image (`corrupt-image`, `invalid-image`), bad circle or mask (`bad-geometry`), bad white reference (`bad-white`)", body = Problem, content_type = "application/problem+json"),
         ClassificationProblems,
@@ -426,6 +433,7 @@ pub async fn classify_default(
     request_body(content = ClassifyForm, content_type = "multipart/form-data"),
     responses(
         MultipartClassification,
+        MultipartProblems,
         (status = 404, description = "Unknown model or version (`model-not-found`, `version-not-found`)", body = Problem, content_type = "application/problem+json"),
         (status = 422, description = "Missing image (`missing-field`), unknown or invalid field or query parameter (`unknown-field`, `invalid-field`), corrupt or unusable image (`corrupt-image`, `invalid-image`), bad circle or mask (`bad-geometry`), bad white reference (`bad-white`), refused model file (`invalid-model`)", body = Problem, content_type = "application/problem+json"),
         ClassificationProblems,

@@ -1,7 +1,7 @@
 //! `POST /v1/locate`: where the sphere of a photograph is, without classifying it. The page
 //! draws this circle for the user to check or correct before classifying.
 
-use super::classify::{self, RawInput};
+use super::classify::{self, MultipartProblems, RawInput};
 use crate::image::decode::{DecodeOptions, Encoding};
 use crate::inference::{self, LocateResponse};
 use crate::server::error::{ApiError, ClassificationProblems, Kind, Problem};
@@ -58,8 +58,7 @@ fn refuse_classification_fields(raw: &RawInput) -> Result<(), ApiError> {
     request_body(content = LocateForm, content_type = "multipart/form-data"),
     responses(
         (status = 200, description = "The image's size and the sphere found (absent, with a warning, when none)", body = LocateResponse),
-        (status = 400, description = "Malformed multipart body (`malformed-request`)", body = Problem, content_type = "application/problem+json"),
-        (status = 415, description = "Not multipart/form-data (`unsupported-media-type`) or unknown image format (`unsupported-image-format`)", body = Problem, content_type = "application/problem+json"),
+        MultipartProblems,
         (status = 422, description = "Missing image (`missing-field`), unknown or invalid field (`unknown-field`, `invalid-field`), corrupt or unusable image (`corrupt-image`, `invalid-image`)", body = Problem, content_type = "application/problem+json"),
         ClassificationProblems,
     )

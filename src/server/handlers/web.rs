@@ -20,47 +20,34 @@ const JS: &str = "text/javascript; charset=utf-8";
 const CSS: &str = "text/css; charset=utf-8";
 const TEXT: &str = "text/plain; charset=utf-8";
 
+/// An asset of `web/`, embedded.
+macro_rules! asset {
+    ($name:literal, $file:literal, $content_type:expr) => {
+        Asset {
+            name: $name,
+            bytes: include_bytes!(concat!("../../../web/", $file)),
+            content_type: $content_type,
+        }
+    };
+}
+
 static ASSETS: [Asset; 8] = [
-    Asset {
-        name: "app.js",
-        bytes: include_bytes!("../../../web/app.js"),
-        content_type: JS,
-    },
-    Asset {
-        name: "app.css",
-        bytes: include_bytes!("../../../web/app.css"),
-        content_type: CSS,
-    },
-    Asset {
-        name: "docs.js",
-        bytes: include_bytes!("../../../web/docs.js"),
-        content_type: JS,
-    },
-    Asset {
-        name: "swagger-ui-bundle.js",
-        bytes: include_bytes!("../../../web/vendor/swagger-ui/swagger-ui-bundle.js"),
-        content_type: JS,
-    },
-    Asset {
-        name: "swagger-ui.css",
-        bytes: include_bytes!("../../../web/vendor/swagger-ui/swagger-ui.css"),
-        content_type: CSS,
-    },
-    Asset {
-        name: "swagger-ui-LICENSE.txt",
-        bytes: include_bytes!("../../../web/vendor/swagger-ui/LICENSE"),
-        content_type: TEXT,
-    },
-    Asset {
-        name: "swagger-ui-NOTICE.txt",
-        bytes: include_bytes!("../../../web/vendor/swagger-ui/NOTICE"),
-        content_type: TEXT,
-    },
-    Asset {
-        name: "swagger-ui-bundle-LICENSE.txt",
-        bytes: include_bytes!("../../../web/vendor/swagger-ui/swagger-ui-bundle.js.LICENSE.txt"),
-        content_type: TEXT,
-    },
+    asset!("app.js", "app.js", JS),
+    asset!("app.css", "app.css", CSS),
+    asset!("docs.js", "docs.js", JS),
+    asset!(
+        "swagger-ui-bundle.js",
+        "vendor/swagger-ui/swagger-ui-bundle.js",
+        JS
+    ),
+    asset!("swagger-ui.css", "vendor/swagger-ui/swagger-ui.css", CSS),
+    asset!("swagger-ui-LICENSE.txt", "vendor/swagger-ui/LICENSE", TEXT),
+    asset!("swagger-ui-NOTICE.txt", "vendor/swagger-ui/NOTICE", TEXT),
+    asset!(
+        "swagger-ui-bundle-LICENSE.txt",
+        "vendor/swagger-ui/swagger-ui-bundle.js.LICENSE.txt",
+        TEXT
+    ),
 ];
 
 const INDEX_HTML: &str = include_str!("../../../web/index.html");
