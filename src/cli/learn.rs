@@ -3,6 +3,8 @@
 use super::{CliResult, LimitArgs};
 use crate::dataset::{self, FeatureTable, Manifest};
 use crate::features::{Extractor, FeatureConfig};
+use crate::learn::estimate;
+use crate::learn::regress::RidgeSpec;
 use crate::learn::{CvReport, DEFAULT_C, Dataset, SpecText, TrainSpec};
 use crate::model::registry::{self, Registry};
 use crate::model::train::{self, TrainOptions};
@@ -112,11 +114,94 @@ pub struct CvArgs {
     #[arg(long)]
     json: bool,
     #[command(flatten)]
+    estimate: EstimateArgs,
+    #[command(flatten)]
     limits: LimitArgs,
+}
+
+/// Estimating the Ward parameters instead of naming a class.
+#[derive(Args, Debug)]
+pub struct EstimateArgs {
+    /// Estimate (ρd, ρs, α) with 90 % intervals instead of classifying: a ridge regression on
+    /// random Fourier features of the RBF kernel (γ from --gamma, default 1 / inputs); the
+    /// classes must be materials of --ward-classes.
+    #[arg(long, requires = "ward_classes")]
+    estimate: bool,
+    /// The class file whose Ward parameters are the targets (e.g. from `materials`).
+    #[arg(long, requires = "estimate")]
+    ward_classes: Option<PathBuf>,
+    /// Random Fourier features of the regression.
+    #[arg(long, default_value_t = 1500)]
+    ridge_features: usize,
+    /// Ridge penalty of the regression.
+    #[arg(long, default_value_t = 1e-3)]
+    ridge_lambda: f64,
+}
+
+/// Leave-one-illumination-out errors of the Ward-parameter estimate.
+fn cv_estimate(args: &CvArgs, table: &FeatureTable) -> CliResult {
+    let path = args
+        .estimate
+        .ward_classes
+        .as_ref()
+        .ok_or("--estimate needs --ward-classes")?;
+    let materials = load_classes(path).map_err(|e| e.to_string())?;
+    let features = args.spec.spec(&table.names)?.features;
+    let ds = Dataset::from_table(table).map_err(|e| e.to_string())?;
+    let inputs = features
+        .resolve(&ds.names)
+        .map_err(|e| e.to_string())?
+        .map_or(ds.names.len(), |i| i.len());
+    let spec = RidgeSpec {
+        features: args.estimate.ridge_features,
+        gamma: args.spec.gamma.unwrap_or(1.0 / inputs.max(1) as f64),
+        lambda: args.estimate.ridge_lambda,
+        seed: args.spec.seed,
+    };
+    let (_, report) =
+        estimate::fit(&ds, &materials, &features, &spec).map_err(|e| e.to_string())?;
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?
+        );
+        return Ok(());
+    }
+    let pct = |x: f64| format!("{:.1} %", 100.0 * x);
+    println!(
+        "leave-one-illumination-out over {} illuminations, {} images ({} augmented views)",
+        ds.group_names.len(),
+        report.n,
+        report.augmented
+    );
+    println!("total reflectance  MAE {:.4}", report.mae_total);
+    println!(
+        "rho_d              MAE {:.4}   90 % interval ± {:.4}, covers {}",
+        report.mae_rho_d,
+        report.half_widths.rho_d,
+        pct(report.coverage_rho_d)
+    );
+    println!(
+        "rho_s              MAE {:.4}   90 % interval ± {:.4}, covers {}",
+        report.mae_rho_s,
+        report.half_widths.rho_s,
+        pct(report.coverage_rho_s)
+    );
+    println!("mirror or not      {} right", pct(report.mirror_accuracy));
+    println!(
+        "log10 alpha        MAE {:.4}   90 % interval ± {:.4}, covers {}",
+        report.mae_log10_alpha,
+        report.half_widths.log10_alpha,
+        pct(report.coverage_alpha)
+    );
+    Ok(())
 }
 
 pub fn cv(args: CvArgs) -> CliResult {
     let (table, _) = args.data.load(&args.limits, args.spec.config()?)?;
+    if args.estimate.estimate {
+        return cv_estimate(&args, &table);
+    }
     let spec = args.spec.spec(&table.names)?;
     let ds = Dataset::from_table(&table).map_err(|e| e.to_string())?;
     let bar = progress::bar(0, "cv");

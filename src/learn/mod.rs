@@ -9,6 +9,7 @@
 pub mod calibration;
 pub(crate) mod cv;
 pub(crate) mod error;
+pub mod estimate;
 pub(crate) mod feature_set;
 pub(crate) mod knn;
 pub(crate) mod matrix;

@@ -295,7 +295,7 @@ fn bad_inputs_are_reported() {
 
 /// `materials` writes a class file of continuous Ward parameters that `render` takes.
 #[test]
-fn materials_design_a_class_file_that_render_takes() {
+fn materials_design_a_class_file_that_render_and_the_estimate_take() {
     let dir = temp_dir("materials");
     let file = dir.join("materials.json");
     let file_arg = file.to_str().unwrap();
@@ -354,4 +354,65 @@ fn materials_design_a_class_file_that_render_takes() {
     assert!(part.contains(",m0001,"), "{part}");
     let out = run(&["materials", "--count", "0", "--out", file_arg]);
     assert_eq!(out.status.code(), Some(2));
+
+    // Every image of the design, its features, and the leave-one-illumination-out estimate.
+    let out = run(&[
+        "render",
+        "--probes",
+        list.to_str().unwrap(),
+        "--classes",
+        file_arg,
+        "--out",
+        render_out.to_str().unwrap(),
+        "--size",
+        "72",
+    ]);
+    common::assert_success(&out);
+    let table = dir.join("features.csv");
+    let manifest = render_out.join("manifest.csv");
+    common::assert_success(&run(&[
+        "features",
+        "--manifest",
+        manifest.to_str().unwrap(),
+        "--out",
+        table.to_str().unwrap(),
+    ]));
+    let out = run(&[
+        "cv",
+        "--table",
+        table.to_str().unwrap(),
+        "--features",
+        "hand6",
+        "--estimate",
+        "--ward-classes",
+        file_arg,
+        "--ridge-features",
+        "50",
+        "--json",
+    ]);
+    common::assert_success(&out);
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["n"], 16, "{report}");
+    for key in [
+        "mae_rho_d",
+        "mae_rho_s",
+        "mirror_accuracy",
+        "coverage_rho_s",
+    ] {
+        let v = report[key].as_f64().unwrap();
+        assert!((0.0..=1.0).contains(&v), "{key} = {v}");
+    }
+    let out = run(&[
+        "cv",
+        "--table",
+        table.to_str().unwrap(),
+        "--features",
+        "hand6",
+        "--estimate",
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "--estimate without --ward-classes"
+    );
 }
