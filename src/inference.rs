@@ -9,6 +9,7 @@ use crate::image::display;
 use crate::image::geometry::{self, Method as GeometryMethod};
 use crate::image::white::{Method as WhiteMethod, Rect};
 use crate::learn::LearnError;
+use crate::learn::estimate::WardEstimate;
 use crate::model::{ClassInfo, ModelError, ModelFile};
 use bytes::Bytes;
 use serde::{Deserialize, Serialize};
@@ -23,8 +24,8 @@ pub struct LoadedModel {
     pub extractor: Extractor,
     /// The canonical feature names of the model's extraction configuration.
     pub feature_names: Vec<String>,
-    /// The features the classifier reads (`None`: all of them, e.g. for PCA): a request
-    /// that does not ask for every feature extracts only these.
+    /// The features the classifier and the estimator read (`None`: all of them, e.g. for
+    /// PCA): a request that does not ask for every feature extracts only these.
     pub needed: Option<Vec<usize>>,
 }
 
@@ -34,9 +35,13 @@ impl LoadedModel {
         let extractor = Extractor::new(file.features.config)?;
         let feature_names = file.features.config.names();
         let classifier = &file.classifier;
-        let needed = (classifier.pca.is_none()
-            && classifier.selected_indices.len() < feature_names.len())
-        .then(|| classifier.selected_indices.clone());
+        let mut read = classifier.selected_indices.clone();
+        if let Some(estimator) = &file.estimator {
+            read.extend(&estimator.input_indices);
+        }
+        read.sort_unstable();
+        read.dedup();
+        let needed = (classifier.pca.is_none() && read.len() < feature_names.len()).then_some(read);
         Ok(LoadedModel {
             file,
             extractor,
@@ -114,6 +119,7 @@ pub struct Classified {
     pub selected: Vec<f64>,
     pub explain: Option<Vec<Neighbour>>,
     pub images: Option<ImagesOut>,
+    pub ward: Option<WardEstimate>,
     pub include_features: bool,
     pub decode_ms: f64,
     pub features_ms: f64,
@@ -225,6 +231,11 @@ pub fn classify(
     } else {
         None
     };
+    let ward = model
+        .file
+        .estimator
+        .as_ref()
+        .map(|e| e.estimate(&analysis.values));
     let predict_ms = ms(t);
     Ok(Classified {
         class: output.class,
@@ -233,6 +244,7 @@ pub fn classify(
         selected,
         explain,
         images,
+        ward,
         include_features: input.include_features,
         decode_ms,
         features_ms,
@@ -482,6 +494,10 @@ pub struct ClassifyResponse {
     /// With `include=images`: the unwrapped annulus and the pyramid's subbands.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub images: Option<ImagesOut>,
+    /// The Ward parameters estimated directly, with 90 % intervals, when the model has an
+    /// estimator.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ward: Option<WardEstimate>,
 }
 
 impl Classified {
@@ -536,6 +552,7 @@ impl Classified {
             },
             explain: self.explain,
             images: self.images,
+            ward: self.ward,
         }
     }
 }

@@ -136,6 +136,17 @@ fn summary(answer: &ClassifyResponse) -> String {
         crate::dataset::format_f64(answer.white.value),
         wire_name(&answer.white.method)
     ));
+    if let Some(w) = &answer.ward {
+        let part = |name: &str, i: &crate::learn::estimate::Interval| {
+            format!("{name} {:.3} [{:.3}, {:.3}]", i.value, i.low, i.high)
+        };
+        out.push_str(&format!(
+            "estimate (90 % intervals): {}, {}, {}\n",
+            part("rho_d", &w.rho_d),
+            part("rho_s", &w.rho_s),
+            part("alpha", &w.alpha)
+        ));
+    }
     for warning in &answer.warnings {
         out.push_str(&format!("warning: {warning}\n"));
     }

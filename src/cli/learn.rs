@@ -5,7 +5,7 @@ use crate::dataset::{self, FeatureTable, Manifest};
 use crate::features::{Extractor, FeatureConfig};
 use crate::learn::estimate;
 use crate::learn::regress::RidgeSpec;
-use crate::learn::{CvReport, DEFAULT_C, Dataset, SpecText, TrainSpec};
+use crate::learn::{CvReport, DEFAULT_C, Dataset, FeatureSet, SpecText, TrainSpec};
 use crate::model::registry::{self, Registry};
 use crate::model::train::{self, TrainOptions};
 use crate::render::batch::load_classes;
@@ -130,12 +130,71 @@ pub struct EstimateArgs {
     /// The class file whose Ward parameters are the targets (e.g. from `materials`).
     #[arg(long, requires = "estimate")]
     ward_classes: Option<PathBuf>,
-    /// Random Fourier features of the regression.
+    #[command(flatten)]
+    ridge: RidgeArgs,
+}
+
+/// The regression behind the Ward-parameter estimate.
+#[derive(Args, Debug)]
+pub struct RidgeArgs {
+    /// Random Fourier features of the Ward-parameter regression.
     #[arg(long, default_value_t = 1500)]
     ridge_features: usize,
-    /// Ridge penalty of the regression.
+    /// Ridge penalty of the Ward-parameter regression.
     #[arg(long, default_value_t = 1e-3)]
     ridge_lambda: f64,
+}
+
+impl RidgeArgs {
+    /// The regression of `features` over the table's columns `names` (γ: `gamma`, or
+    /// 1 / number of inputs).
+    fn spec(
+        &self,
+        features: &FeatureSet,
+        names: &[String],
+        gamma: Option<f64>,
+        seed: u64,
+    ) -> Result<RidgeSpec, String> {
+        let inputs = features
+            .resolve(names)
+            .map_err(|e| e.to_string())?
+            .map_or(names.len(), |i| i.len());
+        Ok(RidgeSpec {
+            features: self.ridge_features,
+            gamma: gamma.unwrap_or(1.0 / inputs.max(1) as f64),
+            lambda: self.ridge_lambda,
+            seed,
+        })
+    }
+}
+
+/// Printed after an estimator is fitted.
+fn estimate_summary(report: &estimate::EstimateReport, illuminations: usize) -> String {
+    let pct = |x: f64| format!("{:.1} %", 100.0 * x);
+    let w = &report.half_widths;
+    format!(
+        "leave-one-illumination-out over {illuminations} illuminations, {} images ({} augmented views)\n\
+         total reflectance  MAE {:.4}\n\
+         rho_d              MAE {:.4}   90 % interval ± {:.4}, covers {}\n\
+         rho_s              MAE {:.4}   90 % interval ± {:.4}, covers {}\n\
+         mirror or not      {} right\n\
+         log10 alpha        MAE {}   90 % interval ± {:.4}, covers {}\n",
+        report.n,
+        report.augmented,
+        report.mae_total,
+        report.mae_rho_d,
+        w.rho_d,
+        pct(report.coverage_rho_d),
+        report.mae_rho_s,
+        w.rho_s,
+        pct(report.coverage_rho_s),
+        pct(report.mirror_accuracy),
+        report
+            .mae_log10_alpha
+            .map_or("n/a (no glossy sphere)".into(), |v| format!("{v:.4}")),
+        w.log10_alpha,
+        pct(report.coverage_alpha)
+    )
 }
 
 /// Leave-one-illumination-out errors of the Ward-parameter estimate.
@@ -148,52 +207,19 @@ fn cv_estimate(args: &CvArgs, table: &FeatureTable) -> CliResult {
     let materials = load_classes(path).map_err(|e| e.to_string())?;
     let features = args.spec.spec(&table.names)?.features;
     let ds = Dataset::from_table(table).map_err(|e| e.to_string())?;
-    let inputs = features
-        .resolve(&ds.names)
-        .map_err(|e| e.to_string())?
-        .map_or(ds.names.len(), |i| i.len());
-    let spec = RidgeSpec {
-        features: args.estimate.ridge_features,
-        gamma: args.spec.gamma.unwrap_or(1.0 / inputs.max(1) as f64),
-        lambda: args.estimate.ridge_lambda,
-        seed: args.spec.seed,
-    };
+    let spec = args
+        .estimate
+        .ridge
+        .spec(&features, &ds.names, args.spec.gamma, args.spec.seed)?;
     let (_, report) =
-        estimate::fit(&ds, &materials, &features, &spec).map_err(|e| e.to_string())?;
-    if args.json {
-        println!(
+        estimate::fit(&ds, "", &materials, &features, &spec).map_err(|e| e.to_string())?;
+    match args.json {
+        true => println!(
             "{}",
             serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?
-        );
-        return Ok(());
+        ),
+        false => print!("{}", estimate_summary(&report, ds.group_names.len())),
     }
-    let pct = |x: f64| format!("{:.1} %", 100.0 * x);
-    println!(
-        "leave-one-illumination-out over {} illuminations, {} images ({} augmented views)",
-        ds.group_names.len(),
-        report.n,
-        report.augmented
-    );
-    println!("total reflectance  MAE {:.4}", report.mae_total);
-    println!(
-        "rho_d              MAE {:.4}   90 % interval ± {:.4}, covers {}",
-        report.mae_rho_d,
-        report.half_widths.rho_d,
-        pct(report.coverage_rho_d)
-    );
-    println!(
-        "rho_s              MAE {:.4}   90 % interval ± {:.4}, covers {}",
-        report.mae_rho_s,
-        report.half_widths.rho_s,
-        pct(report.coverage_rho_s)
-    );
-    println!("mirror or not      {} right", pct(report.mirror_accuracy));
-    println!(
-        "log10 alpha        MAE {:.4}   90 % interval ± {:.4}, covers {}",
-        report.mae_log10_alpha,
-        report.half_widths.log10_alpha,
-        pct(report.coverage_alpha)
-    );
     Ok(())
 }
 
@@ -301,7 +327,53 @@ pub struct TrainArgs {
     #[arg(long)]
     no_cv: bool,
     #[command(flatten)]
+    estimator: EstimatorArgs,
+    #[command(flatten)]
     limits: LimitArgs,
+}
+
+/// A Ward-parameter estimator fitted next to the classifier.
+#[derive(Args, Debug)]
+pub struct EstimatorArgs {
+    /// Also fit a Ward-parameter estimator on this feature table (extracted with the model's
+    /// flags, e.g. of materials from `materials`), reading the classifier's feature set.
+    #[arg(long, requires = "estimator_classes")]
+    estimator_table: Option<PathBuf>,
+    /// The class file of the estimator table's materials (their Ward parameters).
+    #[arg(long, requires = "estimator_table")]
+    estimator_classes: Option<PathBuf>,
+    #[command(flatten)]
+    ridge: RidgeArgs,
+}
+
+/// The estimator of `args`, fitted for a model with feature `names` and `features`.
+fn fit_estimator(
+    args: &EstimatorArgs,
+    spec: &SpecArgs,
+    features: &FeatureSet,
+    names: &[String],
+) -> Result<Option<estimate::WardRegressor>, String> {
+    let (Some(table_path), Some(classes)) = (&args.estimator_table, &args.estimator_classes) else {
+        return Ok(None);
+    };
+    let materials = load_classes(classes).map_err(|e| e.to_string())?;
+    let table = FeatureTable::read(table_path).map_err(|e| e.to_string())?;
+    if table.names != names {
+        return Err(format!(
+            "{}: its columns are not the model's features (extract it with the same flags)",
+            table_path.display()
+        ));
+    }
+    let ds = Dataset::from_table(&table).map_err(|e| e.to_string())?;
+    let ridge = args.ridge.spec(features, names, spec.gamma, spec.seed)?;
+    let label = table_path.display().to_string();
+    let (regressor, report) =
+        estimate::fit(&ds, &label, &materials, features, &ridge).map_err(|e| e.to_string())?;
+    eprint!(
+        "estimator: {}",
+        estimate_summary(&report, ds.group_names.len())
+    );
+    Ok(Some(regressor))
 }
 
 pub fn train(args: TrainArgs) -> CliResult {
@@ -333,6 +405,12 @@ pub fn train(args: TrainArgs) -> CliResult {
     let mut trained =
         train::train_with(&table, &label, &options, &bar).map_err(|e| e.to_string())?;
     bar.finish();
+    trained.model.estimator = fit_estimator(
+        &args.estimator,
+        &args.spec,
+        &options.spec.features,
+        &table.names,
+    )?;
     let report = trained
         .report
         .as_ref()

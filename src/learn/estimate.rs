@@ -16,6 +16,7 @@ use super::scaler::Scaler;
 use crate::render::ward::Material;
 use ndarray::{Array2, Axis};
 use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
 
 /// log10 α of a mirror on the regression's axis: half the smallest glossy α (0.005).
 pub const MIRROR_LOG_ALPHA: f64 = -2.602_059_991_327_962;
@@ -49,15 +50,16 @@ pub fn parameters(prediction: &[f64]) -> (f64, f64, f64, f64) {
 }
 
 /// A parameter with its interval.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct Interval {
     pub value: f64,
     pub low: f64,
     pub high: f64,
 }
 
-/// The estimate of one sphere.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+/// The Ward parameters estimated from one photograph, each with its 90 % interval (α = 0
+/// is an ideal mirror).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct WardEstimate {
     pub rho_d: Interval,
     pub rho_s: Interval,
@@ -81,9 +83,48 @@ pub struct WardRegressor {
     pub spec: RidgeSpec,
     pub ridge: Ridge,
     pub half_widths: HalfWidths,
+    /// Its leave-one-illumination-out accuracy, on the data it was fitted to.
+    pub cv: EstimateReport,
+    /// The feature table it was fitted to (as given).
+    pub dataset: String,
 }
 
 impl WardRegressor {
+    /// Check the parts against each other and against the model's feature `names`.
+    pub fn validate(&self, names: &[String]) -> Result<(), String> {
+        let d = self.input_indices.len();
+        let features = self.ridge.map.phase.len();
+        let consistent = self.inputs.len() == d
+            && self.scaler.dim() == d
+            && self.ridge.map.inputs == d
+            && self.ridge.map.omega.len() == features * d
+            && self.ridge.outputs == 4
+            && self.ridge.weights.len() == (features + 1) * 4;
+        if !consistent {
+            return Err("the estimator's parts do not fit together".into());
+        }
+        let named = self
+            .input_indices
+            .iter()
+            .zip(&self.inputs)
+            .all(|(&i, name)| names.get(i) == Some(name));
+        if !named {
+            return Err("the estimator's inputs are not this configuration's features".into());
+        }
+        let w = &self.half_widths;
+        let widths = [w.rho_d, w.rho_s, w.log10_alpha];
+        let numbers = self
+            .ridge
+            .weights
+            .iter()
+            .chain(&self.ridge.map.omega)
+            .chain(&widths);
+        if numbers.chain(&self.scaler.mean).any(|v| !v.is_finite()) {
+            return Err("the estimator holds a number that is not finite".into());
+        }
+        Ok(())
+    }
+
     /// The estimate from a row of every extracted feature (canonical order).
     pub fn estimate(&self, values: &[f64]) -> WardEstimate {
         let mut z: Vec<f64> = self.input_indices.iter().map(|&i| values[i]).collect();
@@ -134,8 +175,9 @@ pub struct EstimateReport {
     pub mae_rho_s: f64,
     /// Mirror (α = 0) or not, right.
     pub mirror_accuracy: f64,
-    /// |log10 α error| over the true non-mirrors the estimate also calls non-mirrors.
-    pub mae_log10_alpha: f64,
+    /// |log10 α error| over the true non-mirrors the estimate also calls non-mirrors (none
+    /// when there are none).
+    pub mae_log10_alpha: Option<f64>,
     /// Coverage of the 90 % intervals, each illumination's with half-widths from the others'
     /// errors only.
     pub coverage_rho_d: f64,
@@ -180,10 +222,12 @@ fn mean(values: impl Iterator<Item = f64>) -> f64 {
     if n == 0 { f64::NAN } else { sum / n as f64 }
 }
 
-/// Fit an estimator on `ds`, whose classes are materials of `materials` (by name), reading
-/// the features of `features`; also its leave-one-illumination-out report.
+/// Fit an estimator on `ds` (from the table named `dataset`), whose classes are materials of
+/// `materials` (by name), reading the features of `features`; also its
+/// leave-one-illumination-out report.
 pub fn fit(
     ds: &Dataset,
+    dataset: &str,
     materials: &[Material],
     features: &FeatureSet,
     spec: &RidgeSpec,
@@ -219,6 +263,8 @@ pub fn fit(
         spec: *spec,
         ridge: fitted.ridge,
         half_widths: report.half_widths,
+        cv: report.clone(),
+        dataset: dataset.to_string(),
     };
     Ok((regressor, report))
 }
@@ -263,12 +309,13 @@ fn report(ds: &Dataset, errors: &[RowErrors]) -> EstimateReport {
         mae_rho_d: mean(errors.iter().map(|e| e.rho_d)),
         mae_rho_s: mean(errors.iter().map(|e| e.rho_s)),
         mirror_accuracy: mean(errors.iter().map(|e| f64::from(u8::from(e.mirror_right)))),
-        mae_log10_alpha: mean(
+        mae_log10_alpha: Some(mean(
             errors
                 .iter()
                 .filter(|e| e.glossy && e.mirror_right)
                 .map(|e| e.log_alpha),
-        ),
+        ))
+        .filter(|v| v.is_finite()),
         coverage_rho_d: share(0),
         coverage_rho_s: share(1),
         coverage_alpha: share(2),
@@ -354,12 +401,12 @@ mod tests {
             lambda: 1e-2,
             seed: 1,
         };
-        let (regressor, report) = fit(&ds, &design, &FeatureSet::All, &spec).unwrap();
+        let (regressor, report) = fit(&ds, "test", &design, &FeatureSet::All, &spec).unwrap();
         assert_eq!(report.n, 360);
         assert!(report.mae_total < 0.05, "{report:?}");
         assert!(report.mae_rho_s < 0.05, "{report:?}");
         assert!(report.mirror_accuracy > 0.95, "{report:?}");
-        assert!(report.mae_log10_alpha < 0.2, "{report:?}");
+        assert!(report.mae_log10_alpha.unwrap() < 0.2, "{report:?}");
         for c in [
             report.coverage_rho_d,
             report.coverage_rho_s,
@@ -372,11 +419,17 @@ mod tests {
         let e = regressor.estimate(&row);
         assert!(e.rho_d.low <= e.rho_d.value && e.rho_d.value <= e.rho_d.high);
         assert!((e.rho_s.high - e.rho_s.value) <= report.half_widths.rho_s + 1e-12);
+        regressor.validate(&ds.names).unwrap();
+        let mut broken = regressor.clone();
+        broken.ridge.weights.pop();
+        assert!(broken.validate(&ds.names).is_err());
+        let renamed: Vec<String> = ds.names.iter().map(|n| format!("{n}x")).collect();
+        assert!(regressor.validate(&renamed).is_err());
         let unknown = [Material {
             name: "other".into(),
             ..design[0].clone()
         }];
-        assert!(fit(&ds, &unknown, &FeatureSet::All, &spec).is_err());
+        assert!(fit(&ds, "test", &unknown, &FeatureSet::All, &spec).is_err());
     }
 
     #[test]

@@ -251,11 +251,12 @@ fn group_predictions(
 }
 
 /// The split-conformal half-width for `coverage` from held-out absolute residuals: the
-/// ⌈(n + 1)·coverage⌉-th smallest (infinite when n is too small for that coverage).
+/// ⌈(n + 1)·coverage⌉-th smallest, or the largest when there are too few residuals for
+/// that rank (then the coverage guarantee is weaker than asked); infinite for none.
 pub fn conformal_half_width(abs_residuals: &[f64], coverage: f64) -> f64 {
     let n = abs_residuals.len();
-    let rank = ((n as f64 + 1.0) * coverage).ceil() as usize;
-    if rank == 0 || rank > n {
+    let rank = (((n as f64 + 1.0) * coverage).ceil() as usize).clamp(1, n.max(1));
+    if n == 0 {
         return f64::INFINITY;
     }
     let mut sorted = abs_residuals.to_vec();
@@ -344,7 +345,7 @@ mod tests {
         let r: Vec<f64> = (1..=9).map(f64::from).collect();
         // n = 9: rank ⌈10·0.8⌉ = 8.
         assert_eq!(conformal_half_width(&r, 0.8), 8.0);
-        assert_eq!(conformal_half_width(&r, 0.95), f64::INFINITY);
+        assert_eq!(conformal_half_width(&r, 0.95), 9.0);
         assert_eq!(conformal_half_width(&[], 0.9), f64::INFINITY);
     }
 

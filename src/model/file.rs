@@ -8,6 +8,7 @@
 //! classifier's shapes, and the self-test; a file failing any of these is refused.
 
 use crate::features::{ConfigError, FeatureConfig};
+use crate::learn::estimate::WardRegressor;
 use crate::learn::{Classifier, LearnError};
 use crate::render::capture::CaptureEnvelope;
 use serde::{Deserialize, Serialize};
@@ -144,6 +145,9 @@ pub struct ModelFile {
     /// serving warns about inputs outside them. Absent in older model files.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub capture: Option<CaptureEnvelope>,
+    /// The Ward-parameter estimator, when trained with one (`train --estimator-table`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub estimator: Option<WardRegressor>,
     #[serde(default)]
     pub sha256: String,
 }
@@ -297,6 +301,11 @@ impl ModelFile {
             return inconsistent("a model needs a name and a version ≥ 1".into());
         }
         self.classifier.validate()?;
+        if let Some(estimator) = &self.estimator {
+            estimator
+                .validate(&names)
+                .map_err(ModelError::Inconsistent)?;
+        }
         let dim = self.classifier.selected.len();
         if let Some(bad) = self
             .exemplars

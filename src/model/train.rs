@@ -252,6 +252,7 @@ pub fn train_with(
         },
         exemplars,
         capture: capture_envelope(table),
+        estimator: None,
         sha256: String::new(),
     };
     model.verify()?;

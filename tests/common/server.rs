@@ -7,7 +7,8 @@ use reflectance::dataset::{self, FeatureTable};
 use reflectance::features::{Extractor, FeatureConfig};
 use reflectance::image::decode::DecodeOptions;
 use reflectance::image::decode::rgbe;
-use reflectance::learn::{ClassifierKind, FeatureSet, TrainSpec};
+use reflectance::learn::regress::RidgeSpec;
+use reflectance::learn::{ClassifierKind, Dataset, FeatureSet, TrainSpec, estimate};
 use reflectance::model::registry::Registry;
 use reflectance::model::train::{TrainOptions, train};
 use reflectance::render::Quality;
@@ -134,6 +135,25 @@ pub fn fixture() -> &'static Fixture {
             images: Some(manifest.clone()),
         };
         let mut model = train(&table, "train/manifest.csv", &options).unwrap().model;
+        // A Ward-parameter estimator beside the classifier (three materials only: it is
+        // here for the answer's shape, not its accuracy).
+        let materials = options.classes.clone().unwrap();
+        let ds = Dataset::from_table(&table).unwrap();
+        let ridge = RidgeSpec {
+            features: 50,
+            gamma: 1.0 / 6.0,
+            lambda: 1e-2,
+            seed: 1,
+        };
+        let (estimator, _) = estimate::fit(
+            &ds,
+            "train/features.csv",
+            &materials,
+            &FeatureSet::Named("hand6"),
+            &ridge,
+        )
+        .unwrap();
+        model.estimator = Some(estimator);
         let models = dir.join("models");
         Registry::new(&models).publish(&mut model, &[]).unwrap();
         let test = dataset::read_manifest(&test_manifest).unwrap();

@@ -50,6 +50,15 @@ async fn classifies_held_out_renderings_correctly() {
         }
         let doc = answer.json();
         assert_eq!(doc["label"], class.as_str(), "{doc}");
+        // The fixture model estimates the Ward parameters too: values inside their intervals.
+        for parameter in ["rho_d", "rho_s", "alpha"] {
+            let i = &doc["ward"][parameter];
+            let [low, value, high] = ["low", "value", "high"].map(|k| i[k].as_f64().unwrap());
+            assert!(
+                low <= value && value <= high && low >= 0.0,
+                "{parameter}: {i}"
+            );
+        }
         let described = match class.as_str() {
             "matte" => ("white matte", 0.8, 0.0),
             "chrome" => ("metal: a mirror with sharp reflections", 0.0, 0.75),
@@ -598,6 +607,21 @@ async fn kserve_v2_protocol() {
         assert_eq!(p.len(), 3);
         assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-9);
         assert_eq!(doc["outputs"][2]["data"].as_array().unwrap().len(), 3);
+        // The estimate: rows ρd, ρs, α of (value, low, high).
+        let ward = &doc["outputs"][3];
+        assert_eq!(
+            (&ward["name"], &ward["shape"]),
+            (&json!("ward"), &json!([3, 3]))
+        );
+        let w: Vec<f64> = ward["data"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        for row in w.chunks(3) {
+            assert!(row[1] <= row[0] && row[0] <= row[2], "{ward}");
+        }
     }
     let bad = |inputs: Value| post_json("/v2/models/ward6/infer", &json!({"inputs": inputs}));
     send(

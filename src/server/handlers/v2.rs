@@ -340,6 +340,21 @@ pub async fn infer(
             },
         ],
     };
+    let mut body = body;
+    if let Some(w) = &c.ward {
+        // Rows ρd, ρs, α; columns value, low, high.
+        let data = [w.rho_d, w.rho_s, w.alpha]
+            .iter()
+            .flat_map(|i| [i.value, i.low, i.high])
+            .map(Value::from)
+            .collect();
+        body.outputs.push(InferOutput {
+            name: "ward".into(),
+            shape: vec![3, 3],
+            datatype: "FP64".into(),
+            data,
+        });
+    }
     let mut response = Json(body).into_response();
     response
         .headers_mut()
