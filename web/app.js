@@ -422,6 +422,24 @@ function showNeighbours(explain) {
   }
 }
 
+function showEstimate(ward) {
+  $("estimate-box").hidden = !ward;
+  const rows = $("estimate");
+  rows.replaceChildren();
+  if (!ward) {
+    return;
+  }
+  const format = (v) => (v < 0.01 && v > 0 ? v.toExponential(1) : v.toFixed(3));
+  for (const [name, key] of [["ρd (diffuse)", "rho_d"], ["ρs (specular)", "rho_s"], ["α (roughness; 0 is a mirror)", "alpha"]]) {
+    const i = ward[key];
+    const row = element("tr");
+    const head = element("th", name);
+    head.scope = "row";
+    row.append(head, element("td", format(i.value)), element("td", `${format(i.low)} – ${format(i.high)}`));
+    rows.append(row);
+  }
+}
+
 function show(answer) {
   $("label").textContent = answer.label;
   $("description").textContent = answer.class.description;
@@ -429,11 +447,19 @@ function show(answer) {
   $("ward").textContent = w
     ? `Ward parameters: ρd = ${w.rho_d}, ρs = ${w.rho_s}, α = ${w.alpha}`
     : "";
-  $("rendered-box").hidden = !w;
-  if (w) {
-    const query = new URLSearchParams({ rho_d: w.rho_d, rho_s: w.rho_s, alpha: w.alpha, size: 192 });
+  showEstimate(answer.ward);
+  // The estimate when the model makes one, else the class: rendered by the service.
+  const shown = answer.ward
+    ? { rho_d: answer.ward.rho_d.value, rho_s: answer.ward.rho_s.value, alpha: answer.ward.alpha.value }
+    : w;
+  $("rendered-box").hidden = !shown;
+  if (shown) {
+    const query = new URLSearchParams({ ...shown, size: 192 });
     $("rendered").src = `/v1/preview?${query}`;
-    $("rendered").alt = `A sphere of class ${answer.label}, rendered`;
+    const what = answer.ward ? "the estimated parameters" : `class ${answer.label}'s parameters`;
+    $("rendered").alt = `A sphere of ${what}, rendered`;
+    $("rendered-caption").textContent =
+      `How it looks: ${what} rendered by the service under a procedural sky (GET /v1/preview).`;
   }
   showBars(answer.probabilities, answer.label);
   const warnings = $("warnings");
