@@ -14,6 +14,7 @@ const state = {
   rect: null, // white card {x, y, w, h} in image pixels
   drag: null, // what the pointer moves: "centre", "rim", "rect"
   models: [],
+  chosen: 0, // counts photos chosen, so that a late answer for an earlier one is dropped
 };
 
 const MIN_RADIUS = 32;
@@ -115,6 +116,7 @@ async function choose(file) {
   $("result").hidden = true;
   document.body.classList.remove("answered");
   $("stage").hidden = true;
+  const ticket = ++state.chosen;
   state.file = file;
   state.rect = null;
   $("white-rect").value = "";
@@ -127,6 +129,9 @@ async function choose(file) {
       form.append("include", "preview");
     }
     const located = await post("/v1/locate", form);
+    if (ticket !== state.chosen) {
+      return;
+    }
     state.width = located.width;
     state.height = located.height;
     state.picture = shown || (await loadDataUrl(located.preview));
@@ -150,8 +155,10 @@ async function choose(file) {
     }
     $("classify").focus();
   } catch (problem) {
-    status("");
-    showError(problem.title || "Error", problem.detail || String(problem));
+    if (ticket === state.chosen) {
+      status("");
+      showError(problem.title || "Error", problem.detail || String(problem));
+    }
   }
 }
 
@@ -486,11 +493,8 @@ function wire() {
     drop.classList.add("over");
   });
   drop.addEventListener("dragleave", () => drop.classList.remove("over"));
-  drop.addEventListener("drop", (e) => {
-    e.preventDefault();
-    drop.classList.remove("over");
-    choose(e.dataTransfer.files[0]);
-  });
+  // The drop itself bubbles to the document's handler, which takes it from anywhere.
+  drop.addEventListener("drop", () => drop.classList.remove("over"));
   // A photo dropped anywhere on the page is taken, not opened by the browser.
   document.addEventListener("dragover", (e) => e.preventDefault());
   document.addEventListener("drop", (e) => {
