@@ -332,23 +332,24 @@ fn materials_design_a_class_file_that_render_and_the_estimate_take() {
         assert!((0.0..=0.8).contains(&s) && d >= 0.0 && d + s <= 1.0, "{c}");
         assert!(a == 0.0 || (0.005..=0.2).contains(&a), "{c}");
     }
-    // Two of the eight through the renderer, under one probe.
+    // A quarter of the 16 images (2 probes × 8 materials), then all of them.
     let list = probes(&dir);
     let render_out = dir.join("rendered");
-    let out = run(&[
-        "render",
-        "--probes",
-        list.to_str().unwrap(),
-        "--classes",
-        file_arg,
-        "--out",
-        render_out.to_str().unwrap(),
-        "--size",
-        "72",
-        "--shard",
-        "0/4",
-    ]);
-    common::assert_success(&out);
+    let render = |more: &[&str]| {
+        let base = [
+            "render",
+            "--probes",
+            list.to_str().unwrap(),
+            "--classes",
+            file_arg,
+            "--out",
+            render_out.to_str().unwrap(),
+            "--size",
+            "72",
+        ];
+        common::assert_success(&run(&[&base[..], more].concat()));
+    };
+    render(&["--shard", "0/4"]);
     let part = std::fs::read_to_string(render_out.join("manifest.shard-0-of-4.csv")).unwrap();
     assert_eq!(part.lines().count(), 1 + 4, "{part}");
     assert!(part.contains(",m0001,"), "{part}");
@@ -356,18 +357,7 @@ fn materials_design_a_class_file_that_render_and_the_estimate_take() {
     assert_eq!(out.status.code(), Some(2));
 
     // Every image of the design, its features, and the leave-one-illumination-out estimate.
-    let out = run(&[
-        "render",
-        "--probes",
-        list.to_str().unwrap(),
-        "--classes",
-        file_arg,
-        "--out",
-        render_out.to_str().unwrap(),
-        "--size",
-        "72",
-    ]);
-    common::assert_success(&out);
+    render(&[]);
     let table = dir.join("features.csv");
     let manifest = render_out.join("manifest.csv");
     common::assert_success(&run(&[
