@@ -367,13 +367,18 @@ fn materials_design_a_class_file_that_render_and_the_estimate_take() {
         "--out",
         table.to_str().unwrap(),
     ]));
-    let out = run(&[
-        "cv",
-        "--table",
-        table.to_str().unwrap(),
-        "--features",
-        "hand6",
-        "--estimate",
+    let cv = |more: &[&str]| {
+        let base = [
+            "cv",
+            "--table",
+            table.to_str().unwrap(),
+            "--features",
+            "hand6",
+            "--estimate",
+        ];
+        run(&[&base[..], more].concat())
+    };
+    let out = cv(&[
         "--ward-classes",
         file_arg,
         "--ridge-features",
@@ -392,14 +397,7 @@ fn materials_design_a_class_file_that_render_and_the_estimate_take() {
         let v = report[key].as_f64().unwrap();
         assert!((0.0..=1.0).contains(&v), "{key} = {v}");
     }
-    let out = run(&[
-        "cv",
-        "--table",
-        table.to_str().unwrap(),
-        "--features",
-        "hand6",
-        "--estimate",
-    ]);
+    let out = cv(&[]);
     assert_eq!(
         out.status.code(),
         Some(2),

@@ -6,13 +6,14 @@ use crate::render::preview;
 use crate::render::ward::Material;
 use crate::server::error::{ApiError, ClassificationProblems, Problem};
 use crate::server::state::SharedState;
+use axum::body::Bytes;
 use axum::extract::rejection::QueryRejection;
 use axum::extract::{Query, State};
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
 use serde::Deserialize;
 use std::collections::VecDeque;
-use std::sync::{Arc, Mutex};
+use std::sync::Mutex;
 use utoipa::IntoParams;
 
 #[derive(Deserialize, IntoParams)]
@@ -37,7 +38,7 @@ const CACHED: usize = 64;
 
 /// (ρd, ρs, α as bits, probe, size).
 type Key = (u64, u64, u64, String, usize);
-type Entry = (Key, Arc<Vec<u8>>);
+type Entry = (Key, Bytes);
 
 /// The most recently used previews, oldest first.
 fn cache() -> &'static Mutex<VecDeque<Entry>> {
@@ -45,7 +46,7 @@ fn cache() -> &'static Mutex<VecDeque<Entry>> {
     &CACHE
 }
 
-fn cached(key: &Key) -> Option<Arc<Vec<u8>>> {
+fn cached(key: &Key) -> Option<Bytes> {
     let mut cache = cache().lock().unwrap_or_else(|e| e.into_inner());
     let at = cache.iter().position(|(k, _)| k == key)?;
     let entry = cache.remove(at)?;
@@ -54,7 +55,7 @@ fn cached(key: &Key) -> Option<Arc<Vec<u8>>> {
     Some(png)
 }
 
-fn remember(key: Key, png: Arc<Vec<u8>>) {
+fn remember(key: Key, png: Bytes) {
     let mut cache = cache().lock().unwrap_or_else(|e| e.into_inner());
     if cache.len() >= CACHED {
         cache.pop_front();
@@ -103,7 +104,7 @@ pub async fn preview(
                 .cpu
                 .run(permit, move || Ok(preview::png(&material, &probe, size)?))
                 .await?;
-            let png = Arc::new(png);
+            let png = Bytes::from(png);
             remember(key, png.clone());
             png
         }
@@ -112,5 +113,5 @@ pub async fn preview(
         (header::CONTENT_TYPE, "image/png"),
         (header::CACHE_CONTROL, "public, max-age=86400"),
     ];
-    Ok((headers, png.as_ref().clone()).into_response())
+    Ok((headers, png).into_response())
 }

@@ -90,7 +90,7 @@ const DOCS_POLICY: &str = "default-src 'self'; img-src 'self' data:; \
     frame-ancestors 'none'";
 
 fn page(html: &'static OnceLock<String>, template: &str, policy: &'static str) -> Response {
-    let body = html.get_or_init(|| render(template)).clone();
+    let body: &'static str = html.get_or_init(|| render(template));
     let headers = [
         (header::CONTENT_TYPE, "text/html; charset=utf-8"),
         (header::CACHE_CONTROL, "no-cache"),
