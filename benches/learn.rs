@@ -206,3 +206,17 @@ fn predict_one(bencher: Bencher, set: &str) {
     let row = ds.x.row(0).to_vec();
     bencher.bench(|| clf.classify(divan::black_box(&row)).expect("classify"));
 }
+
+/// One image's Ward-parameter estimate with a shipped model's estimator (the cost a request
+/// adds beyond classification when the model has one): standardize, 1 500 random Fourier
+/// features, 4 outputs, intervals.
+#[divan::bench(args = ["ward6", "ward11"])]
+fn estimate_one(bencher: Bencher, name: &str) {
+    let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+    let model = reflectance::model::registry::Registry::new(models)
+        .load(name, 1)
+        .expect("shipped model");
+    let estimator = model.estimator.expect("shipped models carry an estimator");
+    let row = vec![0.5; model.features.config.names().len()];
+    bencher.bench(|| estimator.estimate(divan::black_box(&row)));
+}

@@ -57,6 +57,23 @@ impl LoadedModel {
     pub fn version(&self) -> u32 {
         self.file.version
     }
+
+    /// The class (index in the classifier's order) nearest to an estimate, when the model
+    /// has an estimator and knows every class's Ward parameters.
+    pub fn nearest_class(&self, estimate: &WardEstimate) -> Option<usize> {
+        let estimator = self.file.estimator.as_ref()?;
+        let wards: Option<Vec<(f64, f64, f64)>> = self
+            .file
+            .classifier
+            .classes
+            .iter()
+            .map(|name| {
+                let info = self.file.classes.iter().find(|c| &c.name == name)?;
+                info.ward.as_ref().map(|w| (w.rho_d, w.rho_s, w.alpha))
+            })
+            .collect();
+        crate::learn::estimate::nearest_class(estimate, &estimator.half_widths, &wards?)
+    }
 }
 
 /// How white is given, before decoding.

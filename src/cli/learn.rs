@@ -123,13 +123,18 @@ pub struct CvArgs {
 #[derive(Args, Debug)]
 pub struct EstimateArgs {
     /// Estimate (ρd, ρs, α) with 90 % intervals instead of classifying: a ridge regression on
-    /// random Fourier features of the RBF kernel (γ from --gamma, default 1 / inputs); the
-    /// classes must be materials of --ward-classes.
+    /// random Fourier features of the RBF kernel; the classes must be materials of
+    /// --ward-classes.
     #[arg(long, requires = "ward_classes")]
     estimate: bool,
     /// The class file whose Ward parameters are the targets (e.g. from `materials`).
     #[arg(long, requires = "estimate")]
     ward_classes: Option<PathBuf>,
+    /// With --estimate: also write estimate.md (errors overall, for the originals and the
+    /// augmented views, and per illumination), estimate.json (every held-out estimate) and
+    /// estimate.png (estimated against true, with intervals) into this folder.
+    #[arg(long, requires = "estimate")]
+    out: Option<PathBuf>,
     #[command(flatten)]
     ridge: RidgeArgs,
 }
@@ -138,16 +143,19 @@ pub struct EstimateArgs {
 #[derive(Args, Debug)]
 pub struct RidgeArgs {
     /// Random Fourier features of the Ward-parameter regression.
-    #[arg(long, default_value_t = 1500)]
+    #[arg(long, default_value_t = estimate::DEFAULT_RIDGE_FEATURES)]
     ridge_features: usize,
     /// Ridge penalty of the Ward-parameter regression.
-    #[arg(long, default_value_t = 1e-3)]
+    #[arg(long, default_value_t = estimate::DEFAULT_RIDGE_LAMBDA)]
     ridge_lambda: f64,
+    /// RBF γ of the Ward-parameter regression (default: --gamma, else 1 / number of inputs).
+    #[arg(long)]
+    ridge_gamma: Option<f64>,
 }
 
 impl RidgeArgs {
-    /// The regression of `features` over the table's columns `names` (γ: `gamma`, or
-    /// 1 / number of inputs).
+    /// The regression of `features` over the table's columns `names` (γ: --ridge-gamma, else
+    /// `gamma` (--gamma, as before --ridge-gamma existed), else 1 / number of inputs).
     fn spec(
         &self,
         features: &FeatureSet,
@@ -155,23 +163,16 @@ impl RidgeArgs {
         gamma: Option<f64>,
         seed: u64,
     ) -> Result<RidgeSpec, String> {
-        let inputs = features
-            .resolve(names)
-            .map_err(|e| e.to_string())?
-            .map_or(names.len(), |i| i.len());
-        Ok(RidgeSpec {
-            features: self.ridge_features,
-            gamma: gamma.unwrap_or(1.0 / inputs.max(1) as f64),
-            lambda: self.ridge_lambda,
-            seed,
-        })
+        let size = (self.ridge_features, self.ridge_lambda);
+        estimate::ridge_spec(features, names, size, self.ridge_gamma.or(gamma), seed)
+            .map_err(|e| e.to_string())
     }
 }
 
 /// Printed after an estimator is fitted.
 fn estimate_summary(report: &estimate::EstimateReport, illuminations: usize) -> String {
     let pct = |x: f64| format!("{:.1} %", 100.0 * x);
-    let w = &report.half_widths;
+    let (w, e) = (&report.half_widths, &report.errors);
     format!(
         "leave-one-illumination-out over {illuminations} illuminations, {} images ({} augmented views)\n\
          total reflectance  MAE {:.4}\n\
@@ -179,26 +180,25 @@ fn estimate_summary(report: &estimate::EstimateReport, illuminations: usize) -> 
          rho_s              MAE {:.4}   90 % interval ± {:.4}, covers {}\n\
          mirror or not      {} right\n\
          log10 alpha        MAE {}   90 % interval ± {:.4}, covers {}\n",
-        report.n,
+        e.n,
         report.augmented,
-        report.mae_total,
-        report.mae_rho_d,
+        e.mae_total,
+        e.mae_rho_d,
         w.rho_d,
-        pct(report.coverage_rho_d),
-        report.mae_rho_s,
+        pct(e.coverage_rho_d),
+        e.mae_rho_s,
         w.rho_s,
-        pct(report.coverage_rho_s),
-        pct(report.mirror_accuracy),
-        report
-            .mae_log10_alpha
+        pct(e.coverage_rho_s),
+        pct(e.mirror_accuracy),
+        e.mae_log10_alpha
             .map_or("n/a (no glossy sphere)".into(), |v| format!("{v:.4}")),
         w.log10_alpha,
-        pct(report.coverage_alpha)
+        pct(e.coverage_alpha)
     )
 }
 
 /// Leave-one-illumination-out errors of the Ward-parameter estimate.
-fn cv_estimate(args: &CvArgs, table: &FeatureTable) -> CliResult {
+fn cv_estimate(args: &CvArgs, table: &FeatureTable, label: &str) -> CliResult {
     let path = args
         .estimate
         .ward_classes
@@ -211,8 +211,14 @@ fn cv_estimate(args: &CvArgs, table: &FeatureTable) -> CliResult {
         .estimate
         .ridge
         .spec(&features, &ds.names, args.spec.gamma, args.spec.seed)?;
-    let (_, report) =
-        estimate::fit(&ds, "", &materials, &features, &spec).map_err(|e| e.to_string())?;
+    let fit = estimate::fit(&ds, "", &materials, &features, &spec).map_err(|e| e.to_string())?;
+    let report = fit.report;
+    if let Some(out) = &args.estimate.out {
+        let title = format!("{} on {label}", args.spec.features);
+        crate::report::estimate::write(out, &title, true, &report, &fit.details)
+            .map_err(|e| e.to_string())?;
+        eprintln!("written to {}", out.display());
+    }
     match args.json {
         true => println!(
             "{}",
@@ -224,9 +230,9 @@ fn cv_estimate(args: &CvArgs, table: &FeatureTable) -> CliResult {
 }
 
 pub fn cv(args: CvArgs) -> CliResult {
-    let (table, _) = args.data.load(&args.limits, args.spec.config()?)?;
+    let (table, label) = args.data.load(&args.limits, args.spec.config()?)?;
     if args.estimate.estimate {
-        return cv_estimate(&args, &table);
+        return cv_estimate(&args, &table, &label);
     }
     let spec = args.spec.spec(&table.names)?;
     let ds = Dataset::from_table(&table).map_err(|e| e.to_string())?;
@@ -367,13 +373,13 @@ fn fit_estimator(
     let ds = Dataset::from_table(&table).map_err(|e| e.to_string())?;
     let ridge = args.ridge.spec(features, names, spec.gamma, spec.seed)?;
     let label = table_path.display().to_string();
-    let (regressor, report) =
+    let fit =
         estimate::fit(&ds, &label, &materials, features, &ridge).map_err(|e| e.to_string())?;
     eprint!(
         "estimator: {}",
-        estimate_summary(&report, ds.group_names.len())
+        estimate_summary(&fit.report, ds.group_names.len())
     );
-    Ok(Some(regressor))
+    Ok(Some(fit.regressor))
 }
 
 pub fn train(args: TrainArgs) -> CliResult {
@@ -443,9 +449,17 @@ pub struct PredictArgs {
     model: PathBuf,
     #[arg(long)]
     manifest: PathBuf,
-    /// Output CSV: path,label,p_<class>…
+    /// Output CSV: path,label,p_<class>… (and, when the model has an estimator,
+    /// rho_d,rho_d_low,rho_d_high,rho_s,…,alpha_high).
     #[arg(long)]
     out: PathBuf,
+    /// The class file of the manifest's materials: also measure the model's Ward-parameter
+    /// estimate against their true parameters (printed; see --estimate-report).
+    #[arg(long)]
+    ward_classes: Option<PathBuf>,
+    /// With --ward-classes: write estimate.md, estimate.json and estimate.png here.
+    #[arg(long, requires = "ward_classes")]
+    estimate_report: Option<PathBuf>,
     #[command(flatten)]
     limits: LimitArgs,
 }
@@ -464,9 +478,15 @@ pub fn predict(args: PredictArgs) -> CliResult {
     let table =
         dataset::extract_manifest(&extractor, &manifest, &options).map_err(|e| e.to_string())?;
     let classes = &model.classifier.classes;
+    let estimator = model.estimator.as_ref();
     let mut csv = String::from("path,label");
     for c in classes {
         let _ = write!(csv, ",p_{c}");
+    }
+    if estimator.is_some() {
+        for p in ["rho_d", "rho_s", "alpha"] {
+            let _ = write!(csv, ",{p},{p}_low,{p}_high");
+        }
     }
     csv.push('\n');
     let (mut labelled, mut correct) = (0usize, 0usize);
@@ -480,8 +500,17 @@ pub fn predict(args: PredictArgs) -> CliResult {
         for p in &out.probabilities {
             let _ = write!(csv, ",{}", dataset::format_f64(*p));
         }
+        if let Some(e) = estimator.map(|r| r.estimate(&sample.values)) {
+            for i in [e.rho_d, e.rho_s, e.alpha] {
+                for v in [i.value, i.low, i.high] {
+                    let _ = write!(csv, ",{}", dataset::format_f64(v));
+                }
+            }
+        }
         csv.push('\n');
-        if let Some(truth) = &entry.class {
+        // Only rows of the model's classes count (a manifest of other materials may be
+        // here for the estimate alone).
+        if let Some(truth) = entry.class.as_ref().filter(|c| classes.contains(c)) {
             labelled += 1;
             correct += usize::from(truth == label);
         }
@@ -493,6 +522,41 @@ pub fn predict(args: PredictArgs) -> CliResult {
             "accuracy {:.1} % ({correct}/{labelled}) with {name} version {version}",
             100.0 * correct as f64 / labelled as f64
         );
+    }
+    match (&args.ward_classes, estimator) {
+        (Some(path), Some(estimator)) => evaluate_estimator(&args, path, estimator, &table),
+        (Some(_), None) => Err(format!(
+            "{name} version {version} has no Ward-parameter estimator"
+        )),
+        (None, _) => Ok(()),
+    }
+}
+
+/// The estimator's errors on a labelled table of materials of the class file `path`.
+fn evaluate_estimator(
+    args: &PredictArgs,
+    path: &std::path::Path,
+    estimator: &estimate::WardRegressor,
+    table: &FeatureTable,
+) -> CliResult {
+    let materials = load_classes(path).map_err(|e| e.to_string())?;
+    let ds = Dataset::from_table(table).map_err(|e| e.to_string())?;
+    let (report, details) = estimator
+        .evaluate(&ds, &materials)
+        .map_err(|e| e.to_string())?;
+    print!(
+        "estimate: {}",
+        estimate_summary(&report, ds.group_names.len()).replacen(
+            "leave-one-illumination-out over",
+            "over",
+            1
+        )
+    );
+    if let Some(out) = &args.estimate_report {
+        let title = format!("{} on {}", args.model.display(), args.manifest.display());
+        crate::report::estimate::write(out, &title, false, &report, &details)
+            .map_err(|e| e.to_string())?;
+        eprintln!("written to {}", out.display());
     }
     Ok(())
 }

@@ -24,6 +24,28 @@ pub const MIRROR_LOG_ALPHA: f64 = -2.602_059_991_327_962;
 pub const ALPHA_RANGE: (f64, f64) = (0.005, 0.2);
 /// The coverage of the intervals.
 pub const COVERAGE: f64 = 0.9;
+/// Random Fourier features of the regression, by default.
+pub const DEFAULT_RIDGE_FEATURES: usize = 1500;
+/// Its ridge penalty λ, by default.
+pub const DEFAULT_RIDGE_LAMBDA: f64 = 1e-2;
+
+/// The regression of `features` over the table's columns `names`, with `count` random
+/// Fourier features and penalty `lambda`; γ = `gamma`, else 1 / number of inputs.
+pub fn ridge_spec(
+    features: &FeatureSet,
+    names: &[String],
+    (count, lambda): (usize, f64),
+    gamma: Option<f64>,
+    seed: u64,
+) -> Result<RidgeSpec, LearnError> {
+    let inputs = features.resolve(names)?.map_or(names.len(), |i| i.len());
+    Ok(RidgeSpec {
+        features: count,
+        gamma: gamma.unwrap_or(1.0 / inputs.max(1) as f64),
+        lambda,
+        seed,
+    })
+}
 
 /// The regression targets of a material: [t, ρs / t, mirror ±1, log10 α].
 pub fn targets(m: &Material) -> [f64; 4] {
@@ -67,7 +89,7 @@ pub struct WardEstimate {
 }
 
 /// Conformal half-widths at [`COVERAGE`].
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct HalfWidths {
     pub rho_d: f64,
     pub rho_s: f64,
@@ -125,11 +147,39 @@ impl WardRegressor {
         Ok(())
     }
 
-    /// The estimate from a row of every extracted feature (canonical order).
-    pub fn estimate(&self, values: &[f64]) -> WardEstimate {
+    /// The four outputs (see [`targets`]) for a row of every extracted feature (canonical
+    /// order).
+    pub fn predict(&self, values: &[f64]) -> Vec<f64> {
         let mut z: Vec<f64> = self.input_indices.iter().map(|&i| values[i]).collect();
         self.scaler.apply(&mut z);
-        estimate_of(&self.ridge.predict(&z), &self.half_widths)
+        self.ridge.predict(&z)
+    }
+
+    /// The estimate from a row of every extracted feature (canonical order).
+    pub fn estimate(&self, values: &[f64]) -> WardEstimate {
+        estimate_of(&self.predict(values), &self.half_widths)
+    }
+
+    /// Its errors on `ds` (rows of every extracted feature, e.g. under illuminations it never
+    /// saw), whose classes are materials of `materials`, with its own intervals.
+    pub fn evaluate(
+        &self,
+        ds: &Dataset,
+        materials: &[Material],
+    ) -> Result<(EstimateReport, EstimateDetails), LearnError> {
+        let material_of_class = materials_of(ds, materials)?;
+        let outputs: Vec<f64> = (0..ds.n_rows())
+            .flat_map(|i| self.predict(&ds.x.row(i).to_vec()))
+            .collect();
+        let predictions = Array2::from_shape_vec((ds.n_rows(), 4), outputs)
+            .map_err(|e| LearnError::InvalidParameter(e.to_string()))?;
+        let mut errors = row_errors_of(ds, &predictions, &material_of_class);
+        let widths = vec![self.half_widths; ds.group_names.len()];
+        mark_covered(ds, &mut errors, &widths);
+        let mut report = report(ds, &errors);
+        report.half_widths = self.half_widths;
+        let details = details(ds, &errors, &predictions, &widths, &material_of_class);
+        Ok((report, details))
     }
 }
 
@@ -165,11 +215,22 @@ pub fn estimate_of(prediction: &[f64], widths: &HalfWidths) -> WardEstimate {
 }
 
 /// Leave-one-illumination-out accuracy of an estimator.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct EstimateReport {
-    /// Rows evaluated, and how many are augmented views (captures, rotations, …).
-    pub n: usize,
+    /// Over every row evaluated, the augmented views (captures, rotations, …) among them.
+    #[serde(flatten)]
+    pub errors: Errors,
+    /// How many rows are augmented views.
     pub augmented: usize,
+    /// The intervals' half-widths, from every row's error.
+    pub half_widths: HalfWidths,
+}
+
+/// The measures over some of the rows (all, the originals, one illumination, …).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct Errors {
+    /// Rows evaluated.
+    pub n: usize,
     pub mae_total: f64,
     pub mae_rho_d: f64,
     pub mae_rho_s: f64,
@@ -178,16 +239,59 @@ pub struct EstimateReport {
     /// |log10 α error| over the true non-mirrors the estimate also calls non-mirrors (none
     /// when there are none).
     pub mae_log10_alpha: Option<f64>,
-    /// Coverage of the 90 % intervals, each illumination's with half-widths from the others'
-    /// errors only.
+    /// Coverage of the 90 % intervals (in cross-validation each illumination's with
+    /// half-widths from the others' errors only).
     pub coverage_rho_d: f64,
     pub coverage_rho_s: f64,
     pub coverage_alpha: f64,
-    pub half_widths: HalfWidths,
 }
 
-/// Per row: |errors| of ρd, ρs, t and log10 α, whether the mirror call is right, and
-/// whether the sphere is glossy (not a mirror).
+/// The true Ward parameters of a row.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Truth {
+    pub rho_d: f64,
+    pub rho_s: f64,
+    pub alpha: f64,
+}
+
+/// One image's estimate made without its illumination, with intervals sized by the other
+/// illuminations' errors (the ones its coverage counts).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HeldOut {
+    pub path: String,
+    /// As written in the table (an augmented view keeps its `@suffix`).
+    pub illumination: String,
+    pub truth: Truth,
+    pub estimate: WardEstimate,
+}
+
+/// One illumination's errors.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct IlluminationErrors {
+    pub illumination: String,
+    #[serde(flatten)]
+    pub errors: Errors,
+}
+
+/// Everything behind an [`EstimateReport`]: the originals and the augmented views apart,
+/// every illumination, every row.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EstimateDetails {
+    pub originals: Option<Errors>,
+    pub augmented: Option<Errors>,
+    pub illuminations: Vec<IlluminationErrors>,
+    pub rows: Vec<HeldOut>,
+}
+
+/// A fitted estimator with its leave-one-illumination-out report and details.
+pub struct Fit {
+    pub regressor: WardRegressor,
+    pub report: EstimateReport,
+    pub details: EstimateDetails,
+}
+
+/// Per row: |errors| of ρd, ρs, t and log10 α, whether the mirror call is right, whether
+/// the sphere is glossy (not a mirror), and, once known, which intervals cover it.
 struct RowErrors {
     rho_d: f64,
     rho_s: f64,
@@ -195,6 +299,7 @@ struct RowErrors {
     log_alpha: f64,
     mirror_right: bool,
     glossy: bool,
+    covered: [bool; 3],
 }
 
 fn row_errors(prediction: &[f64], truth: &Material) -> RowErrors {
@@ -214,6 +319,7 @@ fn row_errors(prediction: &[f64], truth: &Material) -> RowErrors {
         log_alpha: log_error,
         mirror_right: predicted_mirror == true_mirror,
         glossy: !true_mirror,
+        covered: [false; 3],
     }
 }
 
@@ -222,25 +328,32 @@ fn mean(values: impl Iterator<Item = f64>) -> f64 {
     if n == 0 { f64::NAN } else { sum / n as f64 }
 }
 
-/// Fit an estimator on `ds` (from the table named `dataset`), whose classes are materials of
-/// `materials` (by name), reading the features of `features`; also its
-/// leave-one-illumination-out report.
-pub fn fit(
+/// The materials of `ds`'s classes, by name.
+fn materials_of<'a>(
     ds: &Dataset,
-    dataset: &str,
-    materials: &[Material],
-    features: &FeatureSet,
-    spec: &RidgeSpec,
-) -> Result<(WardRegressor, EstimateReport), LearnError> {
-    let material_of_class: Vec<&Material> = ds
-        .classes
+    materials: &'a [Material],
+) -> Result<Vec<&'a Material>, LearnError> {
+    ds.classes
         .iter()
         .map(|c| {
             materials.iter().find(|m| &m.name == c).ok_or_else(|| {
                 LearnError::InvalidParameter(format!("class {c:?} has no Ward parameters"))
             })
         })
-        .collect::<Result<_, _>>()?;
+        .collect()
+}
+
+/// Fit an estimator on `ds` (from the table named `dataset`), whose classes are materials of
+/// `materials` (by name), reading the features of `features`; also its
+/// leave-one-illumination-out report and details.
+pub fn fit(
+    ds: &Dataset,
+    dataset: &str,
+    materials: &[Material],
+    features: &FeatureSet,
+    spec: &RidgeSpec,
+) -> Result<Fit, LearnError> {
+    let material_of_class = materials_of(ds, materials)?;
     let input_indices = features.resolve(&ds.names)?.ok_or_else(|| {
         LearnError::InvalidParameter("estimation needs a fixed feature set".into())
     })?;
@@ -252,10 +365,11 @@ pub fn fit(
     });
     let fitted = regress::fit(z.view(), y.view(), Some(&ds.groups), spec)?;
     let held_out = fitted.held_out.unwrap_or_else(|| y.clone());
-    let errors: Vec<RowErrors> = (0..ds.n_rows())
-        .map(|i| row_errors(&held_out.row(i).to_vec(), material_of_class[ds.labels[i]]))
-        .collect();
+    let mut errors = row_errors_of(ds, &held_out, &material_of_class);
+    let group_widths = held_out_widths(ds, &errors);
+    mark_covered(ds, &mut errors, &group_widths);
     let report = report(ds, &errors);
+    let details = details(ds, &errors, &held_out, &group_widths, &material_of_class);
     let regressor = WardRegressor {
         inputs: input_indices.iter().map(|&i| ds.names[i].clone()).collect(),
         input_indices,
@@ -266,12 +380,16 @@ pub fn fit(
         cv: report.clone(),
         dataset: dataset.to_string(),
     };
-    Ok((regressor, report))
+    Ok(Fit {
+        regressor,
+        report,
+        details,
+    })
 }
 
-fn widths(errors: &[&RowErrors]) -> HalfWidths {
+fn widths<'a>(errors: impl Iterator<Item = &'a RowErrors> + Clone) -> HalfWidths {
     let q = |f: fn(&RowErrors) -> f64| {
-        let values: Vec<f64> = errors.iter().map(|e| f(e)).collect();
+        let values: Vec<f64> = errors.clone().map(f).collect();
         regress::conformal_half_width(&values, COVERAGE)
     };
     HalfWidths {
@@ -281,46 +399,168 @@ fn widths(errors: &[&RowErrors]) -> HalfWidths {
     }
 }
 
-fn report(ds: &Dataset, errors: &[RowErrors]) -> EstimateReport {
-    let all: Vec<&RowErrors> = errors.iter().collect();
-    // Each illumination's coverage with widths from the other illuminations' errors.
-    let (mut covered, mut n) = ([0usize; 3], 0usize);
-    for g in 0..ds.group_names.len() {
-        let others: Vec<&RowErrors> = (0..errors.len())
-            .filter(|&i| ds.groups[i] != g)
-            .map(|i| &errors[i])
-            .collect();
-        let w = widths(&others);
-        for e in (0..errors.len())
-            .filter(|&i| ds.groups[i] == g)
-            .map(|i| &errors[i])
-        {
-            covered[0] += usize::from(e.rho_d <= w.rho_d);
-            covered[1] += usize::from(e.rho_s <= w.rho_s);
-            covered[2] += usize::from(e.log_alpha <= w.log10_alpha);
-            n += 1;
-        }
+fn row_errors_of(
+    ds: &Dataset,
+    predictions: &Array2<f64>,
+    material_of_class: &[&Material],
+) -> Vec<RowErrors> {
+    (0..ds.n_rows())
+        .map(|i| {
+            row_errors(
+                &predictions.row(i).to_vec(),
+                material_of_class[ds.labels[i]],
+            )
+        })
+        .collect()
+}
+
+/// Each illumination's half-widths, sized by the other illuminations' errors only.
+fn held_out_widths(ds: &Dataset, errors: &[RowErrors]) -> Vec<HalfWidths> {
+    (0..ds.group_names.len())
+        .map(|g| {
+            let others = errors
+                .iter()
+                .enumerate()
+                .filter(move |(i, _)| ds.groups[*i] != g)
+                .map(|(_, e)| e);
+            widths(others)
+        })
+        .collect()
+}
+
+/// Mark which intervals (of its group's half-widths) cover each row.
+fn mark_covered(ds: &Dataset, errors: &mut [RowErrors], group_widths: &[HalfWidths]) {
+    for (i, e) in errors.iter_mut().enumerate() {
+        let w = &group_widths[ds.groups[i]];
+        e.covered = [
+            e.rho_d <= w.rho_d,
+            e.rho_s <= w.rho_s,
+            e.log_alpha <= w.log10_alpha,
+        ];
     }
-    let share = |k: usize| covered[k] as f64 / n.max(1) as f64;
+}
+
+/// The measures over `rows` (none when empty).
+fn summarize<'a>(rows: impl Iterator<Item = &'a RowErrors> + Clone) -> Option<Errors> {
+    let n = rows.clone().count();
+    let share = |f: fn(&RowErrors) -> bool| mean(rows.clone().map(|e| f64::from(u8::from(f(e)))));
+    let glossy_alpha = mean(
+        rows.clone()
+            .filter(|e| e.glossy && e.mirror_right)
+            .map(|e| e.log_alpha),
+    );
+    (n > 0).then(|| Errors {
+        n,
+        mae_total: mean(rows.clone().map(|e| e.total)),
+        mae_rho_d: mean(rows.clone().map(|e| e.rho_d)),
+        mae_rho_s: mean(rows.clone().map(|e| e.rho_s)),
+        mirror_accuracy: share(|e| e.mirror_right),
+        mae_log10_alpha: Some(glossy_alpha).filter(|v| v.is_finite()),
+        coverage_rho_d: share(|e| e.covered[0]),
+        coverage_rho_s: share(|e| e.covered[1]),
+        coverage_alpha: share(|e| e.covered[2]),
+    })
+}
+
+fn report(ds: &Dataset, errors: &[RowErrors]) -> EstimateReport {
+    let none = Errors {
+        n: 0,
+        mae_total: f64::NAN,
+        mae_rho_d: f64::NAN,
+        mae_rho_s: f64::NAN,
+        mirror_accuracy: f64::NAN,
+        mae_log10_alpha: None,
+        coverage_rho_d: 0.0,
+        coverage_rho_s: 0.0,
+        coverage_alpha: 0.0,
+    };
     EstimateReport {
-        n: errors.len(),
+        errors: summarize(errors.iter()).unwrap_or(none),
         augmented: ds.augmented.iter().filter(|&&a| a).count(),
-        mae_total: mean(errors.iter().map(|e| e.total)),
-        mae_rho_d: mean(errors.iter().map(|e| e.rho_d)),
-        mae_rho_s: mean(errors.iter().map(|e| e.rho_s)),
-        mirror_accuracy: mean(errors.iter().map(|e| f64::from(u8::from(e.mirror_right)))),
-        mae_log10_alpha: Some(mean(
+        half_widths: widths(errors.iter()),
+    }
+}
+
+fn details(
+    ds: &Dataset,
+    errors: &[RowErrors],
+    held_out: &Array2<f64>,
+    group_widths: &[HalfWidths],
+    material_of_class: &[&Material],
+) -> EstimateDetails {
+    let subset = |keep: &dyn Fn(usize) -> bool| {
+        summarize(
             errors
                 .iter()
-                .filter(|e| e.glossy && e.mirror_right)
-                .map(|e| e.log_alpha),
-        ))
-        .filter(|v| v.is_finite()),
-        coverage_rho_d: share(0),
-        coverage_rho_s: share(1),
-        coverage_alpha: share(2),
-        half_widths: widths(&all),
+                .enumerate()
+                .filter(move |(i, _)| keep(*i))
+                .map(|(_, e)| e),
+        )
+    };
+    let illuminations = ds
+        .group_names
+        .iter()
+        .enumerate()
+        .filter_map(|(g, name)| {
+            subset(&|i| ds.groups[i] == g).map(|errors| IlluminationErrors {
+                illumination: name.clone(),
+                errors,
+            })
+        })
+        .collect();
+    let rows = (0..ds.n_rows())
+        .map(|i| {
+            let m = material_of_class[ds.labels[i]];
+            HeldOut {
+                path: ds.paths[i].clone(),
+                illumination: ds.illuminations[i].clone(),
+                truth: Truth {
+                    rho_d: m.rho_d,
+                    rho_s: m.rho_s,
+                    alpha: m.alpha,
+                },
+                estimate: estimate_of(&held_out.row(i).to_vec(), &group_widths[ds.groups[i]]),
+            }
+        })
+        .collect();
+    EstimateDetails {
+        originals: subset(&|i| !ds.augmented[i]),
+        augmented: subset(&|i| ds.augmented[i]),
+        illuminations,
+        rows,
     }
+}
+
+/// log10 α on the regression's axis (a mirror at [`MIRROR_LOG_ALPHA`]).
+fn log_alpha_of(alpha: f64) -> f64 {
+    match alpha > 0.0 {
+        true => alpha.log10(),
+        false => MIRROR_LOG_ALPHA,
+    }
+}
+
+/// The class (index into `classes`: (ρd, ρs, α)) nearest to an estimate, each parameter
+/// measured in units of its interval half-width (ρd, ρs and log10 α), so that the parameters
+/// the estimate knows well count most; none without classes.
+pub fn nearest_class(
+    estimate: &WardEstimate,
+    widths: &HalfWidths,
+    classes: &[(f64, f64, f64)],
+) -> Option<usize> {
+    let unit = |w: f64| if w > 0.0 && w.is_finite() { w } else { 1.0 };
+    let distance = |&(rho_d, rho_s, alpha): &(f64, f64, f64)| {
+        let d = (estimate.rho_d.value - rho_d) / unit(widths.rho_d);
+        let s = (estimate.rho_s.value - rho_s) / unit(widths.rho_s);
+        let a =
+            (log_alpha_of(estimate.alpha.value) - log_alpha_of(alpha)) / unit(widths.log10_alpha);
+        d * d + s * s + a * a
+    };
+    classes
+        .iter()
+        .map(distance)
+        .enumerate()
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| i)
 }
 
 #[cfg(test)]
@@ -401,19 +641,42 @@ mod tests {
             lambda: 1e-2,
             seed: 1,
         };
-        let (regressor, report) = fit(&ds, "test", &design, &FeatureSet::All, &spec).unwrap();
-        assert_eq!(report.n, 360);
-        assert!(report.mae_total < 0.05, "{report:?}");
-        assert!(report.mae_rho_s < 0.05, "{report:?}");
-        assert!(report.mirror_accuracy > 0.95, "{report:?}");
-        assert!(report.mae_log10_alpha.unwrap() < 0.2, "{report:?}");
+        let Fit {
+            regressor,
+            report,
+            details,
+        } = fit(&ds, "test", &design, &FeatureSet::All, &spec).unwrap();
+        assert_eq!(report.errors.n, 360);
+        assert!(report.errors.mae_total < 0.05, "{report:?}");
+        assert!(report.errors.mae_rho_s < 0.05, "{report:?}");
+        assert!(report.errors.mirror_accuracy > 0.95, "{report:?}");
+        assert!(report.errors.mae_log10_alpha.unwrap() < 0.2, "{report:?}");
         for c in [
-            report.coverage_rho_d,
-            report.coverage_rho_s,
-            report.coverage_alpha,
+            report.errors.coverage_rho_d,
+            report.errors.coverage_rho_s,
+            report.errors.coverage_alpha,
         ] {
             assert!((0.8..=0.97).contains(&c), "{report:?}");
         }
+        // The details add up to the report, and each row's intervals cover it as counted.
+        assert_eq!((details.rows.len(), details.illuminations.len()), (360, 6));
+        assert!(details.augmented.is_none());
+        let originals = details.originals.as_ref().unwrap();
+        assert!((originals.mae_total - report.errors.mae_total).abs() < 1e-12);
+        let pooled: f64 = details
+            .illuminations
+            .iter()
+            .map(|g| g.errors.mae_rho_s * g.errors.n as f64)
+            .sum();
+        assert!((pooled / 360.0 - report.errors.mae_rho_s).abs() < 1e-9);
+        let inside = details
+            .rows
+            .iter()
+            .filter(|r| {
+                r.estimate.rho_s.low <= r.truth.rho_s && r.truth.rho_s <= r.estimate.rho_s.high
+            })
+            .count();
+        assert!((inside as f64 / 360.0 - report.errors.coverage_rho_s).abs() <= 2.0 / 360.0);
         // The fitted estimator answers for a row of the table as the report's widths say.
         let row = ds.x.row(0).to_vec();
         let e = regressor.estimate(&row);
@@ -430,6 +693,34 @@ mod tests {
             ..design[0].clone()
         }];
         assert!(fit(&ds, "test", &unknown, &FeatureSet::All, &spec).is_err());
+    }
+
+    #[test]
+    fn nearest_class_weighs_each_parameter_by_its_uncertainty() {
+        let classes = [(0.1, 0.0, 0.1), (0.0, 0.8, 0.0), (0.4, 0.1, 0.02)];
+        let widths = HalfWidths {
+            rho_d: 0.1,
+            rho_s: 0.1,
+            log10_alpha: 0.3,
+        };
+        let near =
+            |m: Material, w: &HalfWidths| nearest_class(&estimate_of(&targets(&m), w), w, &classes);
+        assert_eq!(near(material(0.12, 0.01, 0.09), &widths), Some(0));
+        assert_eq!(near(material(0.05, 0.7, 0.0), &widths), Some(1));
+        assert_eq!(near(material(0.35, 0.12, 0.03), &widths), Some(2));
+        // Between classes 0 and 2 in ρd but with class 2's α: an α known well decides…
+        let between = material(0.25, 0.05, 0.02);
+        assert_eq!(near(between.clone(), &widths), Some(2));
+        // …and one known poorly does not: ρd then decides.
+        let vague = HalfWidths {
+            log10_alpha: 100.0,
+            ..widths
+        };
+        assert_eq!(near(material(0.2, 0.05, 0.02), &vague), Some(0));
+        assert_eq!(
+            nearest_class(&estimate_of(&targets(&between), &widths), &widths, &[]),
+            None
+        );
     }
 
     #[test]

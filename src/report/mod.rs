@@ -11,6 +11,7 @@
 //! (training views of the probes, when the data sets have them) and `synthetic` (those views
 //! and the procedural illuminations, when the data sets have them).
 
+pub mod estimate;
 mod plots;
 pub(crate) mod robustness;
 

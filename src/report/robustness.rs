@@ -224,10 +224,15 @@ pub struct Cell {
     pub refused: usize,
     /// `confusion[truth][predicted]` in the model's class order.
     pub confusion: Vec<Vec<usize>>,
+    /// Right answers of the class nearest to the Ward-parameter estimate (models with an
+    /// estimator and their classes' parameters).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nearest_correct: Option<usize>,
 }
 
-/// (truth, predicted) class indices, or `None` when the model refused the capture.
-type Verdict = Option<(usize, usize)>;
+/// (truth, predicted, nearest to the estimate) class indices, or `None` when the model
+/// refused the capture.
+type Verdict = Option<(usize, usize, Option<usize>)>;
 
 /// Classify every test image, captured at every setting, with every model.
 pub fn evaluate(
@@ -275,7 +280,10 @@ pub fn evaluate(
                     inference::classify(model.clone(), input, Default::default())
                         .ok()
                         .zip(truth)
-                        .map(|(c, truth)| (truth, c.class))
+                        .map(|(c, truth)| {
+                            let nearest = c.ward.as_ref().and_then(|e| model.nearest_class(e));
+                            (truth, c.class, nearest)
+                        })
                 })
                 .collect();
             bar.inc(1);
@@ -305,15 +313,19 @@ pub fn evaluate(
                             vec![0; classes_of(models, name)];
                             classes_of(models, name)
                         ],
+                        nearest_correct: None,
                     });
                     cells.last_mut().expect("just pushed")
                 }
             };
             cell.n += 1;
             match verdict {
-                Some((truth, predicted)) => {
+                Some((truth, predicted, nearest)) => {
                     cell.correct += usize::from(truth == predicted);
                     cell.confusion[truth][predicted] += 1;
+                    if let Some(nearest) = nearest {
+                        *cell.nearest_correct.get_or_insert(0) += usize::from(truth == nearest);
+                    }
                 }
                 None => cell.refused += 1,
             }
@@ -400,6 +412,10 @@ pub fn markdown(cells: &[Cell], models: &[String]) -> String {
             {
                 Some(c) => {
                     let _ = write!(out, " {:.1} % ({}/{})", 100.0 * c.accuracy, c.correct, c.n);
+                    if let Some(right) = c.nearest_correct {
+                        let share = 100.0 * right as f64 / c.n.max(1) as f64;
+                        let _ = write!(out, "; estimate's nearest class {share:.1} %");
+                    }
                     if c.refused > 0 {
                         let _ = write!(out, ", {} refused", c.refused);
                     }

@@ -403,4 +403,75 @@ fn materials_design_a_class_file_that_render_and_the_estimate_take() {
         Some(2),
         "--estimate without --ward-classes"
     );
+
+    // The report: every held-out estimate, with the per-illumination errors.
+    let report_dir = dir.join("estimate");
+    let report_arg = report_dir.to_str().unwrap();
+    let ridge = ["--ward-classes", file_arg, "--ridge-features", "50"];
+    common::assert_success(&cv(&[&ridge[..], &["--out", report_arg]].concat()));
+    let written: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(report_dir.join("estimate.json")).unwrap()).unwrap();
+    let rows = written["details"]["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 16, "{written}");
+    assert_eq!(
+        written["details"]["illuminations"]
+            .as_array()
+            .unwrap()
+            .len(),
+        2
+    );
+    let md = std::fs::read_to_string(report_dir.join("estimate.md")).unwrap();
+    assert!(md.contains("### Per illumination"), "{md}");
+
+    // A model with an estimator: predict writes the estimate and measures it.
+    let models = dir.join("models");
+    let table_arg = table.to_str().unwrap();
+    common::assert_success(&run(&[
+        "train",
+        "--table",
+        table_arg,
+        "--features",
+        "hand6",
+        "--no-cv",
+        "--models",
+        models.to_str().unwrap(),
+        "--name",
+        "m",
+        "--estimator-table",
+        table_arg,
+        "--estimator-classes",
+        file_arg,
+        "--ridge-features",
+        "50",
+    ]));
+    let predictions = dir.join("predictions.csv");
+    let out = run(&[
+        "predict",
+        "--model",
+        models.join("m").to_str().unwrap(),
+        "--manifest",
+        manifest.to_str().unwrap(),
+        "--out",
+        predictions.to_str().unwrap(),
+        "--ward-classes",
+        file_arg,
+    ]);
+    common::assert_success(&out);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("estimate: over 2 illuminations, 16 images"),
+        "{stdout}"
+    );
+    let csv = std::fs::read_to_string(&predictions).unwrap();
+    let header = csv.lines().next().unwrap();
+    assert!(
+        header.ends_with(
+            ",rho_d,rho_d_low,rho_d_high,rho_s,rho_s_low,rho_s_high,alpha,alpha_low,alpha_high"
+        ),
+        "{header}"
+    );
+    assert_eq!(
+        csv.lines().nth(1).unwrap().split(',').count(),
+        header.split(',').count()
+    );
 }

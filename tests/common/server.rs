@@ -145,14 +145,15 @@ pub fn fixture() -> &'static Fixture {
             lambda: 1e-2,
             seed: 1,
         };
-        let (estimator, _) = estimate::fit(
+        let estimator = estimate::fit(
             &ds,
             "train/features.csv",
             &materials,
             &FeatureSet::Named("hand6"),
             &ridge,
         )
-        .unwrap();
+        .unwrap()
+        .regressor;
         model.estimator = Some(estimator);
         let models = dir.join("models");
         Registry::new(&models).publish(&mut model, &[]).unwrap();

@@ -307,6 +307,29 @@ async fn render_train_activate_roll_back_and_delete() {
     assert_eq!(done["result"]["cv"]["classifier"], "nn");
     assert!(done["result"].get("model").is_none());
 
+    // The Ward-parameter estimate, cross-validated the same way.
+    let estimate = submit(
+        &server,
+        json!({"type": "cross_validate", "table": "table.csv", "ward_classes": "classes.json"}),
+    )
+    .await;
+    let done = wait_for(&server, estimate["id"].as_str().unwrap(), TERMINAL).await;
+    assert_eq!(done["state"], "succeeded", "{done}");
+    let report = &done["result"]["estimate"];
+    assert_eq!(report["n"], done["result"]["images"], "{done}");
+    let coverage = report["coverage_rho_s"].as_f64().unwrap();
+    assert!((0.0..=1.0).contains(&coverage), "{done}");
+    assert!(
+        report["half_widths"]["rho_d"].as_f64().unwrap() > 0.0,
+        "{done}"
+    );
+    assert!(done["result"].get("cv").is_none());
+    let missing =
+        json!({"type": "cross_validate", "table": "table.csv", "ward_classes": "none.json"});
+    send(&server.admin, authed(post_json("/admin/v1/jobs", &missing)))
+        .await
+        .problem(422, "invalid-path");
+
     // Extraction extensions: log-domain and radial features named by the set, a working radius.
     let log = submit(
         &server,
@@ -325,7 +348,7 @@ async fn render_train_activate_roll_back_and_delete() {
     let list = send(&server.admin, authed(get("/admin/v1/jobs?state=succeeded")))
         .await
         .json();
-    assert_eq!(list["jobs"].as_array().unwrap().len(), 5);
+    assert_eq!(list["jobs"].as_array().unwrap().len(), 6);
     assert_eq!(list["jobs"][0]["id"], log["id"], "newest first");
     let list = send(&server.admin, authed(get("/admin/v1/jobs?state=failed")))
         .await

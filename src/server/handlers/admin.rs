@@ -58,7 +58,7 @@ fn check_keys(body: &Value) -> Result<(), ApiError> {
     let kind = map.get("type").and_then(Value::as_str).unwrap_or_default();
     let extra: &[&str] = match kind {
         "train" => &["name", "activate", "classes", "cross_validate"],
-        "cross_validate" => &[],
+        "cross_validate" => &["ward_classes"],
         "render" => &["probes", "classes", "out", "size", "seed", "captures"],
         _ => {
             let detail = match map.get("type") {
@@ -381,7 +381,10 @@ mod tests {
                 classes: Some("classes.json".into()),
                 cross_validate: true,
             },
-            JobRequest::CrossValidate { data },
+            JobRequest::CrossValidate {
+                data,
+                ward_classes: None,
+            },
             JobRequest::Render {
                 probes: "probes".into(),
                 classes: "classes.json".into(),

@@ -148,6 +148,11 @@ pub enum JobRequest {
     CrossValidate {
         #[serde(flatten)]
         data: LearnParams,
+        /// Estimate the Ward parameters instead of classifying: the class file (relative to
+        /// the data directory) whose materials are the data's classes. The regression reads
+        /// `features` (random Fourier features 1500, λ 0.01, γ = `gamma` or 1 / inputs).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        ward_classes: Option<String>,
     },
     /// Render Ward spheres under light probes into a dataset with a manifest.
     Render {

@@ -6,6 +6,7 @@ use super::{Activate, JobRequest, LearnParams};
 use crate::dataset::{self, DatasetError, FeatureTable, Manifest};
 use crate::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
 use crate::image::decode::{DecodeOptions, Limits};
+use crate::learn::estimate::{self, EstimateReport};
 use crate::learn::{self, CvReport, Dataset, LearnError, SpecText, TrainSpec};
 use crate::model::registry;
 use crate::model::train::{self, TrainError, TrainOptions};
@@ -127,6 +128,9 @@ pub struct JobResult {
     /// `train` (unless `cross_validate: false`) and `cross_validate`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cv: Option<CvResult>,
+    /// `cross_validate` with `ward_classes`: the Ward-parameter estimate's errors.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub estimate: Option<EstimateReport>,
     /// `render`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub render: Option<RenderResult>,
@@ -240,9 +244,16 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
             }
             Ok(())
         }
-        JobRequest::CrossValidate { data: p } => {
+        JobRequest::CrossValidate {
+            data: p,
+            ward_classes,
+        } => {
             spec_of(p)?;
-            check_data(p, data)
+            check_data(p, data)?;
+            if let Some(c) = ward_classes {
+                data.existing("ward_classes", c).map_err(path_error)?;
+            }
+            Ok(())
         }
         JobRequest::Render {
             probes,
@@ -440,7 +451,31 @@ pub fn execute(
             }
             Ok(result)
         }
-        JobRequest::CrossValidate { data: p } => {
+        JobRequest::CrossValidate {
+            data: p,
+            ward_classes: Some(classes),
+        } => {
+            let spec = spec_of(p).map_err(|e| Failure::Error(e.detail))?;
+            let path = data
+                .existing("ward_classes", classes)
+                .map_err(Failure::Error)?;
+            let materials = batch::load_classes(&path)?;
+            let (table, label, _) = load_table(p, data, limits, observer)?;
+            let ds = Dataset::from_table(&table)?;
+            observer.stage("cross_validate");
+            let size = (
+                estimate::DEFAULT_RIDGE_FEATURES,
+                estimate::DEFAULT_RIDGE_LAMBDA,
+            );
+            let ridge = estimate::ridge_spec(&spec.features, &ds.names, size, p.gamma, p.seed)?;
+            let fit = estimate::fit(&ds, &label, &materials, &spec.features, &ridge)?;
+            Ok(JobResult {
+                estimate: Some(fit.report),
+                images: Some(table.samples.len()),
+                ..JobResult::default()
+            })
+        }
+        JobRequest::CrossValidate { data: p, .. } => {
             let spec = spec_of(p).map_err(|e| Failure::Error(e.detail))?;
             let (table, _, _) = load_table(p, data, limits, observer)?;
             let ds = Dataset::from_table(&table)?;
