@@ -9,6 +9,7 @@ use crate::learn::{CvReport, DEFAULT_C, Dataset, FeatureSet, SpecText, TrainSpec
 use crate::model::registry::{self, Registry};
 use crate::model::train::{self, TrainOptions};
 use crate::render::batch::load_classes;
+use crate::report::estimate::Protocol;
 use crate::util::progress;
 use clap::Args;
 use std::fmt::Write as _;
@@ -170,16 +171,21 @@ impl RidgeArgs {
 }
 
 /// Printed after an estimator is fitted.
-fn estimate_summary(report: &estimate::EstimateReport, illuminations: usize) -> String {
+fn estimate_summary(
+    report: &estimate::EstimateReport,
+    illuminations: usize,
+    protocol: Protocol,
+) -> String {
     let pct = |x: f64| format!("{:.1} %", 100.0 * x);
     let (w, e) = (&report.half_widths, &report.errors);
     format!(
-        "leave-one-illumination-out over {illuminations} illuminations, {} images ({} augmented views)\n\
+        "{} {illuminations} illuminations, {} images ({} augmented views)\n\
          total reflectance  MAE {:.4}\n\
          rho_d              MAE {:.4}   90 % interval ± {:.4}, covers {}\n\
          rho_s              MAE {:.4}   90 % interval ± {:.4}, covers {}\n\
          mirror or not      {} right\n\
          log10 alpha        MAE {}   90 % interval ± {:.4}, covers {}\n",
+        protocol.over(),
         e.n,
         report.augmented,
         e.mae_total,
@@ -215,8 +221,14 @@ fn cv_estimate(args: &CvArgs, table: &FeatureTable, label: &str) -> CliResult {
     let report = fit.report;
     if let Some(out) = &args.estimate.out {
         let title = format!("{} on {label}", args.spec.features);
-        crate::report::estimate::write(out, &title, true, &report, &fit.details)
-            .map_err(|e| e.to_string())?;
+        crate::report::estimate::write(
+            out,
+            &title,
+            Protocol::CrossValidated,
+            &report,
+            &fit.details,
+        )
+        .map_err(|e| e.to_string())?;
         eprintln!("written to {}", out.display());
     }
     match args.json {
@@ -224,7 +236,10 @@ fn cv_estimate(args: &CvArgs, table: &FeatureTable, label: &str) -> CliResult {
             "{}",
             serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?
         ),
-        false => print!("{}", estimate_summary(&report, ds.group_names.len())),
+        false => print!(
+            "{}",
+            estimate_summary(&report, ds.group_names.len(), Protocol::CrossValidated)
+        ),
     }
     Ok(())
 }
@@ -377,7 +392,7 @@ fn fit_estimator(
         estimate::fit(&ds, &label, &materials, features, &ridge).map_err(|e| e.to_string())?;
     eprint!(
         "estimator: {}",
-        estimate_summary(&fit.report, ds.group_names.len())
+        estimate_summary(&fit.report, ds.group_names.len(), Protocol::CrossValidated)
     );
     Ok(Some(fit.regressor))
 }
@@ -546,15 +561,11 @@ fn evaluate_estimator(
         .map_err(|e| e.to_string())?;
     print!(
         "estimate: {}",
-        estimate_summary(&report, ds.group_names.len()).replacen(
-            "leave-one-illumination-out over",
-            "over",
-            1
-        )
+        estimate_summary(&report, ds.group_names.len(), Protocol::Unseen)
     );
     if let Some(out) = &args.estimate_report {
         let title = format!("{} on {}", args.model.display(), args.manifest.display());
-        crate::report::estimate::write(out, &title, false, &report, &details)
+        crate::report::estimate::write(out, &title, Protocol::Unseen, &report, &details)
             .map_err(|e| e.to_string())?;
         eprintln!("written to {}", out.display());
     }

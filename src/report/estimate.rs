@@ -7,6 +7,7 @@ use super::plots::{plot_error, render_png};
 use crate::learn::estimate::{
     Errors, EstimateDetails, EstimateReport, HeldOut, Interval, MIRROR_LOG_ALPHA,
 };
+use crate::learn::matrix::parse_illumination;
 use plotters::prelude::*;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -21,16 +22,30 @@ struct Written<'a> {
     details: &'a EstimateDetails,
 }
 
-/// How the estimates were made: `true` leave-one-illumination-out (each illumination's
-/// intervals sized by the others' errors), `false` by a fitted estimator on illuminations it
-/// never saw (its own intervals).
-pub type HeldOutByCv = bool;
+/// How the held-out estimates were made.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Protocol {
+    /// Leave-one-illumination-out: each illumination's intervals sized by the others' errors.
+    CrossValidated,
+    /// A fitted estimator on illuminations it never saw, with its own intervals.
+    Unseen,
+}
+
+impl Protocol {
+    /// How a summary line names the illuminations: "… over N illuminations".
+    pub fn over(self) -> &'static str {
+        match self {
+            Protocol::CrossValidated => "leave-one-illumination-out over",
+            Protocol::Unseen => "over",
+        }
+    }
+}
 
 /// Write `estimate.md`, `estimate.json` and `estimate.png` into `out` (created).
 pub fn write(
     out: &Path,
     title: &str,
-    cross_validated: HeldOutByCv,
+    protocol: Protocol,
     report: &EstimateReport,
     details: &EstimateDetails,
 ) -> Result<(), ReportError> {
@@ -50,7 +65,7 @@ pub fn write(
     file("estimate.json", &json)?;
     file(
         "estimate.md",
-        markdown(title, cross_validated, report, details).as_bytes(),
+        markdown(title, protocol, report, details).as_bytes(),
     )?;
     scatter(title, details, &out.join("estimate.png"))
 }
@@ -79,25 +94,25 @@ fn alpha_error(e: &Errors) -> String {
 /// the illuminations, worst total reflectance first.
 pub fn markdown(
     title: &str,
-    cross_validated: HeldOutByCv,
+    protocol: Protocol,
     report: &EstimateReport,
     details: &EstimateDetails,
 ) -> String {
     let mut md = String::new();
     let _ = writeln!(md, "## Estimating the Ward parameters: {title}\n");
-    let (protocol, widths) = match cross_validated {
-        true => (
+    let (how, widths) = match protocol {
+        Protocol::CrossValidated => (
             "Leave-one-illumination-out over",
             "each illumination's are sized by the other illuminations' errors",
         ),
-        false => (
+        Protocol::Unseen => (
             "A fitted estimator on",
             "the estimator's own, sized on its training illuminations",
         ),
     };
     let _ = writeln!(
         md,
-        "{protocol} {} illuminations: {} images, {} of them augmented views (evaluated \
+        "{how} {} illuminations: {} images, {} of them augmented views (evaluated \
          too). 90 % intervals: ρd ± {:.3}, ρs ± {:.3}, log10 α ± {:.3}; {widths}.\n",
         details.illuminations.len(),
         report.errors.n,
@@ -209,7 +224,7 @@ const PANELS: [Panel; 3] = [
 /// augmented views orange), the 90 % interval of every n-th, and the diagonal.
 fn scatter(title: &str, details: &EstimateDetails, path: &Path) -> Result<(), ReportError> {
     let stride = details.rows.len().div_ceil(BARS).max(1);
-    let augmented = |r: &HeldOut| r.illumination.contains('@');
+    let augmented = |r: &HeldOut| parse_illumination(&r.illumination).1;
     render_png(path, (1500, 540), |root| {
         root.fill(&WHITE).map_err(plot_error)?;
         let root = root
