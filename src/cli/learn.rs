@@ -171,21 +171,18 @@ impl RidgeArgs {
 }
 
 /// Printed after an estimator is fitted.
-fn estimate_summary(
-    report: &estimate::EstimateReport,
-    illuminations: usize,
-    protocol: Protocol,
-) -> String {
+fn estimate_summary(report: &estimate::EstimateReport, protocol: Protocol) -> String {
     let pct = |x: f64| format!("{:.1} %", 100.0 * x);
     let (w, e) = (&report.half_widths, &report.errors);
     format!(
-        "{} {illuminations} illuminations, {} images ({} augmented views)\n\
+        "{} {} illuminations, {} images ({} augmented views)\n\
          total reflectance  MAE {:.4}\n\
          rho_d              MAE {:.4}   90 % interval ± {:.4}, covers {}\n\
          rho_s              MAE {:.4}   90 % interval ± {:.4}, covers {}\n\
          mirror or not      {} right\n\
          log10 alpha        MAE {}   90 % interval ± {:.4}, covers {}\n",
         protocol.over(),
+        report.illuminations,
         e.n,
         report.augmented,
         e.mae_total,
@@ -236,10 +233,7 @@ fn cv_estimate(args: &CvArgs, table: &FeatureTable, label: &str) -> CliResult {
             "{}",
             serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?
         ),
-        false => print!(
-            "{}",
-            estimate_summary(&report, ds.group_names.len(), Protocol::CrossValidated)
-        ),
+        false => print!("{}", estimate_summary(&report, Protocol::CrossValidated)),
     }
     Ok(())
 }
@@ -367,34 +361,20 @@ pub struct EstimatorArgs {
     ridge: RidgeArgs,
 }
 
-/// The estimator of `args`, fitted for a model with feature `names` and `features`.
-fn fit_estimator(
-    args: &EstimatorArgs,
-    spec: &SpecArgs,
-    features: &FeatureSet,
-    names: &[String],
-) -> Result<Option<estimate::WardRegressor>, String> {
-    let (Some(table_path), Some(classes)) = (&args.estimator_table, &args.estimator_classes) else {
-        return Ok(None);
-    };
-    let materials = load_classes(classes).map_err(|e| e.to_string())?;
-    let table = FeatureTable::read(table_path).map_err(|e| e.to_string())?;
-    if table.names != names {
-        return Err(format!(
-            "{}: its columns are not the model's features (extract it with the same flags)",
-            table_path.display()
-        ));
+impl EstimatorArgs {
+    /// What the estimator is fitted on, when asked for (γ: --ridge-gamma, else `gamma`).
+    fn data(&self, gamma: Option<f64>) -> Result<Option<train::EstimatorData>, String> {
+        let (Some(table), Some(classes)) = (&self.estimator_table, &self.estimator_classes) else {
+            return Ok(None);
+        };
+        Ok(Some(train::EstimatorData {
+            table: FeatureTable::read(table).map_err(|e| e.to_string())?,
+            label: table.display().to_string(),
+            materials: load_classes(classes).map_err(|e| e.to_string())?,
+            size: (self.ridge.ridge_features, self.ridge.ridge_lambda),
+            gamma: self.ridge.ridge_gamma.or(gamma),
+        }))
     }
-    let ds = Dataset::from_table(&table).map_err(|e| e.to_string())?;
-    let ridge = args.ridge.spec(features, names, spec.gamma, spec.seed)?;
-    let label = table_path.display().to_string();
-    let fit =
-        estimate::fit(&ds, &label, &materials, features, &ridge).map_err(|e| e.to_string())?;
-    eprint!(
-        "estimator: {}",
-        estimate_summary(&fit.report, ds.group_names.len(), Protocol::CrossValidated)
-    );
-    Ok(Some(fit.regressor))
 }
 
 pub fn train(args: TrainArgs) -> CliResult {
@@ -421,17 +401,18 @@ pub fn train(args: TrainArgs) -> CliResult {
         classes,
         preprocessing: args.spec.extensions.preprocessing(),
         images: manifest,
+        estimator: args.estimator.data(args.spec.gamma)?,
     };
     let bar = progress::bar(0, "train");
     let mut trained =
         train::train_with(&table, &label, &options, &bar).map_err(|e| e.to_string())?;
     bar.finish();
-    trained.model.estimator = fit_estimator(
-        &args.estimator,
-        &args.spec,
-        &options.spec.features,
-        &table.names,
-    )?;
+    if let Some(report) = &trained.estimate {
+        eprint!(
+            "estimator: {}",
+            estimate_summary(report, Protocol::CrossValidated)
+        );
+    }
     let report = trained
         .report
         .as_ref()
@@ -559,10 +540,7 @@ fn evaluate_estimator(
     let (report, details) = estimator
         .evaluate(&ds, &materials)
         .map_err(|e| e.to_string())?;
-    print!(
-        "estimate: {}",
-        estimate_summary(&report, ds.group_names.len(), Protocol::Unseen)
-    );
+    print!("estimate: {}", estimate_summary(&report, Protocol::Unseen));
     if let Some(out) = &args.estimate_report {
         let title = format!("{} on {}", args.model.display(), args.manifest.display());
         crate::report::estimate::write(out, &title, Protocol::Unseen, &report, &details)

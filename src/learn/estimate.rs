@@ -220,6 +220,8 @@ pub struct EstimateReport {
     /// Over every row evaluated, the augmented views (captures, rotations, …) among them.
     #[serde(flatten)]
     pub errors: Errors,
+    /// Illuminations evaluated (each held out in turn under cross-validation).
+    pub illuminations: usize,
     /// How many rows are augmented views.
     pub augmented: usize,
     /// The intervals' half-widths, from every row's error.
@@ -476,6 +478,7 @@ fn report(ds: &Dataset, errors: &[RowErrors]) -> EstimateReport {
     };
     EstimateReport {
         errors: summarize(errors.iter()).unwrap_or(none),
+        illuminations: ds.group_names.len(),
         augmented: ds.augmented.iter().filter(|&&a| a).count(),
         half_widths: widths(errors.iter()),
     }

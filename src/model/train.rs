@@ -6,6 +6,7 @@ use crate::features::stats;
 use crate::features::{CAPTURE_NAMES, Extensions, FeatureConfig, Preprocessing};
 use crate::image::decode::{self, DecodeOptions};
 use crate::image::display;
+use crate::learn::estimate::{self, EstimateReport, WardRegressor};
 use crate::learn::{self, CvReport, Dataset, LearnError, TrainSpec};
 use crate::model::{
     self, ClassInfo, CvSummary, Exemplar, FeatureSpec, ModelError, ModelFile, Provenance, SelfTest,
@@ -29,6 +30,8 @@ pub enum TrainError {
         "the feature table's columns are not the canonical features of the extraction configuration"
     )]
     Columns,
+    #[error("{0}: its columns are not the model's features (extract it with the same flags)")]
+    EstimatorColumns(String),
 }
 
 pub struct TrainOptions {
@@ -45,11 +48,29 @@ pub struct TrainOptions {
     /// The manifest the table was extracted from: exemplars get thumbnails of its images
     /// (`None`: no thumbnails).
     pub images: Option<Manifest>,
+    /// Fit a Ward-parameter estimator next to the classifier.
+    pub estimator: Option<EstimatorData>,
+}
+
+/// What a Ward-parameter estimator is fitted on.
+pub struct EstimatorData {
+    /// Rows of materials (any, not only the classifier's classes), with the model's columns.
+    pub table: FeatureTable,
+    /// Names the table (a path as given).
+    pub label: String,
+    /// The Ward parameters of the table's classes.
+    pub materials: Vec<Material>,
+    /// Random Fourier features and ridge penalty.
+    pub size: (usize, f64),
+    /// RBF γ (`None`: 1 / number of inputs).
+    pub gamma: Option<f64>,
 }
 
 pub struct Trained {
     pub model: ModelFile,
     pub report: Option<CvReport>,
+    /// The estimator's leave-one-illumination-out errors, when one was fitted.
+    pub estimate: Option<EstimateReport>,
 }
 
 /// The captures a table's model is trained for, when it has capture views: the ranges
@@ -136,8 +157,9 @@ pub fn train(
     train_with(table, dataset, options, &Silent)
 }
 
-/// [`train`] with stages (`"fit"`, `"cross_validate"`), fold progress and cooperative
-/// cancellation (before the fit and between folds: [`LearnError::Cancelled`]).
+/// [`train`] with stages (`"fit"`, `"cross_validate"`, `"estimate"`), fold progress and
+/// cooperative cancellation (before the fit, between folds and before the estimator:
+/// [`LearnError::Cancelled`]).
 pub fn train_with(
     table: &FeatureTable,
     dataset: &str,
@@ -168,6 +190,10 @@ pub fn train_with(
         )?)
     } else {
         None
+    };
+    let (estimator, estimate) = match &options.estimator {
+        Some(data) => fit_estimator(data, table, options, observer)?,
+        None => (None, None),
     };
     // Self-test: the first original (non-augmented) training image.
     let probe = ds.augmented.iter().position(|a| !a).unwrap_or(0);
@@ -252,11 +278,36 @@ pub fn train_with(
         },
         exemplars,
         capture: capture_envelope(table),
-        estimator: None,
+        estimator,
         sha256: String::new(),
     };
     model.verify()?;
-    Ok(Trained { model, report })
+    Ok(Trained {
+        model,
+        report,
+        estimate,
+    })
+}
+
+/// The estimator of `data` for a model of `table`'s columns and `options`' feature set.
+fn fit_estimator(
+    data: &EstimatorData,
+    table: &FeatureTable,
+    options: &TrainOptions,
+    observer: &dyn Observer,
+) -> Result<(Option<WardRegressor>, Option<EstimateReport>), TrainError> {
+    if data.table.names != table.names {
+        return Err(TrainError::EstimatorColumns(data.label.clone()));
+    }
+    if observer.cancelled() {
+        return Err(LearnError::Cancelled.into());
+    }
+    observer.stage("estimate");
+    let ds = Dataset::from_table(&data.table)?;
+    let features = &options.spec.features;
+    let ridge = estimate::ridge_spec(features, &ds.names, data.size, data.gamma, options.seed)?;
+    let fit = estimate::fit(&ds, &data.label, &data.materials, features, &ridge)?;
+    Ok((Some(fit.regressor), Some(fit.report)))
 }
 
 #[cfg(test)]

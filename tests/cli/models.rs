@@ -32,6 +32,7 @@ fn trained(name: &str) -> ModelFile {
         classes: None,
         preprocessing: Default::default(),
         images: None,
+        estimator: None,
     };
     train(&table(), "fixture", &options).unwrap().model
 }

@@ -7,10 +7,9 @@ use reflectance::dataset::{self, FeatureTable};
 use reflectance::features::{Extractor, FeatureConfig};
 use reflectance::image::decode::DecodeOptions;
 use reflectance::image::decode::rgbe;
-use reflectance::learn::regress::RidgeSpec;
-use reflectance::learn::{ClassifierKind, Dataset, FeatureSet, TrainSpec, estimate};
+use reflectance::learn::{ClassifierKind, FeatureSet, TrainSpec};
 use reflectance::model::registry::Registry;
-use reflectance::model::train::{TrainOptions, train};
+use reflectance::model::train::{EstimatorData, TrainOptions, train};
 use reflectance::render::Quality;
 use reflectance::render::batch::{self, Augment, BatchSpec};
 use reflectance::render::envmap::EnvMap;
@@ -125,36 +124,26 @@ pub fn fixture() -> &'static Fixture {
         let manifest = dataset::read_manifest(&train_manifest).unwrap();
         let table: FeatureTable =
             dataset::extract_manifest(&extractor, &manifest, &DecodeOptions::default()).unwrap();
+        let classes = batch::load_classes(&dir.join("classes.json")).unwrap();
         let options = TrainOptions {
             name: "ward6".into(),
             spec: TrainSpec::new(FeatureSet::Named("hand6"), ClassifierKind::Svm),
             seed: 1,
             cross_validate: true,
-            classes: Some(batch::load_classes(&dir.join("classes.json")).unwrap()),
+            classes: Some(classes.clone()),
             preprocessing: Default::default(),
             images: Some(manifest.clone()),
+            // A Ward-parameter estimator beside the classifier (three materials only: it is
+            // here for the answer's shape, not its accuracy).
+            estimator: Some(EstimatorData {
+                table: table.clone(),
+                label: "train/features.csv".into(),
+                materials: classes,
+                size: (50, 1e-2),
+                gamma: Some(1.0 / 6.0),
+            }),
         };
         let mut model = train(&table, "train/manifest.csv", &options).unwrap().model;
-        // A Ward-parameter estimator beside the classifier (three materials only: it is
-        // here for the answer's shape, not its accuracy).
-        let materials = options.classes.clone().unwrap();
-        let ds = Dataset::from_table(&table).unwrap();
-        let ridge = RidgeSpec {
-            features: 50,
-            gamma: 1.0 / 6.0,
-            lambda: 1e-2,
-            seed: 1,
-        };
-        let estimator = estimate::fit(
-            &ds,
-            "train/features.csv",
-            &materials,
-            &FeatureSet::Named("hand6"),
-            &ridge,
-        )
-        .unwrap()
-        .regressor;
-        model.estimator = Some(estimator);
         let models = dir.join("models");
         Registry::new(&models).publish(&mut model, &[]).unwrap();
         let test = dataset::read_manifest(&test_manifest).unwrap();

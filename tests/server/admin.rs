@@ -330,6 +330,32 @@ async fn render_train_activate_roll_back_and_delete() {
         .await
         .problem(422, "invalid-path");
 
+    // A model trained with an estimator beside its classifier.
+    let with_estimator = submit(
+        &server,
+        json!({"type": "train", "name": "ward6", "table": "table.csv", "activate": "never",
+               "cross_validate": false, "estimator_table": "table.csv",
+               "estimator_classes": "classes.json"}),
+    )
+    .await;
+    let done = wait_for(&server, with_estimator["id"].as_str().unwrap(), TERMINAL).await;
+    assert_eq!(done["state"], "succeeded", "{done}");
+    assert_eq!(done["result"]["estimate"]["n"], done["result"]["images"]);
+    assert!(
+        done["result"]["model"]["version"].as_u64().is_some(),
+        "{done}"
+    );
+    let half = json!({"type": "train", "name": "ward6", "table": "table.csv",
+                      "estimator_table": "table.csv"});
+    let refused = send(&server.admin, authed(post_json("/admin/v1/jobs", &half))).await;
+    refused.problem(422, "invalid-job");
+    assert!(
+        refused.json()["detail"]
+            .as_str()
+            .unwrap()
+            .contains("both or neither")
+    );
+
     // Extraction extensions: log-domain and radial features named by the set, a working radius.
     let log = submit(
         &server,
@@ -348,7 +374,7 @@ async fn render_train_activate_roll_back_and_delete() {
     let list = send(&server.admin, authed(get("/admin/v1/jobs?state=succeeded")))
         .await
         .json();
-    assert_eq!(list["jobs"].as_array().unwrap().len(), 6);
+    assert_eq!(list["jobs"].as_array().unwrap().len(), 7);
     assert_eq!(list["jobs"][0]["id"], log["id"], "newest first");
     let list = send(&server.admin, authed(get("/admin/v1/jobs?state=failed")))
         .await

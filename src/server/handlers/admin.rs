@@ -57,7 +57,14 @@ fn check_keys(body: &Value) -> Result<(), ApiError> {
     };
     let kind = map.get("type").and_then(Value::as_str).unwrap_or_default();
     let extra: &[&str] = match kind {
-        "train" => &["name", "activate", "classes", "cross_validate"],
+        "train" => &[
+            "name",
+            "activate",
+            "classes",
+            "cross_validate",
+            "estimator_table",
+            "estimator_classes",
+        ],
         "cross_validate" => &["ward_classes"],
         "render" => &["probes", "classes", "out", "size", "seed", "captures"],
         _ => {
@@ -380,10 +387,12 @@ mod tests {
                 activate: Activate::IfBetter,
                 classes: Some("classes.json".into()),
                 cross_validate: true,
+                estimator_table: Some("materials.csv".into()),
+                estimator_classes: Some("materials.json".into()),
             },
             JobRequest::CrossValidate {
                 data,
-                ward_classes: None,
+                ward_classes: Some("classes.json".into()),
             },
             JobRequest::Render {
                 probes: "probes".into(),

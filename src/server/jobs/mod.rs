@@ -143,6 +143,15 @@ pub enum JobRequest {
         #[serde(default = "default_true")]
         #[schema(default = true)]
         cross_validate: bool,
+        /// Also fit a Ward-parameter estimator on this feature table (relative to the data
+        /// directory; extracted with the model's feature flags), reading the model's
+        /// `features` (random Fourier features 1500, λ 0.01, γ = `gamma` or 1 / inputs).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        estimator_table: Option<String>,
+        /// The class file of the estimator table's materials (their Ward parameters),
+        /// relative to the data directory; required with `estimator_table`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        estimator_classes: Option<String>,
     },
     /// Leave-one-illumination-out cross-validation.
     CrossValidate {

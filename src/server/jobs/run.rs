@@ -128,7 +128,8 @@ pub struct JobResult {
     /// `train` (unless `cross_validate: false`) and `cross_validate`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cv: Option<CvResult>,
-    /// `cross_validate` with `ward_classes`: the Ward-parameter estimate's errors.
+    /// `cross_validate` with `ward_classes`, and `train` with `estimator_table`: the
+    /// Ward-parameter estimate's leave-one-illumination-out errors.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub estimate: Option<EstimateReport>,
     /// `render`.
@@ -171,6 +172,12 @@ impl From<TrainError> for Failure {
         }
     }
 }
+
+/// Random Fourier features and ridge penalty of the jobs' Ward-parameter estimators.
+const RIDGE_SIZE: (usize, f64) = (
+    estimate::DEFAULT_RIDGE_FEATURES,
+    estimate::DEFAULT_RIDGE_LAMBDA,
+);
 
 fn invalid(detail: impl Into<String>) -> ApiError {
     ApiError::new(Kind::InvalidJob, detail)
@@ -226,6 +233,8 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
             activate,
             classes,
             cross_validate,
+            estimator_table,
+            estimator_classes,
         } => {
             if !registry::valid_name(name) {
                 return Err(invalid(format!(
@@ -241,6 +250,18 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
             check_data(p, data)?;
             if let Some(c) = classes {
                 data.existing("classes", c).map_err(path_error)?;
+            }
+            match (estimator_table, estimator_classes) {
+                (Some(t), Some(c)) => {
+                    data.existing("estimator_table", t).map_err(path_error)?;
+                    data.existing("estimator_classes", c).map_err(path_error)?;
+                }
+                (None, None) => {}
+                _ => {
+                    return Err(invalid(
+                        "estimator_table and estimator_classes go together: give both or neither",
+                    ));
+                }
             }
             Ok(())
         }
@@ -276,6 +297,31 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
             data.check_output("out", out).map_err(path_error)
         }
     }
+}
+
+/// What a `train` job fits its Ward-parameter estimator on, when it asks for one.
+fn estimator_data(
+    p: &LearnParams,
+    table: &Option<String>,
+    classes: &Option<String>,
+    data: &DataDir,
+) -> Result<Option<train::EstimatorData>, Failure> {
+    let (Some(table), Some(classes)) = (table, classes) else {
+        return Ok(None);
+    };
+    let table_path = data
+        .existing("estimator_table", table)
+        .map_err(Failure::Error)?;
+    let classes_path = data
+        .existing("estimator_classes", classes)
+        .map_err(Failure::Error)?;
+    Ok(Some(train::EstimatorData {
+        table: FeatureTable::read(&table_path)?,
+        label: table.clone(),
+        materials: batch::load_classes(&classes_path)?,
+        size: RIDGE_SIZE,
+        gamma: p.gamma,
+    }))
 }
 
 /// The feature table of a learning job (extracting features from a manifest's images).
@@ -324,6 +370,8 @@ pub fn execute(
             activate,
             classes,
             cross_validate,
+            estimator_table,
+            estimator_classes,
         } => {
             let spec = spec_of(p).map_err(|e| Failure::Error(e.detail))?;
             let classes = match classes {
@@ -348,6 +396,7 @@ pub fn execute(
                     None => Preprocessing::default(),
                 },
                 images: manifest,
+                estimator: estimator_data(p, estimator_table, estimator_classes, data)?,
             };
             let mut trained = train::train_with(&table, &label, &options, observer)?;
             if observer.cancelled() {
@@ -390,6 +439,7 @@ pub fn execute(
                     version,
                 }),
                 cv: trained.report.as_ref().map(CvResult::from),
+                estimate: trained.estimate.take(),
                 images: Some(table.samples.len()),
                 ..JobResult::default()
             };
@@ -463,11 +513,8 @@ pub fn execute(
             let (table, label, _) = load_table(p, data, limits, observer)?;
             let ds = Dataset::from_table(&table)?;
             observer.stage("cross_validate");
-            let size = (
-                estimate::DEFAULT_RIDGE_FEATURES,
-                estimate::DEFAULT_RIDGE_LAMBDA,
-            );
-            let ridge = estimate::ridge_spec(&spec.features, &ds.names, size, p.gamma, p.seed)?;
+            let ridge =
+                estimate::ridge_spec(&spec.features, &ds.names, RIDGE_SIZE, p.gamma, p.seed)?;
             let fit = estimate::fit(&ds, &label, &materials, &spec.features, &ridge)?;
             Ok(JobResult {
                 estimate: Some(fit.report),
