@@ -171,3 +171,15 @@ fn stage_statistics(bencher: Bencher) {
     let stages = extractor.stages_of_unwrapped(unwrapped());
     bencher.bench(|| extractor.features_of(divan::black_box(&stages)));
 }
+
+/// The centre features' cost (the Ward-parameter estimators read them): the 117 features at
+/// the shipped working radius, without and with `ctr.*`.
+#[divan::bench(args = [false, true])]
+fn features_with_centre(bencher: Bencher, centre: bool) {
+    let extensions = Extensions {
+        centre,
+        ..Extensions::default()
+    };
+    let config = FeatureConfig::extended(extensions, Preprocessing::at_radius(116.36));
+    bench_extraction(bencher, config);
+}

@@ -2,7 +2,7 @@
 
 use super::{CliResult, LimitArgs};
 use crate::dataset::{self, FeatureTable, Manifest};
-use crate::features::{Extractor, FeatureConfig};
+use crate::features::{Extensions, Extractor, FeatureConfig};
 use crate::learn::estimate;
 use crate::learn::regress::RidgeSpec;
 use crate::learn::{CvReport, DEFAULT_C, Dataset, FeatureSet, SpecText, TrainSpec};
@@ -63,7 +63,8 @@ impl DataArgs {
 #[derive(Args, Debug)]
 pub struct SpecArgs {
     /// A named set (hand6, hand2, mean1, hand6+log, hand6+log+radial, hand6+log+radial+dep,
-    /// hand6+cap, hand6+log+cap), all, auto<N>, pca<N>, or a comma-separated list of names.
+    /// hand6+cap, hand6+log+cap, hand6+log+cap+ctr), all, auto<N>, pca<N>, or a
+    /// comma-separated list of names.
     /// `all`, `auto<N>` and `pca<N>` range over the table's columns.
     #[arg(long)]
     features: String,
@@ -357,20 +358,45 @@ pub struct EstimatorArgs {
     /// The class file of the estimator table's materials (their Ward parameters).
     #[arg(long, requires = "estimator_table")]
     estimator_classes: Option<PathBuf>,
+    /// The estimator's features (a named set or a list of names; default: --features). The
+    /// extraction computes the families they name, e.g. the centre for hand6+log+cap+ctr.
+    #[arg(long, requires = "estimator_table")]
+    estimator_features: Option<String>,
     #[command(flatten)]
     ridge: RidgeArgs,
 }
 
 impl EstimatorArgs {
-    /// What the estimator is fitted on, when asked for (γ: --ridge-gamma, else `gamma`).
-    fn data(&self, gamma: Option<f64>) -> Result<Option<train::EstimatorData>, String> {
+    /// `config` with the families the estimator's features name.
+    fn config(&self, config: FeatureConfig) -> FeatureConfig {
+        let Some(features) = &self.estimator_features else {
+            return config;
+        };
+        let extensions = config.extensions().union(Extensions::of_spec(features));
+        FeatureConfig::extended(extensions, config.preprocessing())
+    }
+
+    /// What the estimator is fitted on, when asked for (γ: --ridge-gamma, else `gamma`),
+    /// for a model of the columns `names`.
+    fn data(
+        &self,
+        gamma: Option<f64>,
+        names: &[String],
+    ) -> Result<Option<train::EstimatorData>, String> {
         let (Some(table), Some(classes)) = (&self.estimator_table, &self.estimator_classes) else {
             return Ok(None);
         };
+        let features = self
+            .estimator_features
+            .as_deref()
+            .map(|spec| FeatureSet::parse_with(spec, names))
+            .transpose()
+            .map_err(|e| e.to_string())?;
         Ok(Some(train::EstimatorData {
             table: FeatureTable::read(table).map_err(|e| e.to_string())?,
             label: table.display().to_string(),
             materials: load_classes(classes).map_err(|e| e.to_string())?,
+            features,
             size: (self.ridge.ridge_features, self.ridge.ridge_lambda),
             gamma: self.ridge.ridge_gamma.or(gamma),
         }))
@@ -390,9 +416,8 @@ pub fn train(args: TrainArgs) -> CliResult {
         .map(load_classes)
         .transpose()
         .map_err(|e| e.to_string())?;
-    let (table, label, manifest) = args
-        .data
-        .load_with_manifest(&args.limits, args.spec.config()?)?;
+    let config = args.estimator.config(args.spec.config()?);
+    let (table, label, manifest) = args.data.load_with_manifest(&args.limits, config)?;
     let options = TrainOptions {
         name: args.name.clone(),
         spec: args.spec.spec(&table.names)?,
@@ -401,7 +426,7 @@ pub fn train(args: TrainArgs) -> CliResult {
         classes,
         preprocessing: args.spec.extensions.preprocessing(),
         images: manifest,
-        estimator: args.estimator.data(args.spec.gamma)?,
+        estimator: args.estimator.data(args.spec.gamma, &table.names)?,
     };
     let bar = progress::bar(0, "train");
     let mut trained =

@@ -162,6 +162,11 @@ pub struct ExtensionArgs {
     /// the sphere, `cap.clipped`: its clipped fraction, `cap.blur`: the blur of its rim).
     #[arg(long)]
     capture_features: bool,
+    /// Also measure the sphere's centre against white (`ctr.*`: log10 of the disc inside
+    /// r/√2 over white, its mean, its inner half's mean and three percentiles), a cue to the
+    /// total reflectance that the annulus lacks.
+    #[arg(long)]
+    centre_features: bool,
     /// Reduce spheres larger than this radius (px) to it before extraction (area
     /// averaging), as models trained at that radius expect.
     #[arg(long)]
@@ -180,6 +185,7 @@ impl ExtensionArgs {
             radial: self.radial_features,
             dependencies: self.dependency_features,
             capture: self.capture_features,
+            centre: self.centre_features,
         };
         crate::features::FeatureConfig::for_spec(asked, spec, self.preprocessing())
             .map_err(|e| e.to_string())

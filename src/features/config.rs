@@ -4,7 +4,7 @@
 use super::layout::{BlockLayout, Layout};
 use super::polar::UnwrapConfig;
 use super::sets::named_set;
-use super::{CAPTURE_PREFIX, DEPENDENCY_PREFIX, LEVELS, LOG_PREFIX, RADIAL_PREFIX};
+use super::{CAPTURE_PREFIX, CENTRE_PREFIX, DEPENDENCY_PREFIX, LEVELS, LOG_PREFIX, RADIAL_PREFIX};
 use serde::{Deserialize, Serialize};
 use std::sync::OnceLock;
 
@@ -23,6 +23,8 @@ pub struct Extensions {
     /// What the camera added, measured on the sphere (`cap.*`: [`crate::features::noise`]), after
     /// every block.
     pub capture: bool,
+    /// The sphere's centre against white (`ctr.*`: [`crate::features::centre`]), last.
+    pub centre: bool,
 }
 
 impl Extensions {
@@ -32,6 +34,7 @@ impl Extensions {
         radial: true,
         dependencies: true,
         capture: true,
+        centre: true,
     };
 
     /// The extensions whose features occur among `names` (a table's columns, a list).
@@ -44,6 +47,7 @@ impl Extensions {
                 radial: seen.radial || block_name.starts_with(RADIAL_PREFIX),
                 dependencies: seen.dependencies || block_name.starts_with(DEPENDENCY_PREFIX),
                 capture: seen.capture || name.starts_with(CAPTURE_PREFIX),
+                centre: seen.centre || name.starts_with(CENTRE_PREFIX),
             }
         })
     }
@@ -64,6 +68,7 @@ impl Extensions {
             radial: self.radial || other.radial,
             dependencies: self.dependencies || other.dependencies,
             capture: self.capture || other.capture,
+            centre: self.centre || other.centre,
         }
     }
 }
@@ -90,6 +95,10 @@ pub struct FeatureConfig {
     /// block; an extension, docs/design.md §8). Absent in older model files.
     #[serde(default, skip_serializing_if = "is_false")]
     pub capture: bool,
+    /// Also compute the sphere's centre against white, `ctr.*` (last; an extension,
+    /// docs/design.md §8). Absent in older model files.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub centre: bool,
     /// Spheres larger than this radius (px) are first area-downsampled to it, so a model
     /// sees the same effective resolution as in training (see `resample`). None: no
     /// resampling (the paper's definition).
@@ -133,6 +142,7 @@ impl Default for FeatureConfig {
             radial: false,
             dependencies: false,
             capture: false,
+            centre: false,
             working_radius: None,
             saturation: None,
         }
@@ -215,6 +225,7 @@ impl FeatureConfig {
             radial: extensions.radial,
             dependencies: extensions.dependencies,
             capture: extensions.capture,
+            centre: extensions.centre,
             working_radius: preprocessing.working_radius,
             saturation: preprocessing.saturation,
             ..FeatureConfig::default()
@@ -258,6 +269,7 @@ impl FeatureConfig {
             radial: self.radial,
             dependencies: self.dependencies,
             capture: self.capture,
+            centre: self.centre,
         }
     }
 
@@ -271,6 +283,7 @@ impl FeatureConfig {
             },
             log_domain: self.log_domain,
             capture: self.capture,
+            centre: self.centre,
         }
     }
 

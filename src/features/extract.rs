@@ -2,6 +2,7 @@
 //! statistics and band powers → the feature vector in [`Layout`] order; or only the
 //! features a classifier reads, bit-identical to the full vector's.
 
+use super::centre;
 use super::config::{ConfigError, FeatureConfig};
 use super::layout::{BlockLayout, Layout, STATS};
 use super::noise;
@@ -194,10 +195,11 @@ impl Extractor {
             Some(wanted) => self.subset_of_blocks(&unwrapped, wanted),
         };
         let mut measurements = measure.then(measured);
+        let needed = |range: std::ops::Range<usize>| {
+            wanted.is_none_or(|w| w.iter().any(|i| range.contains(i)))
+        };
         if self.config.capture {
-            let blocks = values.len();
-            let needed = wanted.is_none_or(|w| w.iter().any(|&i| i >= blocks));
-            values.extend(match needed {
+            values.extend(match needed(self.layout.capture()) {
                 true => {
                     let m = *measurements.get_or_insert_with(measured);
                     let blur = noise::rim_blur(luminance, circle).unwrap_or(0.0) / circle.r;
@@ -208,6 +210,12 @@ impl Extractor {
                     ]
                 }
                 false => [f64::NAN; 3],
+            });
+        }
+        if self.config.centre {
+            values.extend(match needed(self.layout.centre()) {
+                true => centre::centre_features(seen, seen_circle, white),
+                false => [f64::NAN; 5],
             });
         }
         (values, measurements.filter(|_| measure))
@@ -509,7 +517,7 @@ fn put_summary(out: &mut [f64], s: &Summary) {
 mod tests {
     use super::*;
     use crate::features::polar::UnwrapConfig;
-    use crate::features::{CAPTURE_NAMES, FEATURE_COUNT, RADIAL_RINGS};
+    use crate::features::{CAPTURE_NAMES, CENTRE_NAMES, FEATURE_COUNT, RADIAL_RINGS};
     use crate::features::{Extensions, Preprocessing, default_names, named_set};
     use crate::image::geometry::Circle;
 
@@ -541,8 +549,9 @@ mod tests {
         }
         let every = FeatureConfig::extended(Extensions::ALL, Preprocessing::default()).names();
         let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14 + 12;
-        assert_eq!(every.len(), 2 * block + 3);
-        assert_eq!(every[2 * block..], CAPTURE_NAMES);
+        assert_eq!(every.len(), 2 * block + 3 + 5);
+        assert_eq!(every[2 * block..2 * block + 3], CAPTURE_NAMES);
+        assert_eq!(every[2 * block + 3..], CENTRE_NAMES);
         assert_eq!(every[..FEATURE_COUNT], names[..]);
         let last_pair = format!("r{}_r{RADIAL_RINGS}", RADIAL_RINGS - 1);
         assert_eq!(
@@ -802,8 +811,9 @@ mod tests {
         .unwrap();
         let extended_full = extended.extract(luminance.view(), &circle, 0.9);
         let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14 + 12;
-        assert_eq!(extended.feature_count(), 2 * block + 3);
-        assert_eq!(extended_full.len(), 2 * block + 3);
+        let count = 2 * block + 3 + 5;
+        assert_eq!(extended.feature_count(), count);
+        assert_eq!(extended_full.len(), count);
         let extended_subsets = [
             vec![3, block + 1, block + 99, 2 * block - 1],
             // dep.s3.vd alone (three pyramid levels), dep.s1.hv and log.dep.s4.hd
@@ -816,11 +826,15 @@ mod tests {
             vec![2 * block + 1],
             vec![5, 2 * block],
             vec![2 * block + 2],
-            (0..2 * block + 3).collect::<Vec<_>>(),
+            // The centre features, alone, with a capture measurement and with a block feature.
+            vec![2 * block + 4],
+            vec![2 * block + 2, 2 * block + 3],
+            vec![7, count - 1],
+            (0..count).collect::<Vec<_>>(),
         ];
         for wanted in extended_subsets {
             let part = extended.extract_subset(luminance.view(), &circle, 0.9, &wanted);
-            assert_eq!(part.len(), 2 * block + 3);
+            assert_eq!(part.len(), count);
             for &i in &wanted {
                 assert_eq!(
                     part[i].to_bits(),

@@ -5,8 +5,8 @@
 use super::spectrum::ORIENTATIONS;
 use super::stats::STAT_NAMES;
 use super::{
-    BAND_NAMES, CAPTURE_NAMES, DEPENDENCY_PREFIX, LOG_PREFIX, ORIENTATION_PAIRS, RADIAL_PREFIX,
-    RADIAL_RINGS,
+    BAND_NAMES, CAPTURE_NAMES, CENTRE_NAMES, DEPENDENCY_PREFIX, LOG_PREFIX, ORIENTATION_PAIRS,
+    RADIAL_PREFIX, RADIAL_RINGS,
 };
 use std::ops::Range;
 
@@ -150,12 +150,14 @@ impl BlockLayout {
 }
 
 /// The whole vector: the block of the unwrapped image, the block of its log10 (with the
-/// log-domain extension, names prefixed `log.`), then the capture measurements.
+/// log-domain extension, names prefixed `log.`), then the capture measurements, then the
+/// centre features.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Layout {
     pub block: BlockLayout,
     pub log_domain: bool,
     pub capture: bool,
+    pub centre: bool,
 }
 
 impl Layout {
@@ -174,8 +176,17 @@ impl Layout {
         }
     }
 
+    /// The centre features (empty without the extension).
+    pub fn centre(&self) -> Range<usize> {
+        let start = self.capture().end;
+        match self.centre {
+            true => start..start + CENTRE_NAMES.len(),
+            false => start..start,
+        }
+    }
+
     pub fn count(&self) -> usize {
-        self.capture().end
+        self.centre().end
     }
 
     pub fn names(&self) -> Vec<String> {
@@ -189,7 +200,16 @@ impl Layout {
             .iter()
             .filter(|_| self.capture)
             .map(|n| n.to_string());
-        block.into_iter().chain(log).chain(capture).collect()
+        let centre = CENTRE_NAMES
+            .iter()
+            .filter(|_| self.centre)
+            .map(|n| n.to_string());
+        block
+            .into_iter()
+            .chain(log)
+            .chain(capture)
+            .chain(centre)
+            .collect()
     }
 }
 
@@ -200,12 +220,13 @@ mod tests {
 
     #[test]
     fn every_index_has_exactly_one_name_in_every_configuration() {
-        for bits in 0..16u8 {
+        for bits in 0..32u8 {
             let extensions = Extensions {
                 log_domain: bits & 1 != 0,
                 radial: bits & 2 != 0,
                 dependencies: bits & 4 != 0,
                 capture: bits & 8 != 0,
+                centre: bits & 16 != 0,
             };
             for levels in [2, 4, 5] {
                 let config = FeatureConfig {

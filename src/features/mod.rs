@@ -1,13 +1,15 @@
 //! Features: the unwrapped annulus ([`polar`]), its QMF pyramid ([`pyramid`]), statistics
 //! ([`stats`]) and band powers ([`spectrum`]) → the named feature bank (117 features with
 //! the default configuration, docs/design.md §3), the optional families (§8), the capture
-//! measurements ([`noise`]) and the named feature sets.
+//! measurements ([`noise`]), the sphere's centre against white ([`centre`]) and the named
+//! feature sets.
 //!
 //! [`layout`] fixes where every feature sits; [`config`] is what a model file records;
 //! [`extract`] computes the vectors; [`analysis`] is the front half of the pipeline (a
 //! decoded image, where the sphere is and how bright white is → features).
 
 pub mod analysis;
+pub(crate) mod centre;
 pub(crate) mod config;
 pub(crate) mod extract;
 pub(crate) mod layout;
@@ -49,5 +51,10 @@ pub const CAPTURE_PREFIX: &str = "cap.";
 /// fraction of the radius (floored at 1e-4): the blur a gloss would have to match, since a
 /// lobe's blur grows with the sphere and the lens's does not.
 pub const CAPTURE_NAMES: [&str; 3] = ["cap.noise", "cap.clipped", "cap.blur"];
+/// Prefix of the centre features' names.
+pub const CENTRE_PREFIX: &str = "ctr.";
+/// The centre features ([`centre`]): log10 of the disc inside r/√2 against white, its mean, its
+/// inner half's mean and its 10th, 50th and 90th percentiles.
+pub const CENTRE_NAMES: [&str; 5] = ["ctr.mean", "ctr.core", "ctr.p10", "ctr.p50", "ctr.p90"];
 /// The pairs of orientations whose subband magnitudes the dependency features correlate.
 const ORIENTATION_PAIRS: [(usize, usize); 3] = [(0, 1), (0, 2), (1, 2)];

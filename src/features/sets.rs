@@ -2,11 +2,13 @@
 
 use super::layout::BlockLayout;
 use super::stats::STAT_NAMES;
-use super::{BAND_NAMES, CAPTURE_NAMES, DEPENDENCY_PREFIX, LEVELS, LOG_PREFIX, RADIAL_PREFIX};
+use super::{
+    BAND_NAMES, CAPTURE_NAMES, CENTRE_NAMES, DEPENDENCY_PREFIX, LEVELS, LOG_PREFIX, RADIAL_PREFIX,
+};
 
 /// The named feature sets: the paper's hand-picked ones, the trivial one, and hand6 with
 /// our extensions ([`named_set`] lists their features).
-pub const NAMED_SETS: [&str; 8] = [
+pub const NAMED_SETS: [&str; 9] = [
     "hand6",
     "hand2",
     "mean1",
@@ -15,12 +17,14 @@ pub const NAMED_SETS: [&str; 8] = [
     "hand6+log+radial+dep",
     "hand6+cap",
     "hand6+log+cap",
+    "hand6+log+cap+ctr",
 ];
 
 /// The paper's hand-picked sets (§6.3, Fig. 7), the trivial one, hand6 extended with the
 /// log-domain pixel statistics and subband variances (`hand6+log`), and that with the
 /// log-domain radial changes (`hand6+log+radial`; docs/design.md §8), and hand6 and hand6+log with
-/// the capture measurements (`hand6+cap`, `hand6+log+cap`).
+/// the capture measurements (`hand6+cap`, `hand6+log+cap`), and the last with the centre
+/// features (`hand6+log+cap+ctr`: the Ward-parameter estimate's, docs/design.md §8).
 pub fn named_set(name: &str) -> Option<Vec<String>> {
     const HAND6: [&str; 6] = [
         "pix.mean",
@@ -38,6 +42,11 @@ pub fn named_set(name: &str) -> Option<Vec<String>> {
         "hand6+log+cap" => {
             let mut names = named_set("hand6+log")?;
             names.extend(CAPTURE_NAMES.iter().map(|n| n.to_string()));
+            Some(names)
+        }
+        "hand6+log+cap+ctr" => {
+            let mut names = named_set("hand6+log+cap")?;
+            names.extend(CENTRE_NAMES.iter().map(|n| n.to_string()));
             Some(names)
         }
         "hand6+cap" => Some(

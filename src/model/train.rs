@@ -7,7 +7,7 @@ use crate::features::{CAPTURE_NAMES, Extensions, FeatureConfig, Preprocessing};
 use crate::image::decode::{self, DecodeOptions};
 use crate::image::display;
 use crate::learn::estimate::{self, EstimateReport, WardRegressor};
-use crate::learn::{self, CvReport, Dataset, LearnError, TrainSpec};
+use crate::learn::{self, CvReport, Dataset, FeatureSet, LearnError, TrainSpec};
 use crate::model::{
     self, ClassInfo, CvSummary, Exemplar, FeatureSpec, ModelError, ModelFile, Provenance, SelfTest,
     Ward,
@@ -60,6 +60,8 @@ pub struct EstimatorData {
     pub label: String,
     /// The Ward parameters of the table's classes.
     pub materials: Vec<Material>,
+    /// The estimator's inputs (`None`: the classifier's feature set).
+    pub features: Option<FeatureSet>,
     /// Random Fourier features and ridge penalty.
     pub size: (usize, f64),
     /// RBF γ (`None`: 1 / number of inputs).
@@ -304,7 +306,7 @@ fn fit_estimator(
     }
     observer.stage("estimate");
     let ds = Dataset::from_table(&data.table)?;
-    let features = &options.spec.features;
+    let features = data.features.as_ref().unwrap_or(&options.spec.features);
     let ridge = estimate::ridge_spec(features, &ds.names, data.size, data.gamma, options.seed)?;
     let fit = estimate::fit(&ds, &data.label, &data.materials, features, &ridge)?;
     Ok((Some(fit.regressor), Some(fit.report)))

@@ -6,6 +6,11 @@
 //! `paper9_6`, `paper9_11`, `all_6`, `all_11` (probe set × class set). Features (with the
 //! log-domain and radial ones) are cached as `features.csv` next to each manifest.
 //!
+//! With a fifth, `materials` (materials of a continuous design rendered like the others, with
+//! the class file they were rendered from as `materials/materials.json`), the report also
+//! cross-validates the Ward-parameter estimate and writes `estimate.md`, `estimate.json` and
+//! `estimate.png`.
+//!
 //! Three protocols: the paper's (original renders only, the 117 features) for every cell of
 //! Tables 1 and 2, and ours for hand6, hand6+log and hand6+log+radial: `augmented`
 //! (training views of the probes, when the data sets have them) and `synthetic` (those views
@@ -18,7 +23,9 @@ pub(crate) mod robustness;
 use crate::dataset::{self, FeatureTable};
 use crate::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
 use crate::image::decode::DecodeOptions;
+use crate::learn::estimate::{self as ward, EstimateReport};
 use crate::learn::{self, ClassifierKind, CvReport, Dataset, FeatureSet, TrainSpec};
+use crate::render::batch;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -51,6 +58,9 @@ pub const DATASETS: [(&str, &str); 4] = [
     ("all_6", "6 classes, all (70 maps)"),
     ("all_11", "11 classes, all (70 maps)"),
 ];
+
+/// The optional data set of the Ward-parameter estimate, and its class file within.
+pub const MATERIALS: (&str, &str) = ("materials", "materials.json");
 
 /// Table 1 rows after `chance`: feature sets for the SVM.
 pub const TABLE1_ROWS: [&str; 6] = ["mean1", "hand2", "hand6", "auto6", "pca6", "all"];
@@ -103,6 +113,9 @@ pub struct Report {
     pub datasets: Vec<DatasetSummary>,
     pub chance: Vec<f64>,
     pub cells: Vec<Cell>,
+    /// The Ward-parameter estimate cross-validated on `materials`, when the data have it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimate: Option<EstimateReport>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -252,11 +265,45 @@ pub fn run(
         chance: datasets.iter().map(|d| 1.0 / d.classes as f64).collect(),
         datasets,
         cells,
+        estimate: estimate_of(data, out, seed, options)?,
     };
     let json = serde_json::to_vec_pretty(&report).map_err(|e| ReportError::Plot(e.to_string()))?;
     write(&out.join("report.json"), &json)?;
     write(&out.join("report.md"), markdown(&report).as_bytes())?;
     Ok(report)
+}
+
+/// The Ward-parameter estimate on `data/materials`, cross-validated over its illuminations as
+/// the shipped estimators are fitted (their features, λ and γ), written into `out`
+/// (`estimate.md`, `.json`, `.png`); `None` without that data set.
+fn estimate_of(
+    data: &Path,
+    out: &Path,
+    seed: u64,
+    options: &DecodeOptions,
+) -> Result<Option<EstimateReport>, ReportError> {
+    let (name, classes) = MATERIALS;
+    let dir = data.join(name);
+    if !dir.join("manifest.csv").is_file() {
+        return Ok(None);
+    }
+    let materials = batch::load_classes(&dir.join(classes)).map_err(|e| {
+        ReportError::Input(format!(
+            "{}: {e} (the materials' class file, as rendered, belongs beside the manifest)",
+            dir.display()
+        ))
+    })?;
+    let table = features_of(&dir, options)?.without_synthetic();
+    let ds = Dataset::from_table(&table)?;
+    let features = FeatureSet::parse_with(ward::SHIPPED_FEATURES, &ds.names)?;
+    let size = (ward::DEFAULT_RIDGE_FEATURES, ward::DEFAULT_RIDGE_LAMBDA);
+    let gamma = Some(ward::SHIPPED_RIDGE_GAMMA);
+    let ridge = ward::ridge_spec(&features, &ds.names, size, gamma, seed)?;
+    let fit = ward::fit(&ds, name, &materials, &features, &ridge)?;
+    let title = format!("{} on {name}", ward::SHIPPED_FEATURES);
+    let protocol = estimate::Protocol::CrossValidated;
+    estimate::write(out, &title, protocol, &fit.report, &fit.details)?;
+    Ok(Some(fit.report))
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
@@ -382,10 +429,62 @@ pub fn markdown(report: &Report) -> String {
          matrices of hand6 (paper protocol) and hand6+log (augmented) SVMs in `confusion_*.png`; \
          the Fig. 7 scatter with the SVM's decision regions in `fig7_*.png`.\n",
     );
+    estimate_section(&mut md, report.estimate.as_ref());
     md
+}
+
+/// The estimate's headline errors (the rest is in `estimate.md`), or how to get them.
+fn estimate_section(md: &mut String, estimate: Option<&EstimateReport>) {
+    let (name, classes) = MATERIALS;
+    md.push_str("\n## Beyond the paper — the Ward parameters themselves\n\n");
+    let Some(r) = estimate else {
+        let _ = writeln!(
+            md,
+            "Not measured: add a data set `{name}` (materials of `reflectance materials` rendered \
+             like the others, with their class file as `{name}/{classes}`) for the \
+             leave-one-illumination-out errors of the Ward-parameter estimate."
+        );
+        return;
+    };
+    let e = &r.errors;
+    let pct = |x: f64| format!("{:.1} %", 100.0 * x);
+    let _ = writeln!(
+        md,
+        "{} on `{name}`, leave-one-illumination-out over {} illuminations ({} images, {} of them \
+         augmented views, evaluated too):\n\n\
+         | total reflectance MAE | ρd MAE | ρs MAE | mirror or not | log10 α MAE (glossy) | 90 % intervals cover ρd / ρs / α |\n\
+         |---|---|---|---|---|---|\n\
+         | {:.3} | {:.3} | {:.3} | {} | {} | {} / {} / {} |\n\n\
+         Per illumination, originals against views, and estimated against true: `estimate.md`, \
+         `estimate.json`, `estimate.png`.",
+        ward::SHIPPED_FEATURES,
+        r.illuminations,
+        e.n,
+        r.augmented,
+        e.mae_total,
+        e.mae_rho_d,
+        e.mae_rho_s,
+        pct(e.mirror_accuracy),
+        e.mae_log10_alpha.map_or("—".into(), |v| format!("{v:.3}")),
+        pct(e.coverage_rho_d),
+        pct(e.coverage_rho_s),
+        pct(e.coverage_alpha),
+    );
 }
 
 /// Default output folder for `report --data DIR`.
 pub fn default_out(data: &Path) -> PathBuf {
     data.join("report")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn without_materials_the_report_says_how_to_measure_the_estimate() {
+        let mut md = String::new();
+        estimate_section(&mut md, None);
+        assert!(md.contains("Not measured") && md.contains("`materials/materials.json`"));
+    }
 }

@@ -366,6 +366,7 @@ fn materials_design_a_class_file_that_render_and_the_estimate_take() {
         manifest.to_str().unwrap(),
         "--out",
         table.to_str().unwrap(),
+        "--centre-features",
     ]));
     let cv = |more: &[&str]| {
         let base = [
@@ -441,9 +442,19 @@ fn materials_design_a_class_file_that_render_and_the_estimate_take() {
         table_arg,
         "--estimator-classes",
         file_arg,
+        "--estimator-features",
+        "pix.mean,ctr.mean,ctr.core",
         "--ridge-features",
         "50",
     ]));
+    // The estimator reads its own features, the classifier hand6.
+    let model: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(models.join("m/1/model.json")).unwrap()).unwrap();
+    assert_eq!(
+        model["estimator"]["inputs"],
+        serde_json::json!(["pix.mean", "ctr.mean", "ctr.core"])
+    );
+    assert_eq!(model["features"]["set"], "hand6");
     let predictions = dir.join("predictions.csv");
     let out = run(&[
         "predict",

@@ -64,7 +64,7 @@ fn report_writes_both_tables_json_and_plots() {
     let dir = temp_dir("report");
     let rendered = render(&dir);
     let data = dir.join("data");
-    for name in ["paper9_6", "paper9_11", "all_6", "all_11"] {
+    for name in ["paper9_6", "paper9_11", "all_6", "all_11", "materials"] {
         let target = data.join(name);
         std::fs::create_dir_all(&target).unwrap();
         for entry in std::fs::read_dir(&rendered).unwrap() {
@@ -72,6 +72,12 @@ fn report_writes_both_tables_json_and_plots() {
             std::fs::copy(entry.path(), target.join(entry.file_name())).unwrap();
         }
     }
+    // The estimate's data set: the same renders, with the Ward parameters they were made of.
+    std::fs::copy(
+        dir.join("classes.json"),
+        data.join("materials/materials.json"),
+    )
+    .unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_reflectance"))
         .args(["report", "--data", data.to_str().unwrap()])
         .output()
@@ -130,6 +136,17 @@ fn report_writes_both_tables_json_and_plots() {
             assert!(img.width() > 200 && img.height() > 200, "{plot}");
         }
     }
+    // The Ward-parameter estimate over the four probes' originals (synthetic maps left out).
+    assert!(md.contains("## Beyond the paper"), "{md}");
+    assert_eq!(json["estimate"]["n"], 12, "{}", json["estimate"]);
+    assert_eq!(json["estimate"]["illuminations"], 4);
+    let mae = json["estimate"]["mae_total"].as_f64().unwrap();
+    assert!((0.0..=1.0).contains(&mae), "{mae}");
+    let estimate_md = std::fs::read_to_string(report_dir.join("estimate.md")).unwrap();
+    assert!(
+        estimate_md.contains("### Per illumination"),
+        "{estimate_md}"
+    );
     // Cached features are reused on a second run.
     assert!(data.join("all_6/features.csv").is_file());
 }

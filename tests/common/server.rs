@@ -139,6 +139,7 @@ pub fn fixture() -> &'static Fixture {
                 table: table.clone(),
                 label: "train/features.csv".into(),
                 materials: classes,
+                features: None,
                 size: (50, 1e-2),
                 gamma: Some(1.0 / 6.0),
             }),

@@ -43,6 +43,7 @@ const LEARN: &[&str] = &[
     "radial_features",
     "dependency_features",
     "capture_features",
+    "centre_features",
     "working_radius",
     "saturation",
 ];

@@ -94,6 +94,10 @@ pub struct LearnParams {
     /// sets that name them).
     #[serde(default)]
     pub capture_features: bool,
+    /// With `dataset`: also measure the sphere's centre against white (`ctr.*`; implied by
+    /// feature sets that name them, such as `hand6+log+cap+ctr`).
+    #[serde(default)]
+    pub centre_features: bool,
     /// With `dataset`: reduce spheres larger than this radius (px, ≥ 32) before extraction;
     /// recorded in the model so that serving does the same.
     #[serde(default, skip_serializing_if = "Option::is_none")]

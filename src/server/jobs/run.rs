@@ -194,6 +194,7 @@ fn config_of(p: &LearnParams) -> Result<FeatureConfig, ApiError> {
         radial: p.radial_features,
         dependencies: p.dependency_features,
         capture: p.capture_features,
+        centre: p.centre_features,
     };
     let preprocessing = Preprocessing {
         working_radius: p.working_radius,
@@ -319,6 +320,7 @@ fn estimator_data(
         table: FeatureTable::read(&table_path)?,
         label: table.clone(),
         materials: batch::load_classes(&classes_path)?,
+        features: None,
         size: RIDGE_SIZE,
         gamma: p.gamma,
     }))
