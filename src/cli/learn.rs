@@ -63,7 +63,7 @@ impl DataArgs {
 #[derive(Args, Debug)]
 pub struct SpecArgs {
     /// A named set (hand6, hand2, mean1, hand6+log, hand6+log+radial, hand6+log+radial+dep,
-    /// hand6+cap, hand6+log+cap, hand6+log+cap+ctr), all, auto<N>, pca<N>, or a
+    /// hand6+cap, hand6+log+cap, hand6+log+cap+ctr, estimator), all, auto<N>, pca<N>, or a
     /// comma-separated list of names.
     /// `all`, `auto<N>` and `pca<N>` range over the table's columns.
     #[arg(long)]

@@ -15,9 +15,9 @@
 //! white sphere's own normal), and the 10th, 50th and 90th percentiles over the disc.
 //!
 //! The disc is read without the saturation ceiling of the annulus: a ceiling removes the very
-//! energy of the bright reflections this measures (over the 70 probes, the estimate's total
-//! reflectance error grows from 0.080 to 0.091 with it). What a camera clipped is measured
-//! by `cap.clipped`.
+//! energy of the bright reflections this measures (over the 70 probes, on hand6+log+cap+ctr,
+//! the estimate's total reflectance error grows from 0.080 to 0.091 with it). What a camera
+//! clipped is measured by `cap.clipped`.
 
 use super::LOG_PIXEL_FLOOR;
 use super::stats;

@@ -199,18 +199,20 @@ impl Extractor {
             wanted.is_none_or(|w| w.iter().any(|i| range.contains(i)))
         };
         if self.config.capture {
-            values.extend(match needed(self.layout.capture()) {
-                true => {
-                    let m = *measurements.get_or_insert_with(measured);
-                    let blur = noise::rim_blur(luminance, circle).unwrap_or(0.0) / circle.r;
-                    [
-                        m.noise.unwrap_or(0.0).max(NOISE_FLOOR).log10(),
-                        m.clipped,
-                        blur.max(NOISE_FLOOR).log10(),
-                    ]
-                }
-                false => [f64::NAN; 3],
-            });
+            // The rim's blur is the dearest; it is measured only when wanted.
+            let start = self.layout.capture().start;
+            let [noise, clipped, blur] = [0, 1, 2].map(|k| needed(start + k..start + k + 1));
+            let mut capture = [f64::NAN; 3];
+            if noise || clipped {
+                let m = *measurements.get_or_insert_with(measured);
+                capture[0] = m.noise.unwrap_or(0.0).max(NOISE_FLOOR).log10();
+                capture[1] = m.clipped;
+            }
+            if blur {
+                let sigma = noise::rim_blur(luminance, circle).unwrap_or(0.0) / circle.r;
+                capture[2] = sigma.max(NOISE_FLOOR).log10();
+            }
+            values.extend(capture);
         }
         if self.config.centre {
             values.extend(match needed(self.layout.centre()) {

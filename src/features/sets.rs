@@ -8,7 +8,7 @@ use super::{
 
 /// The named feature sets: the paper's hand-picked ones, the trivial one, and hand6 with
 /// our extensions ([`named_set`] lists their features).
-pub const NAMED_SETS: [&str; 9] = [
+pub const NAMED_SETS: [&str; 10] = [
     "hand6",
     "hand2",
     "mean1",
@@ -18,13 +18,16 @@ pub const NAMED_SETS: [&str; 9] = [
     "hand6+cap",
     "hand6+log+cap",
     "hand6+log+cap+ctr",
+    "estimator",
 ];
 
 /// The paper's hand-picked sets (§6.3, Fig. 7), the trivial one, hand6 extended with the
 /// log-domain pixel statistics and subband variances (`hand6+log`), and that with the
 /// log-domain radial changes (`hand6+log+radial`; docs/design.md §8), and hand6 and hand6+log with
 /// the capture measurements (`hand6+cap`, `hand6+log+cap`), and the last with the centre
-/// features (`hand6+log+cap+ctr`: the Ward-parameter estimate's, docs/design.md §8).
+/// features (`hand6+log+cap+ctr`), and `estimator`, the shipped Ward-parameter estimators'
+/// inputs: hand6+log+cap+ctr without `cap.blur`, so that a model whose classifier does not read
+/// the rim's blur need not measure it (docs/design.md §8).
 pub fn named_set(name: &str) -> Option<Vec<String>> {
     const HAND6: [&str; 6] = [
         "pix.mean",
@@ -47,6 +50,11 @@ pub fn named_set(name: &str) -> Option<Vec<String>> {
         "hand6+log+cap+ctr" => {
             let mut names = named_set("hand6+log+cap")?;
             names.extend(CENTRE_NAMES.iter().map(|n| n.to_string()));
+            Some(names)
+        }
+        "estimator" => {
+            let mut names = named_set("hand6+log+cap+ctr")?;
+            names.retain(|n| n != "cap.blur");
             Some(names)
         }
         "hand6+cap" => Some(

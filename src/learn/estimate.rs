@@ -28,11 +28,11 @@ pub const COVERAGE: f64 = 0.9;
 pub const DEFAULT_RIDGE_FEATURES: usize = 1500;
 /// Its ridge penalty λ, by default.
 pub const DEFAULT_RIDGE_LAMBDA: f64 = 1e-2;
-/// The RBF γ the shipped estimators and `report` use (on hand6+log+cap+ctr: the best of
+/// The RBF γ the shipped estimators and `report` use (on `estimator`: the best of
 /// 0.003–0.04 measured over the 70 probes, docs/accuracy.md).
 pub const SHIPPED_RIDGE_GAMMA: f64 = 0.005;
 /// The feature set of the shipped estimators and of `report`'s estimate.
-pub const SHIPPED_FEATURES: &str = "hand6+log+cap+ctr";
+pub const SHIPPED_FEATURES: &str = "estimator";
 
 /// The regression of `features` over the table's columns `names`, with `count` random
 /// Fourier features and penalty `lambda`; γ = `gamma`, else 1 / number of inputs.
