@@ -193,10 +193,12 @@ pub fn train_with(
     } else {
         None
     };
-    let (estimator, estimate) = match &options.estimator {
-        Some(data) => fit_estimator(data, table, options, observer)?,
-        None => (None, None),
-    };
+    let (estimator, estimate) = options
+        .estimator
+        .as_ref()
+        .map(|data| fit_estimator(data, table, options, observer))
+        .transpose()?
+        .unzip();
     // Self-test: the first original (non-augmented) training image.
     let probe = ds.augmented.iter().position(|a| !a).unwrap_or(0);
     let features = ds.x.row(probe).to_vec();
@@ -297,7 +299,7 @@ fn fit_estimator(
     table: &FeatureTable,
     options: &TrainOptions,
     observer: &dyn Observer,
-) -> Result<(Option<WardRegressor>, Option<EstimateReport>), TrainError> {
+) -> Result<(WardRegressor, EstimateReport), TrainError> {
     if data.table.names != table.names {
         return Err(TrainError::EstimatorColumns(data.label.clone()));
     }
@@ -309,7 +311,7 @@ fn fit_estimator(
     let features = data.features.as_ref().unwrap_or(&options.spec.features);
     let ridge = estimate::ridge_spec(features, &ds.names, data.size, data.gamma, options.seed)?;
     let fit = estimate::fit(&ds, &data.label, &data.materials, features, &ridge)?;
-    Ok((Some(fit.regressor), Some(fit.report)))
+    Ok((fit.regressor, fit.report))
 }
 
 #[cfg(test)]
