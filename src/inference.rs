@@ -9,8 +9,10 @@ use crate::image::display;
 use crate::image::geometry::{self, Method as GeometryMethod};
 use crate::image::white::{Method as WhiteMethod, Rect};
 use crate::learn::LearnError;
+use crate::learn::conformal;
+use crate::learn::domain::Verdict;
 use crate::learn::estimate::WardEstimate;
-use crate::model::{ClassInfo, ModelError, ModelFile};
+use crate::model::{ClassInfo, Head, ModelError, ModelFile};
 use bytes::Bytes;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -39,9 +41,25 @@ impl LoadedModel {
         if let Some(estimator) = &file.estimator {
             read.extend(&estimator.input_indices);
         }
+        if let Some(no_white) = &file.no_white {
+            read.extend(&no_white.classifier.selected_indices);
+        }
+        let domains = [file.domain.as_ref()]
+            .into_iter()
+            .chain([file.no_white.as_ref().and_then(|n| n.domain.as_ref())]);
+        read.extend(
+            domains
+                .flatten()
+                .flat_map(|d| d.checks.iter().filter_map(|c| c.index)),
+        );
         read.sort_unstable();
         read.dedup();
-        let needed = (classifier.pca.is_none() && read.len() < feature_names.len()).then_some(read);
+        let pca = classifier.pca.is_some()
+            || file
+                .no_white
+                .as_ref()
+                .is_some_and(|n| n.classifier.pca.is_some());
+        let needed = (!pca && read.len() < feature_names.len()).then_some(read);
         Ok(LoadedModel {
             file,
             extractor,
@@ -107,6 +125,8 @@ pub struct Input {
     pub include_features: bool,
     pub include_explain: bool,
     pub include_images: bool,
+    /// The prediction set's coverage (`None`: [`conformal::DEFAULT_COVERAGE`]).
+    pub coverage: Option<f64>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -126,11 +146,86 @@ pub enum InferenceError {
     Learn(#[from] LearnError),
 }
 
+/// What a model decides about one feature row: the class, how sure it can be, and whether
+/// the input is one it knows.
+#[derive(Clone, Debug)]
+pub struct Decision {
+    /// Classified by the classifier without white.
+    pub without_white: bool,
+    /// The most probable class (index in class order).
+    pub class: usize,
+    /// In class order.
+    pub probabilities: Vec<f64>,
+    /// The prediction set (class indices, most probable first) at `coverage`, when the
+    /// classifier has a calibration.
+    pub set: Option<Vec<usize>>,
+    pub coverage: f64,
+    /// The domain check's verdict, when calibrated.
+    pub verdict: Option<Verdict>,
+    /// Why the input is outside the capture envelope the model was trained for, whatever
+    /// its class.
+    pub envelope: Vec<String>,
+    /// The classifier's standardized inputs.
+    pub z: Vec<f64>,
+}
+
+impl Decision {
+    /// Out of domain: a check failed, or the capture is outside the envelope.
+    pub fn in_domain(&self) -> bool {
+        self.verdict.as_ref().is_none_or(Verdict::in_domain) && self.envelope.is_empty()
+    }
+}
+
+/// What the decision needs besides the feature row.
+#[derive(Clone, Copy, Debug)]
+pub struct Context<'a> {
+    pub white_given: bool,
+    /// The sphere's radius as given (px).
+    pub radius: f64,
+    pub measured: Option<&'a crate::features::CaptureMeasurements>,
+    pub coverage: f64,
+}
+
+/// Classify a feature row (canonical order, the model's configuration) as the service
+/// does: the classifier for the white given or not, the prediction set, the domain check
+/// and the capture envelope.
+pub fn decide(model: &ModelFile, values: &[f64], context: Context) -> Result<Decision, LearnError> {
+    let head = model.head(context.white_given);
+    let classifier = head.classifier;
+    let z = classifier.transform(values)?;
+    let output = classifier.classify_transformed(&z);
+    let envelope = match (&model.capture, context.measured) {
+        (Some(envelope), Some(measured)) => envelope.outside_every_class(
+            context.radius,
+            model.features.config.working_radius,
+            measured,
+        ),
+        _ => Vec::new(),
+    };
+    let set = prediction_set(
+        model,
+        &head,
+        &output.probabilities,
+        context.coverage,
+        context.white_given,
+    );
+    let verdict = head.domain.map(|d| d.verdict(&z, values));
+    Ok(Decision {
+        without_white: head.without_white,
+        class: output.class,
+        probabilities: output.probabilities,
+        set,
+        coverage: context.coverage,
+        verdict,
+        envelope,
+        z,
+    })
+}
+
 /// What the CPU work produced.
 pub struct Classified {
     pub model: Arc<LoadedModel>,
-    pub class: usize,
-    pub probabilities: Vec<f64>,
+    pub decision: Decision,
     pub analysis: analysis::Analysis,
     /// The classifier's inputs (the selected features, or the principal components).
     pub selected: Vec<f64>,
@@ -212,18 +307,27 @@ pub fn classify(
     drop(image);
     let features_ms = ms(t);
     let t = Instant::now();
-    let classifier = &model.file.classifier;
-    let z = classifier.transform(&analysis.values)?;
-    let output = classifier.classify_transformed(&z);
-    if let (Some(envelope), Some(measured)) = (envelope, &analysis.measured) {
-        let radius = analysis.geometry.circle().r;
+    let context = Context {
+        white_given: analysis.white.method != WhiteMethod::None,
+        radius: analysis.geometry.circle().r,
+        measured: analysis.measured.as_ref(),
+        coverage: input.coverage.unwrap_or(conformal::DEFAULT_COVERAGE),
+    };
+    let decision = decide(&model.file, &analysis.values, context)?;
+    // Outside the predicted class's envelope but not the model's: a warning, not a reason.
+    if let (Some(envelope), Some(measured), true) =
+        (envelope, &analysis.measured, decision.envelope.is_empty())
+    {
+        let class = &model.file.head(context.white_given).classifier.classes[decision.class];
         let working_radius = model.file.features.config.working_radius;
-        let class = &classifier.classes[output.class];
-        let outside = envelope.outside(radius, working_radius, class, measured);
-        analysis.warnings.extend(outside);
+        let radius = context.radius;
+        analysis
+            .warnings
+            .extend(envelope.outside(radius, working_radius, class, measured));
     }
+    let classifier = model.file.head(!decision.without_white).classifier;
     let selected = if classifier.pca.is_some() {
-        z
+        decision.z.clone()
     } else {
         classifier
             .selected_indices
@@ -255,8 +359,7 @@ pub fn classify(
         .map(|e| e.estimate(&analysis.values));
     let predict_ms = ms(t);
     Ok(Classified {
-        class: output.class,
-        probabilities: output.probabilities,
+        decision,
         analysis,
         selected,
         explain,
@@ -268,6 +371,37 @@ pub fn classify(
         predict_ms,
         model,
     })
+}
+
+/// The prediction set of a classification: the head's calibrated set, and, when there is no
+/// white reference, every class that differs from a member mainly by a brightness scale
+/// ([`crate::model::Ward::same_up_to_scale`]): the exposure of a photograph without a white
+/// card hides that difference, whatever the training captures' exposures taught.
+fn prediction_set(
+    file: &ModelFile,
+    head: &Head,
+    probabilities: &[f64],
+    coverage: f64,
+    white_given: bool,
+) -> Option<Vec<usize>> {
+    let mut set = head.prediction_sets?.set(probabilities, coverage);
+    if !white_given {
+        let classes = &head.classifier.classes;
+        let ward = |k: usize| {
+            let info = file.classes.iter().find(|c| c.name == classes[k])?;
+            info.ward.clone()
+        };
+        for k in 0..classes.len() {
+            let alike = set.iter().any(|&m| match (ward(m), ward(k)) {
+                (Some(a), Some(b)) => a.same_up_to_scale(&b),
+                _ => false,
+            });
+            if alike && !set.contains(&k) {
+                set.push(k);
+            }
+        }
+    }
+    Some(set)
 }
 
 /// Where the sphere is in a photograph, before classifying it.
@@ -463,6 +597,14 @@ pub struct SubbandImage {
     pub image: String,
 }
 
+/// A unit variant's name as the JSON answer spells it.
+fn wire(value: &impl Serialize) -> String {
+    match serde_json::to_value(value) {
+        Ok(serde_json::Value::String(name)) => name,
+        _ => String::new(),
+    }
+}
+
 /// The annulus and subbands that `analysis` came from.
 fn images_of(extractor: &Extractor, image: &decode::LinearImage, analysis: &Analysis) -> ImagesOut {
     let circle = analysis.geometry.circle();
@@ -490,16 +632,77 @@ fn images_of(extractor: &Extractor, image: &decode::LinearImage, analysis: &Anal
     }
 }
 
+/// The smallest set of classes that holds the true class with probability at least
+/// `coverage`, for a photograph under light the model never saw (split conformal,
+/// calibrated on held-out illuminations).
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct PredictionSetOut {
+    #[schema(example = 0.95)]
+    pub coverage: f64,
+    /// Most probable first; the label is always the first.
+    pub labels: Vec<String>,
+}
+
+/// One domain check's measurement.
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct DomainCheckOut {
+    /// `typicality` (distance to the training images), `outline` (how well the circle
+    /// follows a sphere's outline) or `brightness` (log10 of the centre over white).
+    #[schema(example = "outline")]
+    pub check: String,
+    pub value: f64,
+    /// Statistical checks: how often an image of a sphere under held-out light is at least
+    /// this unusual.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub p_value: Option<f64>,
+    /// Bounds (`brightness`): the largest value that passes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub limit: Option<f64>,
+}
+
+/// Whether the input is like what the model was trained on: a sphere, the circle on it, a
+/// plausible white, natural light, a capture within the trained envelope.
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct DomainOut {
+    pub in_domain: bool,
+    /// Fisher's −2 Σ ln p over the checks; out of domain above `threshold`. Absent for a
+    /// model without a domain calibration.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub score: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub threshold: Option<f64>,
+    /// Why the input is out of domain, in words (empty when in domain).
+    pub reasons: Vec<String>,
+    pub checks: Vec<DomainCheckOut>,
+}
+
+/// The model's own warning when it cannot say how sure it is.
+pub const NO_SETS_WARNING: &str = "this model version has no prediction-set calibration (it was \
+    trained before prediction sets existed): the answer has no prediction set; retrain it for one";
+/// The warning of an answer given without a white reference by the classifier without white.
+pub const WITHOUT_WHITE_WARNING: &str = "answered without a white reference: only features that \
+    do not depend on the image's brightness were read, so classes that differ mainly in \
+    brightness (black, grey and white) may share the prediction set; a white card would tell them \
+    apart";
+/// The warning heading an answer whose input is out of domain.
+pub const OUT_OF_DOMAIN_WARNING: &str =
+    "out of domain: the class and its probabilities are unreliable";
+
 #[derive(Clone, Debug, Serialize, ToSchema)]
 pub struct ClassifyResponse {
     pub request_id: String,
     pub model: ModelId,
-    /// The predicted class.
+    /// The predicted class: the most probable one (the first of `probabilities` and of the
+    /// prediction set).
     pub label: String,
     /// The predicted class in words, with its Ward parameters when known.
     pub class: ClassOut,
     /// Every class, most probable first.
     pub probabilities: Vec<LabelProbability>,
+    /// Absent for a model without a prediction-set calibration (a warning says so).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prediction_set: Option<PredictionSetOut>,
+    pub domain: DomainOut,
     pub features: FeaturesOut,
     pub geometry: GeometryOut,
     pub white: WhiteOut,
@@ -518,23 +721,81 @@ pub struct ClassifyResponse {
 }
 
 impl Classified {
+    /// The classifier that answered.
+    fn head(&self) -> Head<'_> {
+        self.model.file.head(!self.decision.without_white)
+    }
+}
+
+impl Decision {
+    /// The domain, with the envelope's warnings among the reasons.
+    pub fn domain(&self) -> DomainOut {
+        let mut reasons = Vec::new();
+        if let Some(v) = &self.verdict {
+            reasons.extend(v.failed().into_iter().map(|k| k.reason().to_string()));
+        }
+        reasons.extend(self.envelope.iter().cloned());
+        DomainOut {
+            in_domain: reasons.is_empty(),
+            score: self.verdict.as_ref().map(|v| v.score),
+            threshold: self.verdict.as_ref().map(|v| v.threshold),
+            reasons,
+            checks: self
+                .verdict
+                .iter()
+                .flat_map(|v| &v.checks)
+                .map(|c| DomainCheckOut {
+                    check: wire(&c.kind),
+                    value: c.value,
+                    p_value: c.p_value,
+                    limit: c.limit,
+                })
+                .collect(),
+        }
+    }
+}
+
+impl Classified {
     /// The answer, as the service sends it; `total_ms` is the whole request's time.
     pub fn response(self, request_id: String, total_ms: f64) -> ClassifyResponse {
         let model = &self.model;
-        let classes = &model.file.classifier.classes;
+        let head = self.head();
+        let classes = &head.classifier.classes;
+        let d = &self.decision;
+        let domain = d.domain();
+        let mut warnings = Vec::new();
+        if !domain.in_domain {
+            warnings.push(format!(
+                "{OUT_OF_DOMAIN_WARNING}: {}",
+                domain.reasons.join("; ")
+            ));
+        }
+        if d.without_white {
+            warnings.push(WITHOUT_WHITE_WARNING.to_string());
+        }
+        if d.set.is_none() {
+            warnings.push(NO_SETS_WARNING.to_string());
+        }
+        warnings.extend(
+            self.analysis
+                .warnings
+                .iter()
+                .filter(|w| !(d.without_white && *w == crate::image::white::MISSING_WARNING))
+                .cloned(),
+        );
         let mut probabilities: Vec<LabelProbability> = classes
             .iter()
-            .zip(&self.probabilities)
+            .zip(&d.probabilities)
             .map(|(label, &p)| LabelProbability {
                 label: label.clone(),
                 p,
             })
             .collect();
         probabilities.sort_by(|a, b| b.p.total_cmp(&a.p));
-        let predicted = match model.file.classes.get(self.class) {
+        let predicted = match model.file.classes.get(d.class) {
             Some(info) => ClassOut::from(info),
             None => ClassOut::from(&ClassInfo {
-                name: classes[self.class].clone(),
+                name: classes[d.class].clone(),
                 ward: None,
             }),
         };
@@ -544,11 +805,16 @@ impl Classified {
                 name: model.name().to_string(),
                 version: model.version(),
             },
-            label: classes[self.class].clone(),
+            label: classes[d.class].clone(),
             class: predicted,
             probabilities,
+            prediction_set: d.set.as_ref().map(|set| PredictionSetOut {
+                coverage: d.coverage,
+                labels: set.iter().map(|&k| classes[k].clone()).collect(),
+            }),
+            domain,
             features: FeaturesOut {
-                names: model.file.classifier.selected.clone(),
+                names: head.classifier.selected.clone(),
                 values: self.selected,
                 all: self.include_features.then(|| NamedValues {
                     names: model.feature_names.clone(),
@@ -560,7 +826,7 @@ impl Classified {
                 value: self.analysis.white.value,
                 method: self.analysis.white.method,
             },
-            warnings: self.analysis.warnings,
+            warnings,
             timing_ms: TimingMs {
                 decode: self.decode_ms,
                 features: self.features_ms,

@@ -447,8 +447,29 @@ function showEstimate(ward) {
   }
 }
 
+function showDomain(domain) {
+  $("domain-box").hidden = domain.in_domain;
+  $("domain-reasons").replaceChildren(...domain.reasons.map((text) => element("li", text)));
+  $("bars-note").hidden = domain.in_domain;
+  $("bars").classList.toggle("unreliable", !domain.in_domain);
+}
+
+function showSet(set, label) {
+  $("set-box").hidden = !set;
+  if (!set) {
+    return;
+  }
+  const n = set.labels.length;
+  $("set-caption").textContent = n === 1
+    ? `Prediction set (${Math.round(100 * set.coverage)} %): one class. Under light the model never saw, the set holds the true class ${Math.round(100 * set.coverage)} % of the time.`
+    : `Prediction set (${Math.round(100 * set.coverage)} %): ${n} classes the model cannot tell apart here; one of them is the true class ${Math.round(100 * set.coverage)} % of the time.`;
+  $("set").replaceChildren(...set.labels.map((name) => element("li", name, name === label ? "top" : "")));
+}
+
 function show(answer) {
   $("label").textContent = answer.label;
+  showDomain(answer.domain);
+  showSet(answer.prediction_set, answer.label);
   $("description").textContent = answer.class.description;
   const w = answer.class.ward;
   $("ward").textContent = w

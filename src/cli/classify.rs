@@ -30,6 +30,9 @@ pub struct ClassifyArgs {
     /// Also report the 3 nearest training images.
     #[arg(long)]
     explain: bool,
+    /// The prediction set's coverage, from 0.5 to 0.999 (default 0.95).
+    #[arg(long)]
+    coverage: Option<f64>,
     /// Print the JSON answer of `POST /v1/classify` instead of a summary.
     #[arg(long)]
     json: bool,
@@ -85,6 +88,10 @@ fn input(args: &ClassifyArgs) -> Result<Input, String> {
         (_, _, _, Some(mask)) => LocateSpec::Mask(read(mask, "mask")?),
         _ => LocateSpec::Auto,
     };
+    let coverage = args
+        .coverage
+        .map(crate::learn::conformal::check_coverage)
+        .transpose()?;
     Ok(Input {
         image: read(&args.image, "image")?,
         white,
@@ -93,6 +100,7 @@ fn input(args: &ClassifyArgs) -> Result<Input, String> {
         include_features: args.all_features,
         include_explain: args.explain,
         include_images: false,
+        coverage,
     })
 }
 
@@ -123,6 +131,22 @@ fn summary(answer: &ClassifyResponse) -> String {
     );
     for p in &answer.probabilities {
         out.push_str(&format!("  {:<14} {:.3}\n", p.label, p.p));
+    }
+    if let Some(set) = &answer.prediction_set {
+        out.push_str(&format!(
+            "prediction set ({} %): {}\n",
+            crate::dataset::format_f64(100.0 * set.coverage),
+            set.labels.join(", ")
+        ));
+    }
+    let d = &answer.domain;
+    let score = match (d.score, d.threshold) {
+        (Some(s), Some(t)) => format!(" (score {s:.1}, threshold {t:.1})"),
+        _ => " (no domain calibration)".to_string(),
+    };
+    match d.in_domain {
+        true => out.push_str(&format!("domain: in{score}\n")),
+        false => out.push_str(&format!("domain: OUT{score}: {}\n", d.reasons.join("; "))),
     }
     let g = &answer.geometry;
     out.push_str(&format!(

@@ -2,7 +2,8 @@
 
 use super::{CliResult, LimitArgs};
 use crate::dataset::{self, FeatureTable, Manifest};
-use crate::features::{Extensions, Extractor, FeatureConfig};
+use crate::features::{CaptureMeasurements, Extensions, Extractor, FeatureConfig};
+use crate::inference;
 use crate::learn::estimate;
 use crate::learn::regress::RidgeSpec;
 use crate::learn::{CvReport, DEFAULT_C, Dataset, FeatureSet, SpecText, TrainSpec};
@@ -63,8 +64,8 @@ impl DataArgs {
 #[derive(Args, Debug)]
 pub struct SpecArgs {
     /// A named set (hand6, hand2, mean1, hand6+log, hand6+log+radial, hand6+log+radial+dep,
-    /// hand6+cap, hand6+log+cap, hand6+log+cap+ctr, estimator), all, auto<N>, pca<N>, or a
-    /// comma-separated list of names.
+    /// hand6+cap, hand6+log+cap, hand6+log+cap+ctr, estimator, scale_free), all, auto<N>,
+    /// pca<N>, or a comma-separated list of names.
     /// `all`, `auto<N>` and `pca<N>` range over the table's columns.
     #[arg(long)]
     features: String,
@@ -416,7 +417,11 @@ pub fn train(args: TrainArgs) -> CliResult {
         .map(load_classes)
         .transpose()
         .map_err(|e| e.to_string())?;
-    let config = args.estimator.config(args.spec.config()?);
+    // A model's domain check reads how well each circle follows a sphere's outline.
+    let config = FeatureConfig {
+        domain: true,
+        ..args.estimator.config(args.spec.config()?)
+    };
     let (table, label, manifest) = args.data.load_with_manifest(&args.limits, config)?;
     let options = TrainOptions {
         name: args.name.clone(),
@@ -426,6 +431,7 @@ pub fn train(args: TrainArgs) -> CliResult {
         classes,
         preprocessing: args.spec.extensions.preprocessing(),
         images: manifest,
+        decode: args.limits.decode_options(),
         estimator: args.estimator.data(args.spec.gamma, &table.names)?,
     };
     let bar = progress::bar(0, "train");
@@ -470,8 +476,11 @@ pub struct PredictArgs {
     model: PathBuf,
     #[arg(long)]
     manifest: PathBuf,
-    /// Output CSV: path,label,p_<class>… (and, when the model has an estimator,
-    /// rho_d,rho_d_low,rho_d_high,rho_s,…,alpha_high).
+    /// Output CSV: path,label,p_<class>…,set (its classes, space-separated),in_domain,
+    /// domain_score,domain_failed (the checks that failed: typicality, outline, brightness,
+    /// envelope) (and, when the model has an estimator, rho_d,rho_d_low,rho_d_high,
+    /// rho_s,…,alpha_high). Rows without white are classified as the service classifies a
+    /// request without one.
     #[arg(long)]
     out: PathBuf,
     /// The class file of the manifest's materials: also measure the model's Ward-parameter
@@ -481,6 +490,9 @@ pub struct PredictArgs {
     /// With --ward-classes: write estimate.md, estimate.json and estimate.png here.
     #[arg(long, requires = "ward_classes")]
     estimate_report: Option<PathBuf>,
+    /// The prediction sets' coverage, from 0.5 to 0.999 (default 0.95).
+    #[arg(long)]
+    coverage: Option<f64>,
     #[command(flatten)]
     limits: LimitArgs,
 }
@@ -504,23 +516,60 @@ pub fn predict(args: PredictArgs) -> CliResult {
     for c in classes {
         let _ = write!(csv, ",p_{c}");
     }
+    csv.push_str(",set,in_domain,domain_score,domain_failed");
     if estimator.is_some() {
         for p in ["rho_d", "rho_s", "alpha"] {
             let _ = write!(csv, ",{p},{p}_low,{p}_high");
         }
     }
     csv.push('\n');
-    let (mut labelled, mut correct) = (0usize, 0usize);
+    let coverage = args
+        .coverage
+        .map(crate::learn::conformal::check_coverage)
+        .transpose()?
+        .unwrap_or(crate::learn::conformal::DEFAULT_COVERAGE);
+    let layout = model.features.config.layout();
+    let mut tally = Tally::default();
     for (sample, entry) in table.samples.iter().zip(&manifest.entries) {
-        let out = model
-            .classifier
-            .classify(&sample.values)
-            .map_err(|e| e.to_string())?;
-        let label = &classes[out.class];
+        // As the service would: no white is no white, not white = 1.
+        let measured = CaptureMeasurements::of_row(&layout, &sample.values);
+        let context = inference::Context {
+            white_given: entry.white.is_some(),
+            radius: entry.circle.map_or(f64::NAN, |c| c.r),
+            measured: measured.as_ref(),
+            coverage,
+        };
+        let decision =
+            inference::decide(&model, &sample.values, context).map_err(|e| e.to_string())?;
+        let label = &classes[decision.class];
         let _ = write!(csv, "{},{}", csv_field(&sample.path), csv_field(label));
-        for p in &out.probabilities {
+        for p in &decision.probabilities {
             let _ = write!(csv, ",{}", dataset::format_f64(*p));
         }
+        let set: Vec<&str> = decision
+            .set
+            .iter()
+            .flatten()
+            .map(|&k| classes[k].as_str())
+            .collect();
+        let score = decision.verdict.as_ref().map(|v| v.score);
+        let mut failed: Vec<String> = decision
+            .verdict
+            .iter()
+            .flat_map(|v| v.failed())
+            .map(|k| wire_name(&k))
+            .collect();
+        if !decision.envelope.is_empty() {
+            failed.push("envelope".into());
+        }
+        let _ = write!(
+            csv,
+            ",{},{},{},{}",
+            csv_field(&set.join(" ")),
+            decision.in_domain(),
+            score.map_or(String::new(), dataset::format_f64),
+            failed.join(" ")
+        );
         if let Some(e) = estimator.map(|r| r.estimate(&sample.values)) {
             for i in [e.rho_d, e.rho_s, e.alpha] {
                 for v in [i.value, i.low, i.high] {
@@ -531,25 +580,87 @@ pub fn predict(args: PredictArgs) -> CliResult {
         csv.push('\n');
         // Only rows of the model's classes count (a manifest of other materials may be
         // here for the estimate alone).
-        if let Some(truth) = entry.class.as_ref().filter(|c| classes.contains(c)) {
-            labelled += 1;
-            correct += usize::from(truth == label);
-        }
+        let truth = entry.class.as_ref().filter(|c| classes.contains(c));
+        tally.add(
+            truth.map(|t| t == label),
+            truth.map(|t| set.contains(&t.as_str())),
+            &decision,
+        );
     }
     crate::util::durable::write_atomic(&args.out, csv.as_bytes())
         .map_err(|e| format!("{}: {e}", args.out.display()))?;
-    if labelled > 0 {
-        println!(
-            "accuracy {:.1} % ({correct}/{labelled}) with {name} version {version}",
-            100.0 * correct as f64 / labelled as f64
-        );
-    }
+    print!("{}", tally.summary(&name, version, coverage));
     match (&args.ward_classes, estimator) {
         (Some(path), Some(estimator)) => evaluate_estimator(&args, path, estimator, &table),
         (Some(_), None) => Err(format!(
             "{name} version {version} has no Ward-parameter estimator"
         )),
         (None, _) => Ok(()),
+    }
+}
+
+/// What `predict` counts.
+#[derive(Default)]
+struct Tally {
+    rows: usize,
+    labelled: usize,
+    correct: usize,
+    /// Labelled rows with a prediction set, those whose set held the truth, and their sizes.
+    with_sets: usize,
+    covered: usize,
+    set_sizes: usize,
+    in_domain: usize,
+}
+
+impl Tally {
+    /// One row: whether its label was right and its set held the truth (`None`: no class
+    /// of the model's), and its decision.
+    fn add(&mut self, right: Option<bool>, covered: Option<bool>, decision: &inference::Decision) {
+        self.rows += 1;
+        self.in_domain += usize::from(decision.in_domain());
+        if let Some(right) = right {
+            self.labelled += 1;
+            self.correct += usize::from(right);
+        }
+        if let (Some(covered), Some(set)) = (covered, &decision.set) {
+            self.with_sets += 1;
+            self.covered += usize::from(covered);
+            self.set_sizes += set.len();
+        }
+    }
+
+    /// Accuracy, the sets' coverage and size, and the in-domain fraction, one line each.
+    fn summary(&self, name: &str, version: u32, coverage: f64) -> String {
+        let percent = |a: usize, b: usize| 100.0 * a as f64 / b.max(1) as f64;
+        let mut out = String::new();
+        if self.labelled > 0 {
+            let _ = writeln!(
+                out,
+                "accuracy {:.1} % ({}/{}) with {name} version {version}",
+                percent(self.correct, self.labelled),
+                self.correct,
+                self.labelled
+            );
+        }
+        if self.with_sets > 0 {
+            let _ = writeln!(
+                out,
+                "prediction sets ({} %): hold the truth in {:.1} % ({}/{}), {:.3} classes on average",
+                dataset::format_f64(100.0 * coverage),
+                percent(self.covered, self.with_sets),
+                self.covered,
+                self.with_sets,
+                self.set_sizes as f64 / self.with_sets as f64
+            );
+        }
+        let _ = writeln!(
+            out,
+            "in domain: {:.1} % ({}/{})",
+            percent(self.in_domain, self.rows),
+            self.in_domain,
+            self.rows
+        );
+        out
     }
 }
 
@@ -573,6 +684,14 @@ fn evaluate_estimator(
         eprintln!("written to {}", out.display());
     }
     Ok(())
+}
+
+/// A unit variant's name as JSON spells it (`typicality`).
+fn wire_name(value: &impl serde::Serialize) -> String {
+    match serde_json::to_value(value) {
+        Ok(serde_json::Value::String(name)) => name,
+        _ => String::new(),
+    }
 }
 
 /// Quote a CSV field when it needs it.

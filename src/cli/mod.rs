@@ -167,6 +167,10 @@ pub struct ExtensionArgs {
     /// total reflectance that the annulus lacks.
     #[arg(long)]
     centre_features: bool,
+    /// Also measure how well the circle follows a sphere's outline (`dom.outline`), which
+    /// the domain check of a model reads (`train` always measures it).
+    #[arg(long)]
+    domain_features: bool,
     /// Reduce spheres larger than this radius (px) to it before extraction (area
     /// averaging), as models trained at that radius expect.
     #[arg(long)]
@@ -186,6 +190,7 @@ impl ExtensionArgs {
             dependencies: self.dependency_features,
             capture: self.capture_features,
             centre: self.centre_features,
+            domain: self.domain_features,
         };
         crate::features::FeatureConfig::for_spec(asked, spec, self.preprocessing())
             .map_err(|e| e.to_string())

@@ -4,7 +4,10 @@
 use super::layout::{BlockLayout, Layout};
 use super::polar::UnwrapConfig;
 use super::sets::named_set;
-use super::{CAPTURE_PREFIX, CENTRE_PREFIX, DEPENDENCY_PREFIX, LEVELS, LOG_PREFIX, RADIAL_PREFIX};
+use super::{
+    CAPTURE_PREFIX, CENTRE_PREFIX, DEPENDENCY_PREFIX, DOMAIN_PREFIX, LEVELS, LOG_PREFIX,
+    RADIAL_PREFIX,
+};
 use serde::{Deserialize, Serialize};
 use std::sync::OnceLock;
 
@@ -23,8 +26,10 @@ pub struct Extensions {
     /// What the camera added, measured on the sphere (`cap.*`: [`crate::features::noise`]), after
     /// every block.
     pub capture: bool,
-    /// The sphere's centre against white (`ctr.*`: [`crate::features::centre`]), last.
+    /// The sphere's centre against white (`ctr.*`: [`crate::features::centre`]).
     pub centre: bool,
+    /// Measurements for the domain check (`dom.*`: [`crate::features::outline`]), last.
+    pub domain: bool,
 }
 
 impl Extensions {
@@ -35,6 +40,7 @@ impl Extensions {
         dependencies: true,
         capture: true,
         centre: true,
+        domain: true,
     };
 
     /// The extensions whose features occur among `names` (a table's columns, a list).
@@ -48,6 +54,7 @@ impl Extensions {
                 dependencies: seen.dependencies || block_name.starts_with(DEPENDENCY_PREFIX),
                 capture: seen.capture || name.starts_with(CAPTURE_PREFIX),
                 centre: seen.centre || name.starts_with(CENTRE_PREFIX),
+                domain: seen.domain || name.starts_with(DOMAIN_PREFIX),
             }
         })
     }
@@ -69,6 +76,7 @@ impl Extensions {
             dependencies: self.dependencies || other.dependencies,
             capture: self.capture || other.capture,
             centre: self.centre || other.centre,
+            domain: self.domain || other.domain,
         }
     }
 }
@@ -99,6 +107,10 @@ pub struct FeatureConfig {
     /// docs/design.md §8). Absent in older model files.
     #[serde(default, skip_serializing_if = "is_false")]
     pub centre: bool,
+    /// Also compute the domain measurements, `dom.*` (last; an extension, docs/design.md
+    /// §8). Absent in older model files.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub domain: bool,
     /// Spheres larger than this radius (px) are first area-downsampled to it, so a model
     /// sees the same effective resolution as in training (see `resample`). None: no
     /// resampling (the paper's definition).
@@ -143,6 +155,7 @@ impl Default for FeatureConfig {
             dependencies: false,
             capture: false,
             centre: false,
+            domain: false,
             working_radius: None,
             saturation: None,
         }
@@ -226,6 +239,7 @@ impl FeatureConfig {
             dependencies: extensions.dependencies,
             capture: extensions.capture,
             centre: extensions.centre,
+            domain: extensions.domain,
             working_radius: preprocessing.working_radius,
             saturation: preprocessing.saturation,
             ..FeatureConfig::default()
@@ -270,6 +284,7 @@ impl FeatureConfig {
             dependencies: self.dependencies,
             capture: self.capture,
             centre: self.centre,
+            domain: self.domain,
         }
     }
 
@@ -284,6 +299,7 @@ impl FeatureConfig {
             log_domain: self.log_domain,
             capture: self.capture,
             centre: self.centre,
+            domain: self.domain,
         }
     }
 

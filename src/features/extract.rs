@@ -6,6 +6,7 @@ use super::centre;
 use super::config::{ConfigError, FeatureConfig};
 use super::layout::{BlockLayout, Layout, STATS};
 use super::noise;
+use super::outline;
 use super::polar::{AngleTable, angle_table, unwrap};
 use super::pyramid::{self, Edge};
 use super::spectrum::{BandPowers, SpectrumPlan};
@@ -36,6 +37,20 @@ pub struct CaptureMeasurements {
     pub noise: Option<f64>,
     /// Fraction of the annulus's pixels at full scale (0 for floating-point images).
     pub clipped: f64,
+}
+
+impl CaptureMeasurements {
+    /// The measurements as a feature row of `layout` holds them (`cap.noise`, `cap.clipped`),
+    /// when it has the capture family: the noise back from its floored log10 (`None` at the
+    /// floor).
+    pub fn of_row(layout: &super::Layout, row: &[f64]) -> Option<CaptureMeasurements> {
+        let capture = layout.capture();
+        let (noise, clipped) = (row.get(capture.start)?, row.get(capture.start + 1)?);
+        Some(CaptureMeasurements {
+            noise: (*noise > NOISE_FLOOR.log10()).then(|| 10f64.powf(*noise)),
+            clipped: *clipped,
+        })
+    }
 }
 
 /// Pearson correlations of the coefficient magnitudes of a level's orientations, in
@@ -218,6 +233,14 @@ impl Extractor {
             values.extend(match needed(self.layout.centre()) {
                 true => centre::centre_features(seen, seen_circle, white),
                 false => [f64::NAN; 5],
+            });
+        }
+        if self.config.domain {
+            // On the image as given: the reduction to the working radius crops the rim's
+            // surroundings away.
+            values.push(match needed(self.layout.domain()) {
+                true => outline::outline(luminance, circle),
+                false => f64::NAN,
             });
         }
         (values, measurements.filter(|_| measure))
@@ -519,7 +542,7 @@ fn put_summary(out: &mut [f64], s: &Summary) {
 mod tests {
     use super::*;
     use crate::features::polar::UnwrapConfig;
-    use crate::features::{CAPTURE_NAMES, CENTRE_NAMES, FEATURE_COUNT, RADIAL_RINGS};
+    use crate::features::{CAPTURE_NAMES, CENTRE_NAMES, DOMAIN_NAMES, FEATURE_COUNT, RADIAL_RINGS};
     use crate::features::{Extensions, Preprocessing, default_names, named_set};
     use crate::image::geometry::Circle;
 
@@ -551,9 +574,10 @@ mod tests {
         }
         let every = FeatureConfig::extended(Extensions::ALL, Preprocessing::default()).names();
         let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14 + 12;
-        assert_eq!(every.len(), 2 * block + 3 + 5);
+        assert_eq!(every.len(), 2 * block + 3 + 5 + 1);
         assert_eq!(every[2 * block..2 * block + 3], CAPTURE_NAMES);
-        assert_eq!(every[2 * block + 3..], CENTRE_NAMES);
+        assert_eq!(every[2 * block + 3..2 * block + 8], CENTRE_NAMES);
+        assert_eq!(every[2 * block + 8..], DOMAIN_NAMES);
         assert_eq!(every[..FEATURE_COUNT], names[..]);
         let last_pair = format!("r{}_r{RADIAL_RINGS}", RADIAL_RINGS - 1);
         assert_eq!(
@@ -813,7 +837,7 @@ mod tests {
         .unwrap();
         let extended_full = extended.extract(luminance.view(), &circle, 0.9);
         let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14 + 12;
-        let count = 2 * block + 3 + 5;
+        let count = 2 * block + 3 + 5 + 1;
         assert_eq!(extended.feature_count(), count);
         assert_eq!(extended_full.len(), count);
         let extended_subsets = [
@@ -831,7 +855,10 @@ mod tests {
             // The centre features, alone, with a capture measurement and with a block feature.
             vec![2 * block + 4],
             vec![2 * block + 2, 2 * block + 3],
-            vec![7, count - 1],
+            vec![7, count - 2],
+            // The domain measurement, alone and with a centre feature.
+            vec![count - 1],
+            vec![count - 2, count - 1],
             (0..count).collect::<Vec<_>>(),
         ];
         for wanted in extended_subsets {

@@ -5,8 +5,8 @@
 use super::spectrum::ORIENTATIONS;
 use super::stats::STAT_NAMES;
 use super::{
-    BAND_NAMES, CAPTURE_NAMES, CENTRE_NAMES, DEPENDENCY_PREFIX, LOG_PREFIX, ORIENTATION_PAIRS,
-    RADIAL_PREFIX, RADIAL_RINGS,
+    BAND_NAMES, CAPTURE_NAMES, CENTRE_NAMES, DEPENDENCY_PREFIX, DOMAIN_NAMES, LOG_PREFIX,
+    ORIENTATION_PAIRS, RADIAL_PREFIX, RADIAL_RINGS,
 };
 use std::ops::Range;
 
@@ -150,14 +150,15 @@ impl BlockLayout {
 }
 
 /// The whole vector: the block of the unwrapped image, the block of its log10 (with the
-/// log-domain extension, names prefixed `log.`), then the capture measurements, then the
-/// centre features.
+/// log-domain extension, names prefixed `log.`), then the capture measurements, the
+/// centre features and the domain measurements.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Layout {
     pub block: BlockLayout,
     pub log_domain: bool,
     pub capture: bool,
     pub centre: bool,
+    pub domain: bool,
 }
 
 impl Layout {
@@ -185,8 +186,17 @@ impl Layout {
         }
     }
 
+    /// The domain measurements (empty without the extension).
+    pub fn domain(&self) -> Range<usize> {
+        let start = self.centre().end;
+        match self.domain {
+            true => start..start + DOMAIN_NAMES.len(),
+            false => start..start,
+        }
+    }
+
     pub fn count(&self) -> usize {
-        self.centre().end
+        self.domain().end
     }
 
     pub fn names(&self) -> Vec<String> {
@@ -204,11 +214,16 @@ impl Layout {
             .iter()
             .filter(|_| self.centre)
             .map(|n| n.to_string());
+        let domain = DOMAIN_NAMES
+            .iter()
+            .filter(|_| self.domain)
+            .map(|n| n.to_string());
         block
             .into_iter()
             .chain(log)
             .chain(capture)
             .chain(centre)
+            .chain(domain)
             .collect()
     }
 }
@@ -220,13 +235,14 @@ mod tests {
 
     #[test]
     fn every_index_has_exactly_one_name_in_every_configuration() {
-        for bits in 0..32u8 {
+        for bits in 0..64u8 {
             let extensions = Extensions {
                 log_domain: bits & 1 != 0,
                 radial: bits & 2 != 0,
                 dependencies: bits & 4 != 0,
                 capture: bits & 8 != 0,
                 centre: bits & 16 != 0,
+                domain: bits & 32 != 0,
             };
             for levels in [2, 4, 5] {
                 let config = FeatureConfig {

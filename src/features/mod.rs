@@ -1,8 +1,8 @@
 //! Features: the unwrapped annulus ([`polar`]), its QMF pyramid ([`pyramid`]), statistics
 //! ([`stats`]) and band powers ([`spectrum`]) → the named feature bank (117 features with
 //! the default configuration, docs/design.md §3), the optional families (§8), the capture
-//! measurements ([`noise`]), the sphere's centre against white ([`centre`]) and the named
-//! feature sets.
+//! measurements ([`noise`]), the sphere's centre against white ([`centre`]), the domain
+//! measurements ([`outline`]) and the named feature sets.
 //!
 //! [`layout`] fixes where every feature sits; [`config`] is what a model file records;
 //! [`extract`] computes the vectors; [`analysis`] is the front half of the pipeline (a
@@ -15,6 +15,7 @@ pub(crate) mod extract;
 pub(crate) mod layout;
 pub(crate) mod log10;
 pub(crate) mod noise;
+pub(crate) mod outline;
 pub(crate) mod polar;
 pub mod pyramid;
 pub(crate) mod sets;
@@ -56,5 +57,9 @@ pub const CENTRE_PREFIX: &str = "ctr.";
 /// The centre features ([`centre`]): log10 of the disc inside r/√2 against white, its mean, its
 /// inner half's mean and its 10th, 50th and 90th percentiles.
 pub const CENTRE_NAMES: [&str; 5] = ["ctr.mean", "ctr.core", "ctr.p10", "ctr.p50", "ctr.p90"];
+/// Prefix of the domain measurements' names.
+pub const DOMAIN_PREFIX: &str = "dom.";
+/// The domain measurements: how well the circle follows a sphere's outline ([`outline`]).
+pub const DOMAIN_NAMES: [&str; 1] = ["dom.outline"];
 /// The pairs of orientations whose subband magnitudes the dependency features correlate.
 const ORIENTATION_PAIRS: [(usize, usize); 3] = [(0, 1), (0, 2), (1, 2)];

@@ -8,7 +8,7 @@ use super::{
 
 /// The named feature sets: the paper's hand-picked ones, the trivial one, and hand6 with
 /// our extensions ([`named_set`] lists their features).
-pub const NAMED_SETS: [&str; 10] = [
+pub const NAMED_SETS: [&str; 11] = [
     "hand6",
     "hand2",
     "mean1",
@@ -19,6 +19,7 @@ pub const NAMED_SETS: [&str; 10] = [
     "hand6+log+cap",
     "hand6+log+cap+ctr",
     "estimator",
+    "scale_free",
 ];
 
 /// The paper's hand-picked sets (§6.3, Fig. 7), the trivial one, hand6 extended with the
@@ -27,7 +28,9 @@ pub const NAMED_SETS: [&str; 10] = [
 /// the capture measurements (`hand6+cap`, `hand6+log+cap`), and the last with the centre
 /// features (`hand6+log+cap+ctr`), and `estimator`, the shipped Ward-parameter estimators'
 /// inputs: hand6+log+cap+ctr without `cap.blur`, so that a model whose classifier does not read
-/// the rim's blur need not measure it (docs/design.md §8).
+/// the rim's blur need not measure it (docs/design.md §8), and `scale_free`, the features of
+/// hand6+log that do not change when the image is multiplied by a constant (the classifier a
+/// model uses without a white reference: docs/design.md §3 "Without white").
 pub fn named_set(name: &str) -> Option<Vec<String>> {
     const HAND6: [&str; 6] = [
         "pix.mean",
@@ -50,6 +53,16 @@ pub fn named_set(name: &str) -> Option<Vec<String>> {
         "hand6+log+cap+ctr" => {
             let mut names = named_set("hand6+log+cap")?;
             names.extend(CENTRE_NAMES.iter().map(|n| n.to_string()));
+            Some(names)
+        }
+        "scale_free" => {
+            let mut names = strings(&["ratio.v.s1_s2", "wav.s2.v.kurt"]);
+            names.extend(["var", "skew", "kurt"].map(|s| format!("{LOG_PREFIX}pix.{s}")));
+            names.extend((1..=LEVELS).flat_map(|k| {
+                BAND_NAMES
+                    .iter()
+                    .map(move |b| format!("{LOG_PREFIX}wav.s{k}.{b}.var"))
+            }));
             Some(names)
         }
         "estimator" => {

@@ -1,6 +1,13 @@
-//! Probability calibration: one Platt sigmoid per class, P(class k | f_k) =
-//! 1 / (1 + exp(A_k f_k + B_k)), fitted on decision values of a 5-fold internal
-//! cross-validation, then normalized across classes to sum to 1.
+//! Probability calibration of the one-against-all SVM's decision values f.
+//!
+//! * **Softmax** (models trained now): P_k = exp(T f_k) / Σ_j exp(T f_j), one temperature
+//!   T > 0 fitted by maximum likelihood on held-out decision values. It is monotone in f,
+//!   so the most probable class is always the largest decision value: the label and the
+//!   probabilities cannot disagree.
+//! * **Platt** (older model files): one sigmoid per class, P(class k | f_k) =
+//!   1 / (1 + exp(A_k f_k + B_k)), then normalized across classes to sum to 1. The
+//!   sigmoids differ per class, so their most probable class can differ from the largest
+//!   decision value; the label is then the most probable class.
 //!
 //! The fit is the method of libsvm's `sigmoid_train` (Lin, Lin & Weng 2007, "A note on
 //! Platt's probabilistic outputs for support vector machines"): Newton's method with a
@@ -110,30 +117,138 @@ impl Sigmoid {
     }
 }
 
-/// Per-class sigmoids.
+/// How decision values become probabilities (serialized untagged: `{"temperature": T}` or
+/// `{"sigmoids": […]}`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Calibration {
-    pub sigmoids: Vec<Sigmoid>,
+#[serde(untagged)]
+pub enum Calibration {
+    Softmax { temperature: f64 },
+    Platt { sigmoids: Vec<Sigmoid> },
 }
 
 impl Calibration {
-    /// Normalized probabilities from decision values; a class whose decision value is −∞
+    /// Probabilities from decision values, summing to 1; a class whose decision value is −∞
     /// (no training rows) gets 0.
     pub fn probabilities(&self, dec: &[f64]) -> Vec<f64> {
-        let raw: Vec<f64> = self
-            .sigmoids
-            .iter()
-            .zip(dec)
-            .map(|(s, &f)| {
-                if f == f64::NEG_INFINITY {
-                    0.0
-                } else {
-                    s.probability(f)
-                }
-            })
-            .collect();
-        normalize(raw)
+        match self {
+            Calibration::Softmax { temperature } => softmax(*temperature, dec),
+            Calibration::Platt { sigmoids } => {
+                let raw: Vec<f64> = sigmoids
+                    .iter()
+                    .zip(dec)
+                    .map(|(s, &f)| {
+                        if f == f64::NEG_INFINITY {
+                            0.0
+                        } else {
+                            s.probability(f)
+                        }
+                    })
+                    .collect();
+                normalize(raw)
+            }
+        }
     }
+
+    /// The number of classes it calibrates (`None`: any).
+    pub fn classes(&self) -> Option<usize> {
+        match self {
+            Calibration::Softmax { .. } => None,
+            Calibration::Platt { sigmoids } => Some(sigmoids.len()),
+        }
+    }
+
+    /// Every parameter finite (and the temperature positive).
+    pub fn is_valid(&self) -> bool {
+        match self {
+            Calibration::Softmax { temperature } => temperature.is_finite() && *temperature > 0.0,
+            Calibration::Platt { sigmoids } => {
+                sigmoids.iter().all(|s| s.a.is_finite() && s.b.is_finite())
+            }
+        }
+    }
+}
+
+/// exp(t·f_k) / Σ_j exp(t·f_j), shifted by the largest finite value so nothing overflows;
+/// −∞ gives 0, and no finite value at all gives the uniform distribution.
+pub fn softmax(t: f64, dec: &[f64]) -> Vec<f64> {
+    let top = dec
+        .iter()
+        .copied()
+        .filter(|f| f.is_finite())
+        .fold(f64::NEG_INFINITY, f64::max);
+    if top == f64::NEG_INFINITY {
+        return normalize(vec![0.0; dec.len()]);
+    }
+    let raw = dec
+        .iter()
+        .map(|&f| {
+            if f.is_finite() {
+                (t * (f - top)).exp()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    normalize(raw)
+}
+
+/// Mean negative log-likelihood of the labels under softmax(t·f), and its first and second
+/// derivatives in t.
+fn softmax_loss(t: f64, dec: &[Vec<f64>], labels: &[usize]) -> (f64, f64, f64) {
+    let (mut loss, mut d1, mut d2) = (0.0, 0.0, 0.0);
+    for (f, &y) in dec.iter().zip(labels) {
+        let p = softmax(t, f);
+        let finite = |k: usize| f[k].is_finite();
+        let mean: f64 = (0..f.len())
+            .filter(|&k| finite(k))
+            .map(|k| p[k] * f[k])
+            .sum();
+        let second: f64 = (0..f.len())
+            .filter(|&k| finite(k))
+            .map(|k| p[k] * f[k] * f[k])
+            .sum();
+        loss -= p[y].max(1e-300).ln();
+        d1 += mean - f[y];
+        d2 += second - mean * mean;
+    }
+    let n = dec.len().max(1) as f64;
+    (loss / n, d1 / n, d2 / n)
+}
+
+/// The temperature t ∈ [1e-3, 1e3] minimizing the mean log-loss of softmax(t·f) on
+/// held-out decision values `dec` (one vector per row, class order) with true classes
+/// `labels`: Newton's method on a convex function of t, safeguarded by bisection.
+/// Rows whose true class has a decision value of −∞ are skipped.
+pub fn fit_temperature(dec: &[Vec<f64>], labels: &[usize]) -> f64 {
+    let (dec, labels): (Vec<Vec<f64>>, Vec<usize>) = dec
+        .iter()
+        .zip(labels)
+        .filter(|(f, y)| f.get(**y).is_some_and(|v| v.is_finite()))
+        .map(|(f, &y)| (f.clone(), y))
+        .unzip();
+    let (mut lo, mut hi) = (1e-3f64, 1e3f64);
+    if dec.is_empty() {
+        return 1.0;
+    }
+    let mut t = 1.0;
+    for _ in 0..100 {
+        let (_, g, h) = softmax_loss(t, &dec, &labels);
+        if g > 0.0 {
+            hi = t;
+        } else {
+            lo = t;
+        }
+        if g.abs() < 1e-10 || hi / lo < 1.0 + 1e-12 {
+            break;
+        }
+        let newton = t - g / h;
+        t = if h > 0.0 && newton > lo && newton < hi {
+            newton
+        } else {
+            (lo * hi).sqrt()
+        };
+    }
+    t
 }
 
 /// Scales to sum 1 (uniform if the sum is not positive and finite).
@@ -213,7 +328,7 @@ mod tests {
 
     #[test]
     fn probabilities_normalize() {
-        let cal = Calibration {
+        let cal = Calibration::Platt {
             sigmoids: vec![Sigmoid { a: -1.0, b: 0.0 }; 3],
         };
         let p = cal.probabilities(&[1.0, 1.0, f64::NEG_INFINITY]);
@@ -221,6 +336,59 @@ mod tests {
         let p = cal.probabilities(&[2.0, -1.0, 0.0]);
         assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-15);
         assert!(p[0] > p[2] && p[2] > p[1]);
+    }
+
+    #[test]
+    fn softmax_is_monotone_in_the_decision_values_and_handles_absent_classes() {
+        let cal = Calibration::Softmax { temperature: 2.0 };
+        let p = cal.probabilities(&[0.5, -1.0, f64::NEG_INFINITY, 1.5]);
+        assert_eq!(p[2], 0.0);
+        assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-15);
+        assert!(p[3] > p[0] && p[0] > p[1]);
+        // Known answer: exp(2·(f − 1.5)) normalized.
+        let e = [(-2.0f64).exp(), (-5.0f64).exp(), 1.0];
+        let sum: f64 = e.iter().sum();
+        assert!((p[3] - 1.0 / sum).abs() < 1e-15);
+        assert!((p[0] - e[0] / sum).abs() < 1e-15);
+        // Huge decision values do not overflow; no finite value is uniform.
+        let p = softmax(1e3, &[1e6, 1e6 - 1.0]);
+        assert_eq!(p, [1.0, 0.0]);
+        assert_eq!(softmax(1.0, &[f64::NEG_INFINITY; 2]), [0.5, 0.5]);
+        let json = serde_json::to_string(&cal).unwrap();
+        assert_eq!(json, r#"{"temperature":2.0}"#);
+        assert_eq!(serde_json::from_str::<Calibration>(&json).unwrap(), cal);
+        let platt: Calibration = serde_json::from_str(r#"{"sigmoids":[{"a":-1,"b":0}]}"#).unwrap();
+        assert_eq!(platt.classes(), Some(1));
+    }
+
+    #[test]
+    fn the_fitted_temperature_is_the_maximum_likelihood_one() {
+        // Labels drawn from softmax(3·f): the fit recovers 3, and it is a minimum.
+        let mut rng = Rng::new(4);
+        let truth = 3.0;
+        let (mut dec, mut labels) = (Vec::new(), Vec::new());
+        for _ in 0..20_000 {
+            let f: Vec<f64> = (0..4).map(|_| rng.next_f64() * 2.0 - 1.0).collect();
+            let p = softmax(truth, &f);
+            let u = rng.next_f64();
+            let mut acc = 0.0;
+            let y = p
+                .iter()
+                .position(|&q| {
+                    acc += q;
+                    u < acc
+                })
+                .unwrap_or(3);
+            dec.push(f);
+            labels.push(y);
+        }
+        let t = fit_temperature(&dec, &labels);
+        assert!((t - truth).abs() < 0.15, "{t}");
+        let loss = |t| softmax_loss(t, &dec, &labels).0;
+        assert!(loss(t) <= loss(t * 1.01) && loss(t) <= loss(t / 1.01));
+        // Separable data: the temperature grows until the loss stops changing, finite.
+        let t = fit_temperature(&[vec![1.0, -1.0], vec![-1.0, 1.0]], &[0, 1]);
+        assert!(t.is_finite() && t > 10.0, "{t}");
     }
 
     #[test]

@@ -7,7 +7,9 @@
 //! loops collect their results in a fixed order.
 
 pub mod calibration;
+pub mod conformal;
 pub(crate) mod cv;
+pub mod domain;
 pub(crate) mod error;
 pub mod estimate;
 pub(crate) mod feature_set;

@@ -4,7 +4,7 @@
 //! [`Classifier`] serializes with serde to plain numbers and vectors (no array types), so a
 //! model file can embed it; after deserializing, call [`Classifier::validate`] before use.
 
-use super::calibration::{Calibration, Sigmoid, stratified_folds};
+use super::calibration::{self, Calibration, Sigmoid, stratified_folds};
 use super::error::LearnError;
 use super::feature_set::FeatureSet;
 use super::knn::{ChanceModel, KnnModel};
@@ -22,6 +22,21 @@ use std::str::FromStr;
 
 /// Folds of the internal cross-validation that produces the calibration decision values.
 pub const CALIBRATION_FOLDS: usize = 5;
+
+/// How an SVM's probabilities are made from its decision values (docs/design.md §3
+/// "Classifiers").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CalibrationKind {
+    /// One temperature for a softmax of the decision values, fitted on the decision values
+    /// of illuminations held out in turn (the most probable class is the largest decision
+    /// value).
+    #[default]
+    Softmax,
+    /// libsvm's per-class Platt sigmoids on a stratified internal cross-validation (as
+    /// scikit-learn's `SVC(probability=True)`; kept for comparisons with it).
+    Platt,
+}
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -88,6 +103,7 @@ pub struct TrainSpec {
     pub gamma: Option<f64>,
     /// Choose (C, γ) by inner leave-one-illumination-out CV on the training data.
     pub grid: Option<Grid>,
+    pub calibration: CalibrationKind,
 }
 
 impl TrainSpec {
@@ -98,6 +114,7 @@ impl TrainSpec {
             c: DEFAULT_C,
             gamma: None,
             grid: None,
+            calibration: CalibrationKind::default(),
         }
     }
 }
@@ -133,6 +150,7 @@ impl SpecText<'_> {
             c: self.c,
             gamma: self.gamma,
             grid: self.grid.then(Grid::default),
+            calibration: CalibrationKind::default(),
         })
     }
 }
@@ -294,25 +312,53 @@ fn check_svm_params(c: f64, gamma: f64) -> Result<(), LearnError> {
     Ok(())
 }
 
-/// Decision values of the internal `CALIBRATION_FOLDS`-fold cross-validation (stratified,
-/// seeded) and one Platt sigmoid per class fitted on them. Uses the fit's kernel matrix:
-/// the internal folds solve the same problems on subsets of its rows (the selection and
-/// standardization of the enclosing fit are kept, as libsvm does).
-fn calibrate(
+/// The decision values of rows held out by the calibration folds of a fit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeldOut {
+    /// Per row of the fit (in the order of its `rows`): the calibration fold that held it
+    /// out, or `None` for rows that train in every fold (illuminations with augmented views
+    /// only, e.g. synthetic maps).
+    pub fold: Vec<Option<usize>>,
+    /// Per row of the fit: its decision values when it was held out (empty for `None`).
+    pub decision: Vec<Vec<f64>>,
+    pub folds: usize,
+    /// Whether the folds are whole illuminations (else stratified rows: fewer than two
+    /// illuminations to hold out).
+    pub by_illumination: bool,
+}
+
+/// Folds of whole illuminations: the groups with un-augmented rows are shuffled and dealt
+/// to `k` folds; the other groups' rows stay in training (`None`).
+fn illumination_folds(
+    groups: &[usize],
+    evaluated: &[usize],
+    k: usize,
+    rng: &mut Rng,
+) -> Vec<Option<usize>> {
+    let mut order = evaluated.to_vec();
+    rng.shuffle(&mut order);
+    let fold_of: std::collections::HashMap<usize, usize> =
+        order.iter().enumerate().map(|(i, &g)| (g, i % k)).collect();
+    groups.iter().map(|g| fold_of.get(g).copied()).collect()
+}
+
+/// Decision values of rows held out by an internal cross-validation on the fit's kernel
+/// matrix (the internal folds solve the same problems on subsets of its rows; the
+/// selection and standardization of the enclosing fit are kept, as libsvm does).
+fn held_out_decisions(
     gram: &Gram<f64>,
     labels: &[usize],
+    fold: Vec<Option<usize>>,
+    k: usize,
     n_classes: usize,
     params: &SolverParams,
-    rng: &mut Rng,
-) -> Calibration {
+) -> Vec<Vec<f64>> {
     let n = labels.len();
-    let k = CALIBRATION_FOLDS.min(n);
-    let folds = stratified_folds(labels, n_classes, k, rng);
     let per_fold: Vec<Vec<(usize, Vec<f64>)>> = (0..k)
         .into_par_iter()
         .map(|f| {
-            let train: Vec<usize> = (0..n).filter(|&i| folds[i] != f).collect();
-            let test: Vec<usize> = (0..n).filter(|&i| folds[i] == f).collect();
+            let train: Vec<usize> = (0..n).filter(|&i| fold[i] != Some(f)).collect();
+            let test: Vec<usize> = (0..n).filter(|&i| fold[i] == Some(f)).collect();
             let train_labels: Vec<usize> = train.iter().map(|&i| labels[i]).collect();
             let sols = svm::train_one_vs_all(gram, &train, &train_labels, n_classes, params);
             test.iter()
@@ -331,19 +377,87 @@ fn calibrate(
                 .collect()
         })
         .collect();
-    let mut dec = vec![vec![0.0; n]; n_classes];
+    let mut dec = vec![Vec::new(); n];
     for (t, values) in per_fold.into_iter().flatten() {
-        for (class, v) in values.into_iter().enumerate() {
-            dec[class][t] = v;
-        }
+        dec[t] = values;
     }
-    let sigmoids = (0..n_classes)
-        .map(|class| {
-            let positive: Vec<bool> = labels.iter().map(|&l| l == class).collect();
-            Sigmoid::fit(&dec[class], &positive)
-        })
+    dec
+}
+
+/// The rows of a fit the calibration folds deal out.
+struct FitRows<'a> {
+    labels: &'a [usize],
+    groups: &'a [usize],
+    augmented: &'a [bool],
+}
+
+/// The calibration folds of a fit: softmax, folds of whole illuminations (probabilities for
+/// light the model never saw), stratified rows when fewer than two illuminations can be
+/// held out; Platt, `CALIBRATION_FOLDS` stratified folds (seeded). The fold of every row,
+/// the number of folds, and whether they are illuminations.
+fn calibration_folds(
+    rows: &FitRows,
+    n_classes: usize,
+    kind: CalibrationKind,
+    rng: &mut Rng,
+) -> (Vec<Option<usize>>, usize, bool) {
+    let n = rows.labels.len();
+    let mut evaluated: Vec<usize> = (0..n)
+        .filter(|&i| !rows.augmented[i])
+        .map(|i| rows.groups[i])
         .collect();
-    Calibration { sigmoids }
+    evaluated.sort_unstable();
+    evaluated.dedup();
+    if kind == CalibrationKind::Softmax && evaluated.len() >= 2 {
+        let k = CALIBRATION_FOLDS.min(evaluated.len());
+        (illumination_folds(rows.groups, &evaluated, k, rng), k, true)
+    } else {
+        let k = CALIBRATION_FOLDS.min(n);
+        let folds = stratified_folds(rows.labels, n_classes, k, rng);
+        (folds.into_iter().map(Some).collect(), k, false)
+    }
+}
+
+/// The calibration of a fit and the held-out decision values it was fitted on: one
+/// softmax temperature, or one Platt sigmoid per class.
+fn calibrate(
+    gram: &Gram<f64>,
+    rows: &FitRows,
+    n_classes: usize,
+    params: &SolverParams,
+    kind: CalibrationKind,
+    rng: &mut Rng,
+) -> (Calibration, HeldOut) {
+    let labels = rows.labels;
+    let n = labels.len();
+    let (fold, k, by_illumination) = calibration_folds(rows, n_classes, kind, rng);
+    let decision = held_out_decisions(gram, labels, fold.clone(), k, n_classes, params);
+    let calibration = match kind {
+        CalibrationKind::Softmax => {
+            let rows: Vec<usize> = (0..n).filter(|&i| fold[i].is_some()).collect();
+            let dec: Vec<Vec<f64>> = rows.iter().map(|&i| decision[i].clone()).collect();
+            let truth: Vec<usize> = rows.iter().map(|&i| labels[i]).collect();
+            Calibration::Softmax {
+                temperature: calibration::fit_temperature(&dec, &truth),
+            }
+        }
+        CalibrationKind::Platt => Calibration::Platt {
+            sigmoids: (0..n_classes)
+                .map(|class| {
+                    let values: Vec<f64> = decision.iter().map(|d| d[class]).collect();
+                    let positive: Vec<bool> = labels.iter().map(|&l| l == class).collect();
+                    Sigmoid::fit(&values, &positive)
+                })
+                .collect(),
+        },
+    };
+    let held_out = HeldOut {
+        fold,
+        decision,
+        folds: k,
+        by_illumination,
+    };
+    (calibration, held_out)
 }
 
 fn count_classes(labels: &[usize], n_classes: usize) -> usize {
@@ -480,6 +594,16 @@ pub fn fit_rows(
     spec: &TrainSpec,
     seed: u64,
 ) -> Result<Classifier, LearnError> {
+    Ok(fit_rows_held_out(ds, rows, spec, seed)?.0)
+}
+
+/// [`fit_rows`], and for an SVM the decision values its calibration held out.
+pub fn fit_rows_held_out(
+    ds: &Dataset,
+    rows: &[usize],
+    spec: &TrainSpec,
+    seed: u64,
+) -> Result<(Classifier, Option<HeldOut>), LearnError> {
     if rows.is_empty() {
         return Err(LearnError::NoRows);
     }
@@ -500,6 +624,7 @@ pub fn fit_rows(
     let mut rng = Rng::new(seed);
     let mut grid_result = None;
     let mut calibration = None;
+    let mut held_out = None;
     let model = match spec.classifier {
         ClassifierKind::Svm => {
             let (c, gamma) = match &spec.grid {
@@ -520,7 +645,17 @@ pub fn fit_rows(
             let gram = Gram::<f64>::rbf(prep.z.view(), gamma);
             let local: Vec<usize> = (0..rows.len()).collect();
             let sols = svm::train_one_vs_all(&gram, &local, &labels, k, &params);
-            calibration = Some(calibrate(&gram, &labels, k, &params, &mut rng));
+            let groups: Vec<usize> = rows.iter().map(|&r| ds.groups[r]).collect();
+            let augmented: Vec<bool> = rows.iter().map(|&r| ds.augmented[r]).collect();
+            let fit_rows = FitRows {
+                labels: &labels,
+                groups: &groups,
+                augmented: &augmented,
+            };
+            let (fitted, values) =
+                calibrate(&gram, &fit_rows, k, &params, spec.calibration, &mut rng);
+            calibration = Some(fitted);
+            held_out = Some(values);
             Model::Svm(SvmModel::from_solutions(
                 prep.z.view(),
                 &local,
@@ -541,7 +676,7 @@ pub fn fit_rows(
         }),
         ClassifierKind::Chance => Model::Chance(ChanceModel::fit(&labels, k)),
     };
-    Ok(Classifier {
+    let classifier = Classifier {
         classes: ds.classes.clone(),
         kind: spec.classifier,
         feature_set: spec.features.to_string(),
@@ -555,7 +690,8 @@ pub fn fit_rows(
         calibration,
         grid_search: grid_result,
         n_train: rows.len(),
-    })
+    };
+    Ok((classifier, held_out))
 }
 
 impl Classifier {
@@ -614,13 +750,10 @@ impl Classifier {
                     return bad("SVM class count disagrees".into());
                 }
                 if let Some(c) = &self.calibration {
-                    if c.sigmoids.len() != k {
+                    if c.classes().is_some_and(|n| n != k) {
                         return bad("calibration class count disagrees".into());
                     }
-                    if c.sigmoids
-                        .iter()
-                        .any(|s| !(s.a.is_finite() && s.b.is_finite()))
-                    {
+                    if !c.is_valid() {
                         return bad("calibration has non-finite values".into());
                     }
                 }
@@ -674,13 +807,18 @@ impl Classifier {
         match &self.model {
             Model::Svm(m) => {
                 let decision = m.decision_values(z);
-                let class = svm::argmax(&decision);
                 let probabilities = match &self.calibration {
                     Some(c) => c.probabilities(&decision),
-                    None => (0..decision.len())
-                        .map(|k| if k == class { 1.0 } else { 0.0 })
-                        .collect(),
+                    None => {
+                        let top = svm::argmax(&decision);
+                        (0..decision.len())
+                            .map(|k| if k == top { 1.0 } else { 0.0 })
+                            .collect()
+                    }
                 };
+                // One rule: the label is the most probable class (first on ties). With the
+                // softmax calibration that is the largest decision value.
+                let class = svm::argmax(&probabilities);
                 Output {
                     class,
                     probabilities,
@@ -713,8 +851,9 @@ impl Classifier {
         Ok(self.classify(row)?.probabilities)
     }
 
-    /// The predicted class index: the largest SVM decision value (first class on ties), or
-    /// the k-NN vote, or the most frequent training class.
+    /// The predicted class index: the most probable class (first on ties; for the SVM with
+    /// the softmax calibration the largest decision value), or the k-NN vote, or the most
+    /// frequent training class.
     pub fn predict(&self, row: &[f64]) -> Result<usize, LearnError> {
         Ok(self.classify(row)?.class)
     }
@@ -791,7 +930,7 @@ mod tests {
             let out = clf.classify(&row).unwrap();
             assert_eq!(out.class, svm::argmax(&out.decision));
             assert!((out.probabilities.iter().sum::<f64>() - 1.0).abs() < 1e-12);
-            assert!(out.probabilities.iter().all(|&p| p > 0.0 && p < 1.0));
+            assert!(out.probabilities.iter().all(|&p| (0.0..=1.0).contains(&p)));
             assert_eq!(clf.predict(&row).unwrap(), out.class);
             assert_eq!(clf.predict_proba(&row).unwrap(), out.probabilities);
             correct += usize::from(out.class == ds.labels[i]);
@@ -861,7 +1000,15 @@ mod tests {
         let b = fit(&ds, &s, 11).unwrap();
         assert_eq!(a, b);
         let c = fit(&ds, &s, 12).unwrap();
-        // Only the calibration folds depend on the seed.
+        // Only the calibration folds depend on the seed (with 4 illuminations, each is a
+        // fold of its own whatever the seed; Platt's stratified folds move).
+        assert_eq!(a.model, c.model);
+        assert_eq!(a.calibration, c.calibration);
+        let platt = TrainSpec {
+            calibration: CalibrationKind::Platt,
+            ..s.clone()
+        };
+        let (a, c) = (fit(&ds, &platt, 11).unwrap(), fit(&ds, &platt, 12).unwrap());
         assert_eq!(a.model, c.model);
         assert_ne!(a.calibration, c.calibration);
     }

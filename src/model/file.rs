@@ -8,6 +8,8 @@
 //! classifier's shapes, and the self-test; a file failing any of these is refused.
 
 use crate::features::{ConfigError, FeatureConfig};
+use crate::learn::conformal::PredictionSets;
+use crate::learn::domain::DomainCheck;
 use crate::learn::estimate::WardRegressor;
 use crate::learn::{Classifier, LearnError};
 use crate::render::capture::CaptureEnvelope;
@@ -29,6 +31,27 @@ pub struct Ward {
 }
 
 impl Ward {
+    /// Whether the two reflectances differ, to a camera without a white reference, mainly
+    /// in how much light they reflect: the same kind of surface (matte: ρs = 0; metal: ρd <
+    /// 0.02 with ρs > 0; else glossy) with the same roughness α (within 10 %). Without white,
+    /// such spheres differ in the image mostly by a brightness scale, which the exposure
+    /// hides (exactly so for matte ones).
+    pub fn same_up_to_scale(&self, other: &Ward) -> bool {
+        #[derive(PartialEq)]
+        enum Kind {
+            Matte,
+            Metal,
+            Glossy,
+        }
+        let kind = |w: &Ward| match (w.rho_d, w.rho_s) {
+            (_, s) if s <= 0.0 => Kind::Matte,
+            (d, _) if d < 0.02 => Kind::Metal,
+            _ => Kind::Glossy,
+        };
+        let alpha_alike = (self.alpha - other.alpha).abs() <= 0.1 * self.alpha.max(other.alpha);
+        kind(self) == kind(other) && (kind(self) == Kind::Matte || alpha_alike)
+    }
+
     /// The reflectance in words, for people: the tone of the diffuse part, and how much and
     /// how sharply the surface mirrors its surroundings.
     pub fn describe(&self) -> String {
@@ -123,6 +146,32 @@ pub struct Exemplar {
 pub struct SelfTest {
     pub features: Vec<f64>,
     pub probabilities: Vec<f64>,
+    /// What the classifier without white gives it, when the model has one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub no_white_probabilities: Option<Vec<f64>>,
+}
+
+/// The classifier a model answers with when a request gives no white reference: it reads
+/// only features that do not change when the image is multiplied by a constant, with
+/// prediction sets and a domain check of its own (docs/design.md §3 "Without white").
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NoWhite {
+    pub classifier: Classifier,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prediction_sets: Option<PredictionSets>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub domain: Option<DomainCheck>,
+}
+
+/// A classifier with what it knows of its own reliability: the model's own, or the one
+/// without white.
+#[derive(Clone, Copy, Debug)]
+pub struct Head<'a> {
+    pub classifier: &'a Classifier,
+    pub prediction_sets: Option<&'a PredictionSets>,
+    pub domain: Option<&'a DomainCheck>,
+    /// The classifier without white.
+    pub without_white: bool,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -148,6 +197,17 @@ pub struct ModelFile {
     /// The Ward-parameter estimator, when trained with one (`train --estimator-table`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub estimator: Option<WardRegressor>,
+    /// Prediction sets for the classifier, calibrated on held-out illuminations. Absent in
+    /// older model files (answers then carry no set, and say so).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prediction_sets: Option<PredictionSets>,
+    /// The classifier's domain check. Absent in older model files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub domain: Option<DomainCheck>,
+    /// The classifier used without a white reference. Absent in older model files and in
+    /// models without the log-domain features.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub no_white: Option<NoWhite>,
     #[serde(default)]
     pub sha256: String,
 }
@@ -301,6 +361,32 @@ impl ModelFile {
             return inconsistent("a model needs a name and a version ≥ 1".into());
         }
         self.classifier.validate()?;
+        let row_len = names.len();
+        if let Some(sets) = &self.prediction_sets {
+            sets.validate().map_err(ModelError::Inconsistent)?;
+        }
+        if let Some(domain) = &self.domain {
+            domain
+                .validate(self.classifier.dim(), row_len)
+                .map_err(ModelError::Inconsistent)?;
+        }
+        if let Some(no_white) = &self.no_white {
+            let c = &no_white.classifier;
+            c.validate()?;
+            if c.input_names != names || c.classes != self.classifier.classes {
+                return inconsistent(
+                    "the classifier without white has other inputs or classes".into(),
+                );
+            }
+            if let Some(sets) = &no_white.prediction_sets {
+                sets.validate().map_err(ModelError::Inconsistent)?;
+            }
+            if let Some(domain) = &no_white.domain {
+                domain
+                    .validate(c.dim(), row_len)
+                    .map_err(ModelError::Inconsistent)?;
+            }
+        }
         if let Some(estimator) = &self.estimator {
             estimator
                 .validate(&names)
@@ -346,19 +432,50 @@ impl ModelFile {
     }
 
     pub fn self_test(&self) -> Result<(), ModelError> {
-        let got = self.classifier.predict_proba(&self.self_test.features)?;
-        if got.len() != self.self_test.probabilities.len() {
-            return Err(ModelError::SelfTest(f64::INFINITY));
+        let features = &self.self_test.features;
+        let mut pairs = vec![(
+            self.classifier.predict_proba(features)?,
+            Some(&self.self_test.probabilities),
+        )];
+        if let Some(no_white) = &self.no_white {
+            pairs.push((
+                no_white.classifier.predict_proba(features)?,
+                self.self_test.no_white_probabilities.as_ref(),
+            ));
         }
-        let worst = got
-            .iter()
-            .zip(&self.self_test.probabilities)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        if worst.is_nan() || worst > SELF_TEST_TOLERANCE {
-            return Err(ModelError::SelfTest(worst));
+        for (got, stored) in pairs {
+            let Some(stored) = stored.filter(|s| s.len() == got.len()) else {
+                return Err(ModelError::SelfTest(f64::INFINITY));
+            };
+            let worst = got
+                .iter()
+                .zip(stored)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            if worst.is_nan() || worst > SELF_TEST_TOLERANCE {
+                return Err(ModelError::SelfTest(worst));
+            }
         }
         Ok(())
+    }
+
+    /// The classifier to answer with: the one without white when there is no white
+    /// reference and the model has one.
+    pub fn head(&self, white_given: bool) -> Head<'_> {
+        match (&self.no_white, white_given) {
+            (Some(n), false) => Head {
+                classifier: &n.classifier,
+                prediction_sets: n.prediction_sets.as_ref(),
+                domain: n.domain.as_ref(),
+                without_white: true,
+            },
+            _ => Head {
+                classifier: &self.classifier,
+                prediction_sets: self.prediction_sets.as_ref(),
+                domain: self.domain.as_ref(),
+                without_white: false,
+            },
+        }
     }
 }
 
@@ -435,6 +552,25 @@ mod tests {
             ward: None,
         };
         assert_eq!(named.description(), "white shiny");
+    }
+
+    #[test]
+    fn reflectances_alike_up_to_a_brightness_scale() {
+        let ward = |rho_d, rho_s, alpha| Ward {
+            rho_d,
+            rho_s,
+            alpha,
+        };
+        let (black, white) = (ward(0.1, 0.0, 0.0), ward(0.9, 0.0, 0.0));
+        let (black_shiny, gray_shiny) = (ward(0.1, 0.1, 0.01), ward(0.25, 0.05, 0.01));
+        let chrome = ward(0.0, 0.75, 0.0);
+        assert!(black.same_up_to_scale(&white) && white.same_up_to_scale(&black));
+        assert!(black_shiny.same_up_to_scale(&gray_shiny));
+        assert!(!black_shiny.same_up_to_scale(&black));
+        assert!(!chrome.same_up_to_scale(&black_shiny));
+        // The paper's E and G differ only in α.
+        assert!(!ward(0.05, 0.05, 0.0).same_up_to_scale(&ward(0.05, 0.05, 0.02)));
+        assert!(chrome.same_up_to_scale(&ward(0.0, 0.5, 0.0)));
     }
 
     #[test]

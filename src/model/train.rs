@@ -6,11 +6,14 @@ use crate::features::stats;
 use crate::features::{CAPTURE_NAMES, Extensions, FeatureConfig, Preprocessing};
 use crate::image::decode::{self, DecodeOptions};
 use crate::image::display;
+use crate::learn::conformal::PredictionSets;
+use crate::learn::domain::{self, DomainCheck};
 use crate::learn::estimate::{self, EstimateReport, WardRegressor};
-use crate::learn::{self, CvReport, Dataset, FeatureSet, LearnError, TrainSpec};
+use crate::learn::pipeline::{HeldOut, fit_rows_held_out};
+use crate::learn::{self, Classifier, CvReport, Dataset, FeatureSet, LearnError, TrainSpec};
 use crate::model::{
-    self, ClassInfo, CvSummary, Exemplar, FeatureSpec, ModelError, ModelFile, Provenance, SelfTest,
-    Ward,
+    self, ClassInfo, CvSummary, Exemplar, FeatureSpec, ModelError, ModelFile, NoWhite, Provenance,
+    SelfTest, Ward,
 };
 use crate::render::capture::{self, CaptureEnvelope, CaptureRanges};
 use crate::render::ward::Material;
@@ -32,6 +35,8 @@ pub enum TrainError {
     Columns,
     #[error("{0}: its columns are not the model's features (extract it with the same flags)")]
     EstimatorColumns(String),
+    #[error(transparent)]
+    Dataset(#[from] crate::dataset::DatasetError),
 }
 
 pub struct TrainOptions {
@@ -45,9 +50,12 @@ pub struct TrainOptions {
     /// How the training spheres were preprocessed (working radius, saturation), recorded
     /// so that serving does the same (the table must have been extracted with it).
     pub preprocessing: Preprocessing,
-    /// The manifest the table was extracted from: exemplars get thumbnails of its images
-    /// (`None`: no thumbnails).
+    /// The manifest the table was extracted from: exemplars get thumbnails of its images,
+    /// and the classifier without white is fitted on their features without white (`None`:
+    /// neither).
     pub images: Option<Manifest>,
+    /// How the manifest's images decode.
+    pub decode: DecodeOptions,
     /// Fit a Ward-parameter estimator next to the classifier.
     pub estimator: Option<EstimatorData>,
 }
@@ -179,9 +187,25 @@ pub fn train_with(
         return Err(LearnError::Cancelled.into());
     }
     observer.stage("fit");
-    observer.progress(0, 1);
-    let classifier = learn::fit(&ds, &options.spec, options.seed)?;
-    observer.progress(1, 1);
+    observer.progress(0, 2);
+    let rows: Vec<usize> = (0..ds.n_rows()).collect();
+    let column = |name: &str| table.names.iter().position(|n| n == name);
+    let (classifier, held_out) = fit_rows_held_out(&ds, &rows, &options.spec, options.seed)?;
+    let (prediction_sets, domain) =
+        reliability(&ds, &classifier, held_out.as_ref(), &column, options.seed)?;
+    observer.progress(1, 2);
+    if observer.cancelled() {
+        return Err(LearnError::Cancelled.into());
+    }
+    observer.progress(2, 2);
+    let no_white = match (&options.images, config.log_domain) {
+        (Some(manifest), true) => {
+            let table = without_white(manifest, config, &options.decode, observer)?;
+            observer.stage("fit");
+            fit_no_white(&Dataset::from_table(&table)?, options, &column)?
+        }
+        _ => None,
+    };
     let report = if options.cross_validate {
         observer.stage("cross_validate");
         Some(learn::cross_validate_with(
@@ -203,6 +227,10 @@ pub fn train_with(
     let probe = ds.augmented.iter().position(|a| !a).unwrap_or(0);
     let features = ds.x.row(probe).to_vec();
     let probabilities = classifier.predict_proba(&features)?;
+    let no_white_probabilities = no_white
+        .as_ref()
+        .map(|n| n.classifier.predict_proba(&features))
+        .transpose()?;
     let ward_of = |name: &str| {
         options
             .classes
@@ -279,10 +307,14 @@ pub fn train_with(
         self_test: SelfTest {
             features,
             probabilities,
+            no_white_probabilities,
         },
         exemplars,
         capture: capture_envelope(table),
         estimator,
+        prediction_sets,
+        domain,
+        no_white,
         sha256: String::new(),
     };
     model.verify()?;
@@ -291,6 +323,100 @@ pub fn train_with(
         report,
         estimate,
     })
+}
+
+/// The prediction sets and the domain check of a classifier, from the rows its calibration
+/// held out (none for classifiers without calibration folds: k-NN, chance). `column` finds
+/// a feature's column (the domain check's feature checks read those that exist).
+fn reliability(
+    ds: &Dataset,
+    classifier: &Classifier,
+    held_out: Option<&HeldOut>,
+    column: &dyn Fn(&str) -> Option<usize>,
+    seed: u64,
+) -> Result<(Option<PredictionSets>, Option<DomainCheck>), LearnError> {
+    let (Some(held_out), Some(calibration)) = (held_out, &classifier.calibration) else {
+        return Ok((None, None));
+    };
+    let held: Vec<usize> = (0..ds.n_rows())
+        .filter(|&i| held_out.fold[i].is_some())
+        .collect();
+    if held.is_empty() {
+        return Ok((None, None));
+    }
+    let probabilities: Vec<Vec<f64>> = held
+        .iter()
+        .map(|&i| calibration.probabilities(&held_out.decision[i]))
+        .collect();
+    let truth: Vec<usize> = held.iter().map(|&i| ds.labels[i]).collect();
+    let fold: Vec<usize> = held.iter().filter_map(|&i| held_out.fold[i]).collect();
+    let sets = PredictionSets::calibrate(&probabilities, &truth, &fold, held_out.by_illumination);
+    let values: Vec<Vec<f64>> = ds.x.rows().into_iter().map(|r| r.to_vec()).collect();
+    let z: Vec<Vec<f64>> = values
+        .iter()
+        .map(|row| classifier.transform(row))
+        .collect::<Result<_, _>>()?;
+    let rows = domain::Rows {
+        z: &z,
+        values: &values,
+        fold: &held_out.fold,
+    };
+    Ok((Some(sets), DomainCheck::calibrate(&rows, column, seed)))
+}
+
+/// The features of a manifest's images as a request without white gives them (white = 1):
+/// what the classifier without white is fitted and calibrated on.
+fn without_white(
+    manifest: &Manifest,
+    config: FeatureConfig,
+    decode: &DecodeOptions,
+    observer: &dyn Observer,
+) -> Result<FeatureTable, TrainError> {
+    let mut manifest = manifest.clone();
+    manifest.entries.iter_mut().for_each(|e| e.white = None);
+    let extractor = crate::features::Extractor::new(config).map_err(ModelError::from)?;
+    observer.stage("features_without_white");
+    Ok(crate::dataset::extract_manifest_with(
+        &extractor, &manifest, decode, observer,
+    )?)
+}
+
+/// The classifier without white: the model's kind of classifier on the `scale_free`
+/// features of the images without white, when the table has them (the log-domain
+/// features), with its own prediction sets and domain check (which cannot read the
+/// brightness against white).
+fn fit_no_white(
+    ds: &Dataset,
+    options: &TrainOptions,
+    column: &dyn Fn(&str) -> Option<usize>,
+) -> Result<Option<NoWhite>, LearnError> {
+    let names = crate::features::named_set("scale_free").unwrap_or_default();
+    if options.spec.classifier != learn::ClassifierKind::Svm
+        || names.iter().any(|n| column(n).is_none())
+    {
+        return Ok(None);
+    }
+    let spec = TrainSpec {
+        features: FeatureSet::parse_with("scale_free", &ds.names)?,
+        gamma: None,
+        grid: None,
+        ..options.spec.clone()
+    };
+    let rows: Vec<usize> = (0..ds.n_rows()).collect();
+    let (classifier, held_out) = fit_rows_held_out(ds, &rows, &spec, options.seed)?;
+    let without_brightness = |name: &str| column(name).filter(|_| name != "ctr.mean");
+    let (prediction_sets, domain) = reliability(
+        ds,
+        &classifier,
+        held_out.as_ref(),
+        &without_brightness,
+        options.seed,
+    )?;
+    Ok(Some(NoWhite {
+        classifier,
+        prediction_sets,
+        domain,
+    }))
 }
 
 /// The estimator of `data` for a model of `table`'s columns and `options`' feature set.

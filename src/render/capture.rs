@@ -253,6 +253,27 @@ impl CaptureEnvelope {
         class: &str,
         measured: &CaptureMeasurements,
     ) -> Vec<String> {
+        self.outside_of(radius, working_radius, Some(class), measured)
+    }
+
+    /// Why an input lies outside the envelope of every class (the domain check's reasons:
+    /// whatever its class, the model never saw such a capture).
+    pub fn outside_every_class(
+        &self,
+        radius: f64,
+        working_radius: Option<f64>,
+        measured: &CaptureMeasurements,
+    ) -> Vec<String> {
+        self.outside_of(radius, working_radius, None, measured)
+    }
+
+    fn outside_of(
+        &self,
+        radius: f64,
+        working_radius: Option<f64>,
+        class: Option<&str>,
+        measured: &CaptureMeasurements,
+    ) -> Vec<String> {
         let mut out = Vec::new();
         let [low, high] = self.ranges.radius;
         let reduced = working_radius.is_some_and(|w| w <= high);
@@ -263,23 +284,27 @@ impl CaptureEnvelope {
                  was trained for"
             ));
         }
-        let noise_limit = self
-            .noise_p99
-            .get(class)
-            .map_or(self.ranges.noise[1], |p| p.max(self.ranges.noise[1]));
+        let limit = |by_class: &BTreeMap<String, f64>| match class {
+            Some(class) => by_class.get(class).copied(),
+            None => by_class.values().copied().reduce(f64::max),
+        };
+        let on = class.map_or(String::new(), |c| format!(" on {c}"));
+        let noise_limit =
+            limit(&self.noise_p99).map_or(self.ranges.noise[1], |p| p.max(self.ranges.noise[1]));
         if let Some(noise) = measured.noise.filter(|n| *n > noise_limit * NOISE_MARGIN) {
             out.push(format!(
                 "the image's noise, estimated at {:.1} % of white, is above the {:.1} % the \
-                 model was trained for on {class}: expect lower accuracy",
+                 model was trained for{on}: expect lower accuracy",
                 100.0 * noise,
                 100.0 * noise_limit
             ));
         }
-        let clipped_limit = self.clipped_p99.get(class).copied().unwrap_or(0.0);
+        let clipped_limit = limit(&self.clipped_p99).unwrap_or(0.0);
         if measured.clipped > clipped_limit + CLIPPED_MARGIN {
+            let of = class.map_or(String::new(), |c| format!(" for {c}"));
             out.push(format!(
                 "{:.1} % of the sphere's pixels are clipped (the model was trained on up to \
-                 {:.1} % for {class}): lower the exposure",
+                 {:.1} %{of}): lower the exposure",
                 100.0 * measured.clipped,
                 100.0 * clipped_limit
             ));

@@ -274,6 +274,7 @@ pub fn evaluate(
                         include_features: false,
                         include_explain: false,
                         include_images: false,
+                        coverage: None,
                     };
                     let classes = &model.file.classifier.classes;
                     let truth = classes.iter().position(|c| *c == image.class);
@@ -282,7 +283,7 @@ pub fn evaluate(
                         .zip(truth)
                         .map(|(c, truth)| {
                             let nearest = c.ward.as_ref().and_then(|e| model.nearest_class(e));
-                            (truth, c.class, nearest)
+                            (truth, c.decision.class, nearest)
                         })
                 })
                 .collect();

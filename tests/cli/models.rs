@@ -32,6 +32,7 @@ fn trained(name: &str) -> ModelFile {
         classes: None,
         preprocessing: Default::default(),
         images: None,
+        decode: Default::default(),
         estimator: None,
     };
     train(&table(), "fixture", &options).unwrap().model
@@ -329,7 +330,10 @@ fn predict_rendered_spheres_with_a_trained_model() {
     );
     let csv = std::fs::read_to_string(&predictions).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
-    assert_eq!(lines[0], "path,label,p_chrome,p_dark,p_matte");
+    assert_eq!(
+        lines[0],
+        "path,label,p_chrome,p_dark,p_matte,set,in_domain,domain_score,domain_failed"
+    );
     assert_eq!(lines.len(), 10);
     assert!(lines[1].starts_with("p0__matte.pfm,matte,"), "{}", lines[1]);
     let explicit = predict("tiny/1", &predictions);

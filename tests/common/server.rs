@@ -133,6 +133,7 @@ pub fn fixture() -> &'static Fixture {
             classes: Some(classes.clone()),
             preprocessing: Default::default(),
             images: Some(manifest.clone()),
+            decode: Default::default(),
             // A Ward-parameter estimator beside the classifier (three materials only: it is
             // here for the answer's shape, not its accuracy).
             estimator: Some(EstimatorData {

@@ -44,6 +44,7 @@ const LEARN: &[&str] = &[
     "dependency_features",
     "capture_features",
     "centre_features",
+    "domain_features",
     "working_radius",
     "saturation",
 ];

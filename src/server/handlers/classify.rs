@@ -62,6 +62,9 @@ pub struct ClassifyForm {
     /// PNG); comma-separated or repeated.
     #[schema(value_type = String, required = false, example = "features,explain,images")]
     include: Option<String>,
+    /// The prediction set's coverage, from 0.5 to 0.999 (default 0.95).
+    #[schema(value_type = f64, required = false, example = 0.9)]
+    coverage: Option<f64>,
 }
 
 #[derive(Deserialize, IntoParams)]
@@ -107,6 +110,7 @@ pub struct RawInput {
     pub mask: Option<Bytes>,
     pub encoding: Option<String>,
     pub include: Vec<String>,
+    pub coverage: Option<String>,
 }
 
 impl RawInput {
@@ -195,6 +199,12 @@ impl RawInput {
             .transpose()?;
         let [include_features, include_explain, include_images] =
             includes(&self.include, ["features", "explain", "images"])?;
+        let coverage = parse("coverage", &self.coverage)?
+            .map(|c| {
+                crate::learn::conformal::check_coverage(c)
+                    .map_err(|detail| ApiError::new(Kind::InvalidField, detail))
+            })
+            .transpose()?;
         Ok(Input {
             image,
             white,
@@ -203,6 +213,7 @@ impl RawInput {
             include_features,
             include_explain,
             include_images,
+            coverage,
         })
     }
 }
@@ -256,7 +267,7 @@ pub(crate) async fn read_form(mut multipart: Multipart) -> Result<RawInput, ApiE
                 }
             }
             "white" | "white_reflectance" | "white_rect" | "cx" | "cy" | "r" | "encoding"
-            | "include" => {
+            | "include" | "coverage" => {
                 let bytes = field.bytes().await?;
                 if bytes.len() > TEXT_FIELD_LIMIT {
                     return Err(ApiError::new(
@@ -278,6 +289,7 @@ pub(crate) async fn read_form(mut multipart: Multipart) -> Result<RawInput, ApiE
                     "cy" => &mut raw.cy,
                     "r" => &mut raw.r,
                     "encoding" => &mut raw.encoding,
+                    "coverage" => &mut raw.coverage,
                     _ => {
                         raw.include.push(text);
                         continue;
@@ -292,7 +304,8 @@ pub(crate) async fn read_form(mut multipart: Multipart) -> Result<RawInput, ApiE
                     Kind::UnknownField,
                     format!(
                         "unknown field {other:?} (expected image, white, white_image, \
-                         white_rect, white_reflectance, cx, cy, r, mask, encoding, include)"
+                         white_rect, white_reflectance, cx, cy, r, mask, encoding, include, \
+                         coverage)"
                     ),
                 ));
             }

@@ -324,13 +324,18 @@ pub async fn infer(
                 name: "label".into(),
                 shape: vec![1],
                 datatype: "BYTES".into(),
-                data: vec![Value::String(classes[c.class].clone())],
+                data: vec![Value::String(classes[c.decision.class].clone())],
             },
             InferOutput {
                 name: "probabilities".into(),
                 shape: vec![k],
                 datatype: "FP64".into(),
-                data: c.probabilities.iter().map(|&p| Value::from(p)).collect(),
+                data: c
+                    .decision
+                    .probabilities
+                    .iter()
+                    .map(|&p| Value::from(p))
+                    .collect(),
             },
             InferOutput {
                 name: "classes".into(),

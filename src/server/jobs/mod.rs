@@ -98,6 +98,10 @@ pub struct LearnParams {
     /// feature sets that name them, such as `hand6+log+cap+ctr`).
     #[serde(default)]
     pub centre_features: bool,
+    /// With `dataset`: also measure how well each circle follows a sphere's outline
+    /// (`dom.outline`; train jobs always do, for the model's domain check).
+    #[serde(default)]
+    pub domain_features: bool,
     /// With `dataset`: reduce spheres larger than this radius (px, ≥ 32) before extraction;
     /// recorded in the model so that serving does the same.
     #[serde(default, skip_serializing_if = "Option::is_none")]

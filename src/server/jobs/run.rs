@@ -195,6 +195,7 @@ fn config_of(p: &LearnParams) -> Result<FeatureConfig, ApiError> {
         dependencies: p.dependency_features,
         capture: p.capture_features,
         centre: p.centre_features,
+        domain: p.domain_features,
     };
     let preprocessing = Preprocessing {
         working_radius: p.working_radius,
@@ -383,6 +384,11 @@ pub fn execute(
                 }
                 None => None,
             };
+            // A model's domain check reads how well each circle follows a sphere's outline.
+            let p = &LearnParams {
+                domain_features: true,
+                ..p.clone()
+            };
             let (table, label, manifest) = load_table(p, data, limits, observer)?;
             let options = TrainOptions {
                 name: name.clone(),
@@ -398,6 +404,10 @@ pub fn execute(
                     None => Preprocessing::default(),
                 },
                 images: manifest,
+                decode: DecodeOptions {
+                    encoding: None,
+                    limits: *limits,
+                },
                 estimator: estimator_data(p, estimator_table, estimator_classes, data)?,
             };
             let mut trained = train::train_with(&table, &label, &options, observer)?;
