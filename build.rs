@@ -1,7 +1,8 @@
 //! Tells the tests whether the shared light probes (`../shared/data/probes`) are beside the
-//! repository. Tests that read them are marked ignored when they are missing, so that the
-//! summary shows them; with `REFLECTANCE_REQUIRE_SHARED` set (as `.ci/run` does) they are
-//! never ignored, and fail if the data are missing.
+//! repository, and whether a browser is installed for the page's test. Tests that need
+//! either are marked ignored when it is missing, so that the summary shows them; with
+//! `REFLECTANCE_REQUIRE_SHARED` or `REFLECTANCE_REQUIRE_BROWSER` set (as `.ci/run` does) they
+//! are never ignored, and fail if it is missing. (`touch build.rs` after installing either.)
 
 fn main() {
     const PROBES: &str = "../shared/data/probes";
@@ -15,5 +16,24 @@ fn main() {
     }
     if present || std::env::var_os("REFLECTANCE_REQUIRE_SHARED").is_some() {
         println!("cargo::rustc-cfg=shared_data");
+    }
+    browser();
+}
+
+/// `cfg(browser)`: Chromium and ChromeDriver where the page's test looks for them.
+fn browser() {
+    println!("cargo::rustc-check-cfg=cfg(browser)");
+    let mut found = true;
+    for (variable, default) in [
+        ("REFLECTANCE_CHROMIUM", "/usr/bin/chromium"),
+        ("REFLECTANCE_CHROMEDRIVER", "/usr/bin/chromedriver"),
+    ] {
+        println!("cargo::rerun-if-env-changed={variable}");
+        let path = std::env::var(variable).unwrap_or_else(|_| default.to_string());
+        found &= std::path::Path::new(&path).is_file();
+    }
+    println!("cargo::rerun-if-env-changed=REFLECTANCE_REQUIRE_BROWSER");
+    if found || std::env::var_os("REFLECTANCE_REQUIRE_BROWSER").is_some() {
+        println!("cargo::rustc-cfg=browser");
     }
 }

@@ -127,6 +127,26 @@ fn features_of_the_shipped_model(bencher: Bencher) {
     });
 }
 
+/// `pix.mean` of a 512² image, without and with the domain check's outline measurement
+/// (`dom.outline`: 48 rays of up to 96 samples): the difference is its cost.
+#[divan::bench(args = [false, true])]
+fn features_with_outline(bencher: Bencher, outline: bool) {
+    let config = FeatureConfig {
+        domain: true,
+        ..FeatureConfig::default()
+    };
+    let extractor = Extractor::new(config).expect("config");
+    let image = decoded();
+    let wanted = match outline {
+        true => vec![0, extractor.feature_count() - 1],
+        false => vec![0],
+    };
+    bencher.bench(|| {
+        let luminance = divan::black_box(image.luminance.view());
+        extractor.extract_subset(luminance, &circle(), 1.0, &wanted)
+    });
+}
+
 #[divan::bench]
 fn features_including_decode(bencher: Bencher) {
     let bytes = png_bytes();

@@ -220,3 +220,36 @@ fn estimate_one(bencher: Bencher, name: &str) {
     let row = vec![0.5; model.features.config.names().len()];
     bencher.bench(|| estimator.estimate(divan::black_box(&row)));
 }
+
+/// What the service decides of one feature row with a shipped model, beside the bare
+/// classifier: the prediction set and the domain check add to it (issue 33: ≤ 0.1 ms).
+/// "… without white": the classifier without white answers instead.
+#[divan::bench(args = ["ward6", "ward11", "ward6 without white", "ward11 without white"])]
+fn decide_one(bencher: Bencher, case: &str) {
+    let name = case.split(' ').next().unwrap_or(case);
+    let (model, row) = shipped_row(name);
+    let context = reflectance::inference::Context {
+        white_given: !case.ends_with("without white"),
+        radius: 100.0,
+        measured: None,
+        coverage: 0.95,
+    };
+    bencher.bench(|| reflectance::inference::decide(&model, divan::black_box(&row), context));
+}
+
+/// The bare classifier on the same row (what `decide_one` adds to).
+#[divan::bench(args = ["ward6", "ward11"])]
+fn classify_one_shipped(bencher: Bencher, name: &str) {
+    let (model, row) = shipped_row(name);
+    bencher.bench(|| model.classifier.classify(divan::black_box(&row)));
+}
+
+/// A shipped model and its self-test row (a real training image's features).
+fn shipped_row(name: &str) -> (reflectance::model::ModelFile, Vec<f64>) {
+    let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+    let model = reflectance::model::registry::Registry::new(models)
+        .load(name, 1)
+        .expect("shipped model");
+    let row = model.self_test.features.clone();
+    (model, row)
+}

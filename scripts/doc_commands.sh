@@ -35,6 +35,9 @@
 #   expected one shows with the same values (numbers to the digits shown: 0.912 matches
 #   0.9117966…; lists of the same length), whatever the volatile keys (request_id,
 #   timing_ms, id, created, started, finished) hold and whatever else it holds.
+# * A ```text expect block right after a ```sh block is that block's whole standard output,
+#   line by line: as many lines, each the same, where `…` stands for any run of characters
+#   (what varies: a score, a time).
 # * Commands write only under data/ (ignored by git) or /tmp, never into tracked files.
 #   Blocks are idempotent, so running twice works: render resumes, training writes the
 #   next version, tests read versions from answers rather than assuming numbers.

@@ -597,8 +597,8 @@ pub struct SubbandImage {
     pub image: String,
 }
 
-/// A unit variant's name as the JSON answer spells it.
-fn wire(value: &impl Serialize) -> String {
+/// A unit variant's name as the JSON answer spells it (`given`, `typicality`).
+pub fn wire_name(value: &impl Serialize) -> String {
     match serde_json::to_value(value) {
         Ok(serde_json::Value::String(name)) => name,
         _ => String::new(),
@@ -745,7 +745,7 @@ impl Decision {
                 .iter()
                 .flat_map(|v| &v.checks)
                 .map(|c| DomainCheckOut {
-                    check: wire(&c.kind),
+                    check: wire_name(&c.kind),
                     value: c.value,
                     p_value: c.p_value,
                     limit: c.limit,

@@ -26,9 +26,20 @@ function status(text) {
 }
 
 function showError(title, detail) {
+  let text = detail || "";
+  // Problem details often begin by restating their title ("unsupported image format: …").
+  if (text.toLowerCase().startsWith(title.toLowerCase())) {
+    text = text.slice(title.length).replace(/^[\s:;,.—-]+/, "");
+  }
   $("error-title").textContent = title;
-  $("error-detail").textContent = detail || "";
+  $("error-detail").textContent = text;
   $("error").hidden = false;
+}
+
+/** What locating the sphere said: stays until another photograph is chosen. */
+function showNote(text) {
+  $("note").textContent = text || "";
+  $("note").hidden = !text;
 }
 
 function clearError() {
@@ -113,6 +124,7 @@ async function choose(file) {
     return;
   }
   clearError();
+  showNote("");
   $("result").hidden = true;
   document.body.classList.remove("answered");
   $("stage").hidden = true;
@@ -148,10 +160,10 @@ async function choose(file) {
     draw();
     const found = g
       ? `Sphere found (confidence ${g.confidence !== undefined ? g.confidence.toFixed(2) : "n/a"}). Check the circle, then Classify.`
-      : "No sphere found: place the circle on it, then Classify.";
+      : "No sphere found automatically: drag the circle onto the sphere (by its centre dot or its rim), then Classify.";
     status(found);
     if (located.warnings.length) {
-      showError("Note", located.warnings.join(" "));
+      showNote(`Note: ${located.warnings.join(" ")}`);
     }
     $("classify").focus();
   } catch (problem) {

@@ -5,8 +5,9 @@
                                          bash script (conventions: scripts/doc_commands.sh);
                                          print the numbers of blocks to run and skipped
     docblocks.py list FILE.md...         list every fenced block: file:line, tag, first line
-    docblocks.py check EXPECTED ACTUAL   compare a command's JSON output with a ```json expect
-                                         block (see `compare`)
+    docblocks.py check EXPECTED ACTUAL   compare a command's output with a ```json expect
+                                         block (see `compare`) or a ```text expect block
+                                         (see `compare_text`)
 
 Fences: a line of three backticks, optionally indented (blocks inside list items), with an
 info string `LANG [FLAG…]`. Every fence must name its language, so that no command block
@@ -121,14 +122,16 @@ def generate(path, outdir, slow, use_override):
             continue
         n_run += 1
         expected = None
-        if k + 1 < len(items) and items[k + 1][1] == "json" and "expect" in items[k + 1][2]:
-            exp_line, _, _, exp_body = items[k + 1]
+        following = items[k + 1] if k + 1 < len(items) else None
+        if following and following[1] in ("json", "text") and "expect" in following[2]:
+            exp_line, exp_lang, _, exp_body = following
             text = "\n".join(exp_body)
-            try:
-                json.loads(text)
-            except ValueError as e:
-                raise DocError(f"{path}:{exp_line}: the ```json expect block is not JSON: {e}")
-            expected = os.path.join(outdir, f"expect-{line_no}.json")
+            if exp_lang == "json":
+                try:
+                    json.loads(text)
+                except ValueError as e:
+                    raise DocError(f"{path}:{exp_line}: the ```json expect block is not JSON: {e}")
+            expected = os.path.join(outdir, f"expect-{line_no}.{exp_lang}")
             with open(expected, "w", encoding="utf-8") as f:
                 f.write(text + "\n")
         out.append(f"__doc_block {shlex.quote(where)} <<'__DOC_BLOCK_TEXT__'")
@@ -220,11 +223,33 @@ def compare(expected, actual, where, problems):
         problems.append(f"{where}: expected {json.dumps(expected)}, got {json.dumps(actual)[:80]}")
 
 
+def compare_text(expected, actual):
+    """The whole output, line by line: as many lines, each equal to the expected one, where
+    `…` in an expected line stands for any run of characters (what varies from run to run,
+    such as a time or a score). Trailing white space is ignored."""
+    want = [line.rstrip() for line in expected.rstrip("\n").split("\n")]
+    got = [line.rstrip() for line in actual.rstrip("\n").split("\n")]
+    problems = []
+    if len(want) != len(got):
+        problems.append(f"expected {len(want)} lines, got {len(got)}")
+    for i, (w, g) in enumerate(zip(want, got), 1):
+        pattern = "^" + ".*".join(re.escape(part) for part in w.split("…")) + "$"
+        if not re.match(pattern, g):
+            problems.append(f"line {i}: expected {w!r}, got {g!r}")
+    return problems
+
+
 def check(expected_path, actual_path):
-    with open(expected_path, encoding="utf-8") as f:
-        expected = json.loads(f.read(), parse_float=Decimal)
     with open(actual_path, encoding="utf-8") as f:
         text = f.read()
+    if expected_path.endswith(".text"):
+        with open(expected_path, encoding="utf-8") as f:
+            problems = compare_text(f.read(), text)
+        for p in problems:
+            print("  " + p, file=sys.stderr)
+        return 1 if problems else 0
+    with open(expected_path, encoding="utf-8") as f:
+        expected = json.loads(f.read(), parse_float=Decimal)
     try:
         actual = last_json(text)
     except ValueError as e:

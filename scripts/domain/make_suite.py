@@ -385,7 +385,7 @@ def lights(out, rng, count):
             source[2] = abs(source[2])
         cos = dirs @ source
         env = np.where(cos > np.cos(size), 1000.0, 0.0)
-        ambient = [0.0, 0.02, 0.2, 1.0][k % 4]
+        ambient = [0.001, 0.01, 0.05, 0.2][k % 4]
         env = env + ambient
         name = f"light{k:02d}"
         hdr.write(os.path.join(folder, name + ".hdr"), np.repeat(env[..., None], 3, axis=2))

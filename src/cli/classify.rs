@@ -5,7 +5,9 @@
 use super::{CliResult, LimitArgs, SphereArgs};
 use crate::image::decode::Encoding;
 use crate::image::geometry::{Circle, GeometryError, MIN_RADIUS};
-use crate::inference::{self, ClassifyResponse, Input, LoadedModel, LocateSpec, WhiteSpec};
+use crate::inference::{
+    self, ClassifyResponse, InferenceError, Input, LoadedModel, LocateSpec, WhiteSpec,
+};
 use crate::model::registry;
 use clap::Args;
 use std::path::{Path, PathBuf};
@@ -47,12 +49,7 @@ fn read(path: &Path, what: &str) -> Result<bytes::Bytes, String> {
 }
 
 fn load_model(path: &Path) -> Result<LoadedModel, String> {
-    let (registry, name, version) = registry::parse_model_path(path).map_err(|e| e.to_string())?;
-    let version = match version {
-        Some(v) => v,
-        None => registry.active(&name).map_err(|e| e.to_string())?,
-    };
-    let file = registry.load(&name, version).map_err(|e| e.to_string())?;
+    let file = registry::load_path(path).map_err(|e| e.to_string())?;
     LoadedModel::new(file).map_err(|e| e.to_string())
 }
 
@@ -108,8 +105,8 @@ pub fn run(args: ClassifyArgs) -> CliResult {
     let started = Instant::now();
     let model = Arc::new(load_model(&args.model)?);
     let input = input(&args)?;
-    let classified =
-        inference::classify(model, input, args.limits.limits()).map_err(|e| e.to_string())?;
+    let classified = inference::classify(model, input, args.limits.limits())
+        .map_err(|e| error_text(&e, &args))?;
     let answer = classified.response(String::new(), started.elapsed().as_secs_f64() * 1e3);
     if args.json {
         let text = serde_json::to_string_pretty(&answer).map_err(|e| e.to_string())?;
@@ -118,6 +115,29 @@ pub fn run(args: ClassifyArgs) -> CliResult {
         print!("{}", summary(&answer));
     }
     Ok(())
+}
+
+/// A classification's failure, naming the file it is about and asking for the flags that
+/// would mend it.
+fn error_text(e: &InferenceError, args: &ClassifyArgs) -> String {
+    match e {
+        InferenceError::Decode { part, source } => {
+            let file = match *part {
+                "white_image: " => args.sphere.white_image.as_ref(),
+                "mask: " => args.sphere.mask.as_ref(),
+                _ => Some(&args.image),
+            };
+            let file = file.map_or(String::new(), |f| format!("{}: ", f.display()));
+            format!("{file}{source}")
+        }
+        InferenceError::Analysis(e) => super::analysis_error(e),
+        other => other.to_string(),
+    }
+}
+
+/// A coverage as a percentage for people: 95, 99.9.
+pub(super) fn percent(coverage: f64) -> String {
+    format!("{}", (coverage * 1e5).round() / 1e3)
 }
 
 /// The answer for a person: the label, every probability, the circle, the warnings.
@@ -135,7 +155,7 @@ fn summary(answer: &ClassifyResponse) -> String {
     if let Some(set) = &answer.prediction_set {
         out.push_str(&format!(
             "prediction set ({} %): {}\n",
-            crate::dataset::format_f64(100.0 * set.coverage),
+            percent(set.coverage),
             set.labels.join(", ")
         ));
     }
@@ -154,11 +174,11 @@ fn summary(answer: &ClassifyResponse) -> String {
         g.cx,
         g.cy,
         g.r,
-        wire_name(&g.method),
+        inference::wire_name(&g.method),
         g.confidence
             .map_or(String::new(), |c| format!(", confidence {c:.2}")),
         crate::dataset::format_f64(answer.white.value),
-        wire_name(&answer.white.method)
+        inference::wire_name(&answer.white.method)
     ));
     if let Some(w) = &answer.ward {
         let part = |name: &str, i: &crate::learn::estimate::Interval| {
@@ -181,12 +201,4 @@ fn summary(answer: &ClassifyResponse) -> String {
         ));
     }
     out
-}
-
-/// A unit variant's name as the JSON answer spells it (`given`, `white_image`).
-fn wire_name(value: &impl serde::Serialize) -> String {
-    match serde_json::to_value(value) {
-        Ok(serde_json::Value::String(name)) => name,
-        _ => String::new(),
-    }
 }

@@ -123,8 +123,8 @@ fn single(args: &FeaturesArgs, extractor: &Extractor, options: &DecodeOptions) -
             None => WhiteInput::Missing,
         },
     };
-    let result =
-        analysis::analyze(extractor, &image, &locate, &white).map_err(|e| e.to_string())?;
+    let result = analysis::analyze(extractor, &image, &locate, &white)
+        .map_err(|e| super::analysis_error(&e))?;
     let output = Output {
         names: extractor.config().names(),
         values: &result.values,

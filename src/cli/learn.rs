@@ -85,6 +85,10 @@ pub struct SpecArgs {
     /// Choose C and γ by inner leave-one-illumination-out CV over a default grid.
     #[arg(long)]
     grid: bool,
+    /// Folds of illuminations whose held-out decision values calibrate the probabilities,
+    /// the prediction sets and the domain check (0: every illumination held out in turn).
+    #[arg(long, default_value_t = crate::learn::pipeline::CALIBRATION_FOLDS)]
+    calibration_folds: usize,
     #[arg(long, default_value_t = 1)]
     seed: u64,
 }
@@ -102,6 +106,7 @@ impl SpecArgs {
             c: self.c,
             gamma: self.gamma,
             grid: self.grid,
+            calibration_folds: self.calibration_folds,
         };
         text.parse(names).map_err(|e| e.to_string())
     }
@@ -498,13 +503,8 @@ pub struct PredictArgs {
 }
 
 pub fn predict(args: PredictArgs) -> CliResult {
-    let (registry, name, version) =
-        registry::parse_model_path(&args.model).map_err(|e| e.to_string())?;
-    let version = match version {
-        Some(v) => v,
-        None => registry.active(&name).map_err(|e| e.to_string())?,
-    };
-    let model = registry.load(&name, version).map_err(|e| e.to_string())?;
+    let model = registry::load_path(&args.model).map_err(|e| e.to_string())?;
+    let (name, version) = (model.name.clone(), model.version);
     let extractor = Extractor::new(model.features.config).map_err(|e| e.to_string())?;
     let manifest = dataset::read_manifest(&args.manifest).map_err(|e| e.to_string())?;
     let options = args.limits.decode_options();
@@ -557,7 +557,7 @@ pub fn predict(args: PredictArgs) -> CliResult {
             .verdict
             .iter()
             .flat_map(|v| v.failed())
-            .map(|k| wire_name(&k))
+            .map(|k| inference::wire_name(&k))
             .collect();
         if !decision.envelope.is_empty() {
             failed.push("envelope".into());
@@ -631,35 +631,24 @@ impl Tally {
 
     /// Accuracy, the sets' coverage and size, and the in-domain fraction, one line each.
     fn summary(&self, name: &str, version: u32, coverage: f64) -> String {
-        let percent = |a: usize, b: usize| 100.0 * a as f64 / b.max(1) as f64;
+        // "96.0 % (24/25)"
+        let share =
+            |a: usize, b: usize| format!("{:.1} % ({a}/{b})", 100.0 * a as f64 / b.max(1) as f64);
         let mut out = String::new();
         if self.labelled > 0 {
-            let _ = writeln!(
-                out,
-                "accuracy {:.1} % ({}/{}) with {name} version {version}",
-                percent(self.correct, self.labelled),
-                self.correct,
-                self.labelled
-            );
+            let accuracy = share(self.correct, self.labelled);
+            let _ = writeln!(out, "accuracy {accuracy} with {name} version {version}");
         }
         if self.with_sets > 0 {
             let _ = writeln!(
                 out,
-                "prediction sets ({} %): hold the truth in {:.1} % ({}/{}), {:.3} classes on average",
-                dataset::format_f64(100.0 * coverage),
-                percent(self.covered, self.with_sets),
-                self.covered,
-                self.with_sets,
+                "prediction sets ({} %): hold the truth in {}, {:.3} classes on average",
+                super::classify::percent(coverage),
+                share(self.covered, self.with_sets),
                 self.set_sizes as f64 / self.with_sets as f64
             );
         }
-        let _ = writeln!(
-            out,
-            "in domain: {:.1} % ({}/{})",
-            percent(self.in_domain, self.rows),
-            self.in_domain,
-            self.rows
-        );
+        let _ = writeln!(out, "in domain: {}", share(self.in_domain, self.rows));
         out
     }
 }
@@ -684,14 +673,6 @@ fn evaluate_estimator(
         eprintln!("written to {}", out.display());
     }
     Ok(())
-}
-
-/// A unit variant's name as JSON spells it (`typicality`).
-fn wire_name(value: &impl serde::Serialize) -> String {
-    match serde_json::to_value(value) {
-        Ok(serde_json::Value::String(name)) => name,
-        _ => String::new(),
-    }
 }
 
 /// Quote a CSV field when it needs it.

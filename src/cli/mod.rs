@@ -207,10 +207,30 @@ impl ExtensionArgs {
 /// A command's failure: one line for stderr.
 pub type CliResult = Result<(), String>;
 
+/// An analysis failure in the command line's words: a sphere detection cannot find asks for
+/// the flags that place it.
+fn analysis_error(e: &crate::features::analysis::AnalysisError) -> String {
+    use crate::features::analysis::AnalysisError;
+    use crate::image::geometry::GeometryError;
+    match e {
+        AnalysisError::Geometry(GeometryError::DetectionFailed { .. }) => {
+            format!("{e}; give --cx, --cy and --r, or --mask")
+        }
+        other => other.to_string(),
+    }
+}
+
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     if !matches!(cli.command, Command::Serve(_) | Command::Healthcheck(_)) {
         crate::util::progress::show_on_stderr();
+        // A command piped into `head` ends quietly when the reader goes, as Unix tools do,
+        // instead of panicking on the write. (The server keeps SIGPIPE ignored: a client
+        // that hangs up is an error to handle, not a reason to stop.)
+        // SAFETY: restoring a signal's default disposition before any thread is started.
+        unsafe {
+            libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+        }
     }
     let result = match cli.command {
         Command::Features(args) => features::run(args),

@@ -14,28 +14,57 @@
 use super::stats;
 use crate::image::geometry::Circle;
 use ndarray::ArrayView2;
+use std::borrow::Cow;
+
+/// An image's pixels in row-major order, for fast bilinear samples (the same arithmetic
+/// as `image::detect`'s).
+struct Pixels<'a> {
+    data: Cow<'a, [f64]>,
+    width: usize,
+    height: usize,
+}
+
+impl<'a> Pixels<'a> {
+    fn of(image: ArrayView2<'a, f64>) -> Pixels<'a> {
+        let (height, width) = image.dim();
+        let data = match image.to_slice() {
+            Some(slice) => Cow::Borrowed(slice),
+            None => Cow::Owned(image.iter().copied().collect()),
+        };
+        Pixels {
+            data,
+            width,
+            height,
+        }
+    }
+
+    /// Bilinear sample at (x, y), clamped to the image.
+    fn sample(&self, x: f64, y: f64) -> f64 {
+        let (w, h) = (self.width, self.height);
+        let x = x.clamp(0.0, (w - 1) as f64);
+        let y = y.clamp(0.0, (h - 1) as f64);
+        // Truncation is the floor of these non-negative coordinates, without a libm call.
+        let (x0, y0) = (x as usize, y as usize);
+        let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+        let (fx, fy) = (x - x0 as f64, y - y0 as f64);
+        let (row0, row1) = (
+            &self.data[y0 * w..(y0 + 1) * w],
+            &self.data[y1 * w..(y1 + 1) * w],
+        );
+        let top = row0[x0] * (1.0 - fx) + row0[x1] * fx;
+        let bottom = row1[x0] * (1.0 - fx) + row1[x1] * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+}
 
 /// Rays around the circle.
-pub const RAYS: usize = 72;
+pub const RAYS: usize = 48;
 /// The rays reach this fraction of r inside and outside the circle.
 const REACH: f64 = 0.3;
-/// Samples along a ray, at most.
-const SAMPLES: usize = 128;
+/// Samples along a ray, at most (with the rays, about 40 µs a request on a 512² image).
+const SAMPLES: usize = 96;
 /// The finest spacing of the samples, in pixels.
 const MIN_STEP: f64 = 0.25;
-
-/// Bilinear sample at (x, y), clamped to the image.
-fn sample(image: ArrayView2<f64>, x: f64, y: f64) -> f64 {
-    let (h, w) = image.dim();
-    let x = x.clamp(0.0, (w - 1) as f64);
-    let y = y.clamp(0.0, (h - 1) as f64);
-    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
-    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-    let (fx, fy) = (x - x0 as f64, y - y0 as f64);
-    let top = image[[y0, x0]] * (1.0 - fx) + image[[y0, x1]] * fx;
-    let bottom = image[[y1, x0]] * (1.0 - fx) + image[[y1, x1]] * fx;
-    top * (1.0 - fy) + bottom * fy
-}
 
 /// The `dom.outline` value of the circle `c` in `image` (see the module).
 pub fn outline(image: ArrayView2<f64>, c: &Circle) -> f64 {
@@ -51,12 +80,13 @@ pub fn outline(image: ArrayView2<f64>, c: &Circle) -> f64 {
     let mut profile = vec![0.0f64; slopes];
     let mut values = vec![0.0f64; n];
     let mut slope = vec![0.0f64; slopes];
+    let pixels = Pixels::of(image);
     for k in 0..RAYS {
         let theta = std::f64::consts::TAU * k as f64 / RAYS as f64;
         let (ux, uy) = (theta.cos(), -theta.sin());
         for (j, v) in values.iter_mut().enumerate() {
             let rho = c.r * (1.0 - REACH) + j as f64 * step;
-            *v = sample(image, c.cx + rho * ux, c.cy + rho * uy);
+            *v = pixels.sample(c.cx + rho * ux, c.cy + rho * uy);
         }
         let mut steepest = 0.0f64;
         for (j, s) in slope.iter_mut().enumerate() {

@@ -87,7 +87,8 @@ pub enum GeometryError {
     NoMaskEdge,
     #[error("mask is not a disc: its edge is {rms:.2} px (RMS) from the best-fitting circle")]
     NotCircular { rms: f64 },
-    #[error("could not find the sphere automatically: {reason}; give cx, cy and r, or a mask")]
+    /// Each surface says what to do in its own words (fields, flags or the page's circle).
+    #[error("could not find the sphere automatically: {reason}")]
     DetectionFailed { reason: String },
 }
 

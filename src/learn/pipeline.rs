@@ -20,7 +20,8 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
 
-/// Folds of the internal cross-validation that produces the calibration decision values.
+/// Folds of the internal cross-validation that produces the calibration decision values,
+/// unless the specification names another number.
 pub const CALIBRATION_FOLDS: usize = 5;
 
 /// How an SVM's probabilities are made from its decision values (docs/design.md §3
@@ -104,6 +105,9 @@ pub struct TrainSpec {
     /// Choose (C, γ) by inner leave-one-illumination-out CV on the training data.
     pub grid: Option<Grid>,
     pub calibration: CalibrationKind,
+    /// Folds of the calibration (illuminations dealt to this many; 0: one fold per
+    /// illumination, each held out in turn).
+    pub calibration_folds: usize,
 }
 
 impl TrainSpec {
@@ -115,6 +119,7 @@ impl TrainSpec {
             gamma: None,
             grid: None,
             calibration: CalibrationKind::default(),
+            calibration_folds: CALIBRATION_FOLDS,
         }
     }
 }
@@ -131,6 +136,8 @@ pub struct SpecText<'a> {
     pub gamma: Option<f64>,
     /// Choose C and γ by inner cross-validation over the default grid.
     pub grid: bool,
+    /// Calibration folds (0: one per illumination; else at least 2).
+    pub calibration_folds: usize,
 }
 
 impl SpecText<'_> {
@@ -144,6 +151,11 @@ impl SpecText<'_> {
                 "C (c) and γ (gamma) must be finite and positive".into(),
             ));
         }
+        if self.calibration_folds == 1 {
+            return Err(LearnError::InvalidParameter(
+                "calibration folds must be at least 2 (0: one per illumination)".into(),
+            ));
+        }
         Ok(TrainSpec {
             features,
             classifier,
@@ -151,6 +163,7 @@ impl SpecText<'_> {
             gamma: self.gamma,
             grid: self.grid.then(Grid::default),
             calibration: CalibrationKind::default(),
+            calibration_folds: self.calibration_folds,
         })
     }
 }
@@ -399,6 +412,7 @@ fn calibration_folds(
     rows: &FitRows,
     n_classes: usize,
     kind: CalibrationKind,
+    folds: usize,
     rng: &mut Rng,
 ) -> (Vec<Option<usize>>, usize, bool) {
     let n = rows.labels.len();
@@ -409,7 +423,10 @@ fn calibration_folds(
     evaluated.sort_unstable();
     evaluated.dedup();
     if kind == CalibrationKind::Softmax && evaluated.len() >= 2 {
-        let k = CALIBRATION_FOLDS.min(evaluated.len());
+        let k = match folds {
+            0 => evaluated.len(),
+            k => k.min(evaluated.len()),
+        };
         (illumination_folds(rows.groups, &evaluated, k, rng), k, true)
     } else {
         let k = CALIBRATION_FOLDS.min(n);
@@ -425,12 +442,14 @@ fn calibrate(
     rows: &FitRows,
     n_classes: usize,
     params: &SolverParams,
-    kind: CalibrationKind,
+    spec: &TrainSpec,
     rng: &mut Rng,
 ) -> (Calibration, HeldOut) {
     let labels = rows.labels;
     let n = labels.len();
-    let (fold, k, by_illumination) = calibration_folds(rows, n_classes, kind, rng);
+    let kind = spec.calibration;
+    let (fold, k, by_illumination) =
+        calibration_folds(rows, n_classes, kind, spec.calibration_folds, rng);
     let decision = held_out_decisions(gram, labels, fold.clone(), k, n_classes, params);
     let calibration = match kind {
         CalibrationKind::Softmax => {
@@ -652,8 +671,7 @@ pub fn fit_rows_held_out(
                 groups: &groups,
                 augmented: &augmented,
             };
-            let (fitted, values) =
-                calibrate(&gram, &fit_rows, k, &params, spec.calibration, &mut rng);
+            let (fitted, values) = calibrate(&gram, &fit_rows, k, &params, spec, &mut rng);
             calibration = Some(fitted);
             held_out = Some(values);
             Model::Svm(SvmModel::from_solutions(

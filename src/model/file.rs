@@ -291,7 +291,9 @@ impl ModelFile {
         self.sha256.clear();
         let value = serde_json::to_value(&*self).map_err(|e| ModelError::Json(e.to_string()))?;
         self.sha256 = checksum(value);
-        serde_json::to_vec_pretty(self).map_err(|e| ModelError::Json(e.to_string()))
+        // Compact: most of a model is long arrays of numbers, which pretty-printing puts one
+        // per indented line (`jq . model.json` shows it laid out).
+        serde_json::to_vec(self).map_err(|e| ModelError::Json(e.to_string()))
     }
 
     /// Parse and verify a model file.

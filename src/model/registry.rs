@@ -19,6 +19,17 @@ pub enum RegistryError {
     BadName(String),
     #[error("unknown model {0:?}")]
     UnknownModel(String),
+    #[error(
+        "there is no model folder {0} (a registry of models: FOLDER/NAME/VERSION/model.json, \
+         such as models/ward6/1/model.json)"
+    )]
+    NoFolder(String),
+    #[error("unknown model {name:?} in {root} (it holds: {known})")]
+    UnknownModelIn {
+        name: String,
+        root: String,
+        known: String,
+    },
     #[error("model {name:?} has no version {version}")]
     UnknownVersion { name: String, version: u32 },
     #[error("version {version} of {name:?} is active; activate another version first")]
@@ -95,7 +106,10 @@ impl Registry {
         let entries = match fs::read_dir(&dir) {
             Ok(entries) => entries,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                return Err(RegistryError::UnknownModel(name.to_string()));
+                return Err(match self.root.is_dir() {
+                    true => RegistryError::UnknownModel(name.to_string()),
+                    false => RegistryError::NoFolder(self.root.display().to_string()),
+                });
             }
             Err(e) => return Err(io(&dir)(e)),
         };
@@ -146,7 +160,10 @@ impl Registry {
         let model = ModelFile::from_json(&bytes).map_err(|source| RegistryError::Model {
             path: path.display().to_string(),
             source,
-        })?;
+        });
+        drop(bytes);
+        crate::util::heap::release_free();
+        let model = model?;
         if model.name != name || model.version != version {
             return Err(RegistryError::Model {
                 path: path.display().to_string(),
@@ -297,6 +314,24 @@ pub fn parse_model_path(path: &Path) -> Result<(Registry, String, Option<u32>), 
         return Err(RegistryError::BadName(last.to_string()));
     }
     Ok((Registry::new(parent), last.to_string(), None))
+}
+
+/// The model a command line names: `DIR/NAME` (its active version) or `DIR/NAME/VERSION`,
+/// loaded and verified.
+pub fn load_path(path: &Path) -> Result<ModelFile, RegistryError> {
+    let (registry, name, version) = parse_model_path(path)?;
+    let version = match version {
+        Some(v) => v,
+        None => registry.active(&name).map_err(|e| match e {
+            RegistryError::UnknownModel(name) => RegistryError::UnknownModelIn {
+                name,
+                root: registry.root().display().to_string(),
+                known: registry.names().unwrap_or_default().join(", "),
+            },
+            other => other,
+        })?,
+    };
+    registry.load(&name, version)
 }
 
 #[cfg(test)]

@@ -33,7 +33,10 @@ pub enum TrainError {
         "the feature table's columns are not the canonical features of the extraction configuration"
     )]
     Columns,
-    #[error("{0}: its columns are not the model's features (extract it with the same flags)")]
+    #[error(
+        "{0}: its columns are not the model's features (extract it with the same flags; \
+         --domain-features may be left out)"
+    )]
     EstimatorColumns(String),
     #[error(transparent)]
     Dataset(#[from] crate::dataset::DatasetError),
@@ -191,8 +194,14 @@ pub fn train_with(
     let rows: Vec<usize> = (0..ds.n_rows()).collect();
     let column = |name: &str| table.names.iter().position(|n| n == name);
     let (classifier, held_out) = fit_rows_held_out(&ds, &rows, &options.spec, options.seed)?;
-    let (prediction_sets, domain) =
-        reliability(&ds, &classifier, held_out.as_ref(), &column, options.seed)?;
+    let (prediction_sets, domain) = reliability(
+        &ds,
+        &rows,
+        &classifier,
+        held_out.as_ref(),
+        &column,
+        options.seed,
+    )?;
     observer.progress(1, 2);
     if observer.cancelled() {
         return Err(LearnError::Cancelled.into());
@@ -330,6 +339,7 @@ pub fn train_with(
 /// a feature's column (the domain check's feature checks read those that exist).
 fn reliability(
     ds: &Dataset,
+    rows: &[usize],
     classifier: &Classifier,
     held_out: Option<&HeldOut>,
     column: &dyn Fn(&str) -> Option<usize>,
@@ -338,7 +348,8 @@ fn reliability(
     let (Some(held_out), Some(calibration)) = (held_out, &classifier.calibration) else {
         return Ok((None, None));
     };
-    let held: Vec<usize> = (0..ds.n_rows())
+    // Positions in `rows` (the fit's order, which `held_out` follows).
+    let held: Vec<usize> = (0..rows.len())
         .filter(|&i| held_out.fold[i].is_some())
         .collect();
     if held.is_empty() {
@@ -348,10 +359,10 @@ fn reliability(
         .iter()
         .map(|&i| calibration.probabilities(&held_out.decision[i]))
         .collect();
-    let truth: Vec<usize> = held.iter().map(|&i| ds.labels[i]).collect();
+    let truth: Vec<usize> = held.iter().map(|&i| ds.labels[rows[i]]).collect();
     let fold: Vec<usize> = held.iter().filter_map(|&i| held_out.fold[i]).collect();
     let sets = PredictionSets::calibrate(&probabilities, &truth, &fold, held_out.by_illumination);
-    let values: Vec<Vec<f64>> = ds.x.rows().into_iter().map(|r| r.to_vec()).collect();
+    let values: Vec<Vec<f64>> = rows.iter().map(|&r| ds.x.row(r).to_vec()).collect();
     let z: Vec<Vec<f64>> = values
         .iter()
         .map(|row| classifier.transform(row))
@@ -381,6 +392,10 @@ fn without_white(
     )?)
 }
 
+/// The training rows the classifier without white is fitted on, at most (an evenly spaced
+/// subset of more).
+pub const NO_WHITE_ROWS: usize = 7000;
+
 /// The classifier without white: the model's kind of classifier on the `scale_free`
 /// features of the images without white, when the table has them (the log-domain
 /// features), with its own prediction sets and domain check (which cannot read the
@@ -402,11 +417,15 @@ fn fit_no_white(
         grid: None,
         ..options.spec.clone()
     };
-    let rows: Vec<usize> = (0..ds.n_rows()).collect();
+    // Without brightness the classes overlap, and an SVM keeps most rows of an overlap as
+    // support vectors: every k-th row keeps its cost per request near the classifier's.
+    let k = ds.n_rows().div_ceil(NO_WHITE_ROWS).max(1);
+    let rows: Vec<usize> = (0..ds.n_rows()).step_by(k).collect();
     let (classifier, held_out) = fit_rows_held_out(ds, &rows, &spec, options.seed)?;
     let without_brightness = |name: &str| column(name).filter(|_| name != "ctr.mean");
     let (prediction_sets, domain) = reliability(
         ds,
+        &rows,
         &classifier,
         held_out.as_ref(),
         &without_brightness,
@@ -426,7 +445,13 @@ fn fit_estimator(
     options: &TrainOptions,
     observer: &dyn Observer,
 ) -> Result<(WardRegressor, EstimateReport), TrainError> {
-    if data.table.names != table.names {
+    // The domain measurement comes last and no estimator reads it: a table extracted
+    // without it has the model's columns up to it, at the same places.
+    let without_domain = table
+        .names
+        .strip_suffix(&crate::features::DOMAIN_NAMES.map(String::from)[..])
+        .unwrap_or(&table.names);
+    if data.table.names != table.names && data.table.names != without_domain {
         return Err(TrainError::EstimatorColumns(data.label.clone()));
     }
     if observer.cancelled() {

@@ -53,10 +53,10 @@ pub enum ReportError {
 
 /// The four data sets of Table 1, in column order.
 pub const DATASETS: [(&str, &str); 4] = [
-    ("paper9_6", "6 classes, paper9 (9 maps)"),
-    ("paper9_11", "11 classes, paper9 (9 maps)"),
-    ("all_6", "6 classes, all (70 maps)"),
-    ("all_11", "11 classes, all (70 maps)"),
+    ("paper9_6", "6 classes, paper9"),
+    ("paper9_11", "11 classes, paper9"),
+    ("all_6", "6 classes, all"),
+    ("all_11", "11 classes, all"),
 ];
 
 /// The optional data set of the Ward-parameter estimate, and its class file within.
@@ -337,10 +337,19 @@ fn format_cell(cell: Option<&Cell>, paper: Option<f64>) -> String {
     }
 }
 
-fn header(md: &mut String, first: &str) {
+/// A table's header: one column per data set, with the number of light probes it holds.
+fn header(md: &mut String, first: &str, report: &Report) {
     md.push_str(first);
-    for (_, title) in DATASETS {
-        let _ = write!(md, " {title} |");
+    for (name, title) in DATASETS {
+        let maps = report.datasets.iter().find(|d| d.name == name);
+        match maps {
+            Some(d) => {
+                let _ = write!(md, " {title} ({} maps) |", d.illuminations);
+            }
+            None => {
+                let _ = write!(md, " {title} |");
+            }
+        }
     }
     md.push('\n');
 }
@@ -367,7 +376,7 @@ pub fn markdown(report: &Report) -> String {
         );
     }
     md.push_str("\n## Table 1 — SVM (RBF, C = 100, γ = 1/n), feature sets × data sets\n\n");
-    header(&mut md, "| features |");
+    header(&mut md, "| features |", report);
     md.push_str("|---|---|---|---|---|\n| chance |");
     for c in &report.chance {
         let _ = write!(md, " {:.1} |", 100.0 * c);
@@ -412,7 +421,7 @@ pub fn markdown(report: &Report) -> String {
          ring of the annulus (three rings). Beside them: the paper's hand6 figure.\n",
     );
     md.push_str("\n## Table 2 — classifiers × feature sets (paper protocol)\n\n");
-    header(&mut md, "| classifier | features |");
+    header(&mut md, "| classifier | features |", report);
     md.push_str("|---|---|---|---|---|---|\n");
     for classifier in TABLE2_CLASSIFIERS {
         for set in TABLE2_SETS {

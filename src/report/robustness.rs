@@ -438,15 +438,7 @@ pub fn load_models(
         .iter()
         .map(|path| {
             let fail = |e: String| ReportError::Input(format!("{}: {e}", path.display()));
-            let (registry, name, version) =
-                crate::model::registry::parse_model_path(path).map_err(|e| fail(e.to_string()))?;
-            let version = match version {
-                Some(v) => v,
-                None => registry.active(&name).map_err(|e| fail(e.to_string()))?,
-            };
-            let file = registry
-                .load(&name, version)
-                .map_err(|e| fail(e.to_string()))?;
+            let file = crate::model::registry::load_path(path).map_err(|e| fail(e.to_string()))?;
             let model = LoadedModel::new(file).map_err(|e| fail(e.to_string()))?;
             Ok((path.display().to_string(), Arc::new(model)))
         })

@@ -394,7 +394,11 @@ impl From<DecodeError> for ApiError {
 
 impl From<GeometryError> for ApiError {
     fn from(e: GeometryError) -> ApiError {
-        ApiError::new(Kind::BadGeometry, e.to_string())
+        let advice = match e {
+            GeometryError::DetectionFailed { .. } => "; give cx, cy and r, or a mask",
+            _ => "",
+        };
+        ApiError::new(Kind::BadGeometry, format!("{e}{advice}"))
     }
 }
 
@@ -446,7 +450,10 @@ impl From<ModelError> for ApiError {
 impl From<RegistryError> for ApiError {
     fn from(e: RegistryError) -> ApiError {
         let kind = match &e {
-            RegistryError::BadName(_) | RegistryError::UnknownModel(_) => Kind::ModelNotFound,
+            RegistryError::BadName(_)
+            | RegistryError::UnknownModel(_)
+            | RegistryError::NoFolder(_)
+            | RegistryError::UnknownModelIn { .. } => Kind::ModelNotFound,
             RegistryError::UnknownVersion { .. } => Kind::VersionNotFound,
             RegistryError::ActiveVersion { .. } => Kind::VersionActive,
             RegistryError::Model { .. } => Kind::InvalidModel,

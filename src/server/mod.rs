@@ -212,6 +212,19 @@ pub async fn serve(
 /// (The binary has already tuned the heap for repeated requests: `crate::util::heap`.)
 pub fn run(config: Config) -> Result<(), String> {
     init_logging(&config);
+    // Before claiming to listen: the registry is there and holds the default model (its
+    // file is verified while the server already answers, as loading takes a while).
+    let registry = crate::model::registry::Registry::new(&config.models);
+    registry
+        .active(&config.default_model)
+        .map_err(|e| match e {
+            crate::model::registry::RegistryError::UnknownModel(name) => format!(
+                "default model {name:?} is not in {} (it holds: {})",
+                config.models.display(),
+                registry.names().unwrap_or_default().join(", ")
+            ),
+            other => other.to_string(),
+        })?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .thread_name("reflectance-io")
@@ -233,11 +246,21 @@ pub fn run(config: Config) -> Result<(), String> {
             listener.local_addr().unwrap_or(asked)
         };
         let admin_at = admin.as_ref().map(|l| bound(l, config.admin_listen));
+        let data_at = bound(&data, config.listen);
+        // 0.0.0.0 suits a container; on a laptop it opens the port to the network.
+        let reach = match data_at.ip().is_unspecified() {
+            true => format!(
+                " (every network interface: http://localhost:{} here; --listen 127.0.0.1:{} \
+                 for this machine only)",
+                data_at.port(),
+                data_at.port()
+            ),
+            false => String::new(),
+        };
         tracing::info!(
             models = %config.models.display(),
             default_model = %config.default_model,
-            "listening on http://{}{}",
-            bound(&data, config.listen),
+            "listening on http://{data_at}{reach}{}",
             admin_at.map_or(" (admin plane off: no token)".into(), |a| format!(", admin on http://{a}")),
         );
         let state = build_state(config)?;

@@ -50,7 +50,7 @@ impl Modify for Extras {
             (the client's, when it sends 1–128 visible ASCII characters, else a new one).\n\n\
             The data plane listens on port 8080, the admin plane (`/admin/…`, bearer token) \
             on 127.0.0.1:8081.",
-        license(name = "see the repository")
+        license(name = "MIT OR Apache-2.0", identifier = "MIT OR Apache-2.0")
     ),
     servers((url = "/", description = "data plane (this server)")),
     paths(

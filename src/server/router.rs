@@ -69,6 +69,7 @@ async fn observe(mut request: Request, next: Next) -> Response {
         .get::<MatchedPath>()
         .map_or_else(|| "unmatched".to_string(), |p| p.as_str().to_string());
     let method = request.method().clone();
+    let path = request.uri().path().to_string();
     let _in_flight = InFlight::enter();
     let id = request_id.clone();
     let mut response = REQUEST_ID
@@ -83,10 +84,14 @@ async fn observe(mut request: Request, next: Next) -> Response {
     let status = response.status().as_u16();
     let seconds = started.elapsed().as_secs_f64();
     metrics::request(&route, method.as_str(), status, seconds);
-    if status >= 500 {
-        tracing::warn!(%request_id, %method, %route, status, ms = seconds * 1e3, "request");
-    } else {
-        tracing::debug!(%request_id, %method, %route, status, ms = seconds * 1e3, "request");
+    // One access-log line per request; probes and scrapes only at debug level.
+    let ms = seconds * 1e3;
+    let quiet =
+        route.starts_with("/health/") || route.starts_with("/v2/health/") || route == "/metrics";
+    match (status >= 500, quiet) {
+        (true, _) => tracing::warn!(%request_id, %method, %path, status, ms, "request"),
+        (false, false) => tracing::info!(%request_id, %method, %path, status, ms, "request"),
+        (false, true) => tracing::debug!(%request_id, %method, %path, status, ms, "request"),
     }
     response
 }

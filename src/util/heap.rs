@@ -40,6 +40,17 @@ pub fn tune() -> bool {
     true
 }
 
+/// Returns the free memory of every arena to the kernel. The thresholds above keep a peak
+/// heap on purpose; after a one-off burst (a model file read and parsed: several times the
+/// file's size, briefly) that peak is waste, so the caller releases it.
+pub fn release_free() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: malloc_trim only gives free pages back, under the allocator's locks.
+    unsafe {
+        libc::malloc_trim(0);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     #[test]

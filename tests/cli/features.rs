@@ -113,6 +113,23 @@ fn bad_requests_fail_with_one_line() {
         &run(&["features", noise.to_str().unwrap()]),
         "could not find the sphere",
     );
+    // The refusal asks for the flags that would place the sphere.
+    assert_refused(
+        &run(&["features", noise.to_str().unwrap()]),
+        "give --cx, --cy and --r, or --mask",
+    );
+    // A file that is no image is named.
+    let text = temp_dir("text").join("notes.png");
+    std::fs::write(&text, "not an image").unwrap();
+    assert_refused(
+        &run(&[
+            "classify",
+            text.to_str().unwrap(),
+            "--model",
+            "models/ward6",
+        ]),
+        "notes.png: unsupported image format",
+    );
 }
 
 fn write_manifest(dir: &Path, rows: &[&str]) -> PathBuf {

@@ -46,11 +46,12 @@ fn model_file_round_trip_and_corruption() {
     assert_eq!(back, model);
     assert_eq!(back.sha256.len(), 64);
     // Reformatting does not matter; editing a number does.
-    let compact =
-        serde_json::to_vec(&serde_json::from_slice::<serde_json::Value>(&bytes).unwrap()).unwrap();
-    assert!(ModelFile::from_json(&compact).is_ok());
+    let pretty =
+        serde_json::to_vec_pretty(&serde_json::from_slice::<serde_json::Value>(&bytes).unwrap())
+            .unwrap();
+    assert!(ModelFile::from_json(&pretty).is_ok());
     let text = String::from_utf8(bytes.clone()).unwrap();
-    let edited = text.replacen("\"c\": 100.0", "\"c\": 101.0", 1);
+    let edited = text.replacen("\"c\":100.0", "\"c\":101.0", 1);
     assert_ne!(edited, text);
     assert!(matches!(
         ModelFile::from_json(edited.as_bytes()),
@@ -60,7 +61,7 @@ fn model_file_round_trip_and_corruption() {
         ModelFile::from_json(&bytes[..bytes.len() / 2]),
         Err(ModelError::Json(_))
     ));
-    let other_schema = text.replacen("\"schema_version\": 1", "\"schema_version\": 9", 1);
+    let other_schema = text.replacen("\"schema_version\":1", "\"schema_version\":9", 1);
     assert!(matches!(
         ModelFile::from_json(other_schema.as_bytes()),
         Err(ModelError::Schema { .. })

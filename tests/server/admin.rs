@@ -643,9 +643,9 @@ async fn a_corrupt_version_is_refused_and_the_old_one_keeps_serving() {
     // Version 2: a copy of version 1 with one byte of a number changed.
     let text = std::fs::read_to_string(models.join("ward6/1/model.json")).unwrap();
     std::fs::create_dir_all(models.join("ward6/2")).unwrap();
-    let at = text.find("\"version\": 1").unwrap();
+    let at = text.find("\"version\":1").unwrap();
     let mut fixed = text.clone();
-    fixed.replace_range(at..at + 12, "\"version\": 2");
+    fixed.replace_range(at..at + 11, "\"version\":2");
     let k = fixed.find("\"scaler\"").unwrap() + 40;
     let digit = fixed[k..].find(|c: char| c.is_ascii_digit()).unwrap() + k;
     let d = fixed.as_bytes()[digit];
@@ -849,7 +849,7 @@ fn refuses_a_public_admin_address_without_a_token() {
         .args([
             "serve",
             "--models",
-            "nowhere",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/models"),
             "--admin-listen",
             "0.0.0.0:0",
         ])
@@ -859,19 +859,23 @@ fn refuses_a_public_admin_address_without_a_token() {
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("not a loopback address"), "{stderr}");
-    // An unknown default model stops the server with a reason.
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_reflectance"))
-        .args([
-            "serve",
-            "--models",
-            "nowhere",
-            "--listen",
-            &format!("127.0.0.1:{}", free_port()),
-        ])
-        .env_remove("REFLECTANCE_ADMIN_TOKEN")
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(stderr.contains("default model \"ward6\""), "{stderr}");
+    // A folder that does not exist, or holds no default model, stops the server with a
+    // reason before it claims to listen.
+    let empty = temp_dir("no_default_model");
+    let empty = empty.to_str().unwrap();
+    for (folder, reason) in [
+        ("nowhere", "there is no model folder nowhere"),
+        (empty, "default model \"ward6\""),
+    ] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_reflectance"))
+            .args(["serve", "--models", folder, "--listen"])
+            .arg(format!("127.0.0.1:{}", free_port()))
+            .env_remove("REFLECTANCE_ADMIN_TOKEN")
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains(reason), "{stderr}");
+        assert!(!stderr.contains("listening"), "{stderr}");
+    }
 }

@@ -311,9 +311,17 @@ async fn every_client_mistake_is_a_problem_document() {
         .map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8)
         .collect();
     let noisy = common::png8(200, 200, 1, &noise);
-    send(data, classify(&[("image", Part::File(&noisy))]))
+    let refusal = send(data, classify(&[("image", Part::File(&noisy))]))
         .await
         .problem(422, "bad-geometry");
+    // In the service's words: its fields (the command line names its flags).
+    assert!(
+        refusal["detail"]
+            .as_str()
+            .unwrap()
+            .ends_with("; give cx, cy and r, or a mask"),
+        "{refusal}"
+    );
 
     // Bad white references.
     for bad in ["-1", "0", "abc", "inf"] {
@@ -607,8 +615,19 @@ async fn kserve_v2_protocol() {
         assert_eq!(p.len(), 3);
         assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-9);
         assert_eq!(doc["outputs"][2]["data"].as_array().unwrap().len(), 3);
+        // The prediction set (the label first) and the domain verdict.
+        let set = &doc["outputs"][3];
+        assert_eq!(set["name"], "prediction_set");
+        assert_eq!(set["data"][0], class.as_str(), "{doc}");
+        assert_eq!(set["shape"], json!([set["data"].as_array().unwrap().len()]));
+        let domain = &doc["outputs"][4];
+        assert_eq!(
+            (&domain["name"], &domain["datatype"]),
+            (&json!("in_domain"), &json!("BOOL"))
+        );
+        assert!(domain["data"][0].is_boolean(), "{doc}");
         // The estimate: rows ρd, ρs, α of (value, low, high).
-        let ward = &doc["outputs"][3];
+        let ward = &doc["outputs"][5];
         assert_eq!(
             (&ward["name"], &ward["shape"]),
             (&json!("ward"), &json!([3, 3]))
@@ -1055,8 +1074,10 @@ async fn previews_a_material_as_a_png() {
     assert_eq!(first.header("cache-control"), Some("public, max-age=86400"));
     let picture = image::load_from_memory(&first.body).unwrap().to_luma8();
     assert_eq!(picture.dimensions(), (80, 80));
-    // Background black, the sphere lit.
-    assert_eq!(picture.get_pixel(0, 0).0[0], 0);
+    // The sphere stands in front of its scene: sky above the horizon, brighter than the
+    // ground below it, and the lit sphere between.
+    let (sky, ground) = (picture.get_pixel(0, 0).0[0], picture.get_pixel(0, 79).0[0]);
+    assert!(sky > ground && ground > 0, "sky {sky}, ground {ground}");
     assert!(picture.get_pixel(40, 40).0[0] > 0);
     let again = send(&server.data, get(uri)).await;
     assert_eq!(again.body, first.body);
@@ -1078,4 +1099,42 @@ async fn previews_a_material_as_a_png() {
         let detail = problem["detail"].as_str().unwrap();
         assert!(detail.contains(words), "{query}: {detail}");
     }
+}
+
+/// A model file from before prediction sets and the domain check still loads and answers:
+/// without a set, with a warning that says so, and with a domain verdict that rests on the
+/// capture envelope alone.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_model_without_the_calibrations_answers_without_a_set_and_says_so() {
+    let models = models_copy("uncalibrated");
+    let registry = reflectance::model::registry::Registry::new(&models);
+    let mut model = registry.load("ward6", 1).unwrap();
+    assert!(model.prediction_sets.is_some() && model.domain.is_some());
+    model.prediction_sets = None;
+    model.domain = None;
+    model.no_white = None;
+    model.self_test.no_white_probabilities = None;
+    std::fs::remove_dir_all(models.join("ward6")).unwrap();
+    registry.publish(&mut model, &[]).unwrap();
+    let server = start(config(&models));
+    let (image, class, white) = &fixture().held_out[0];
+    let white = white.to_string();
+    let doc = send(
+        &server.data,
+        post_multipart("/v1/classify", &classify_fields(image, &white)),
+    )
+    .await
+    .json();
+    assert_eq!(doc["label"], class.as_str(), "{doc}");
+    assert!(doc.get("prediction_set").is_none(), "{doc}");
+    assert!(
+        doc["warnings"]
+            .to_string()
+            .contains("no prediction-set calibration"),
+        "{doc}"
+    );
+    assert_eq!(doc["domain"]["in_domain"], true, "{doc}");
+    assert!(doc["domain"].get("score").is_none(), "{doc}");
+    let detail = send(&server.data, get("/v1/models/ward6")).await.json();
+    assert_eq!(detail["calibration"], json!({"with_white": {}}), "{detail}");
 }

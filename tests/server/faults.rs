@@ -513,9 +513,20 @@ fn a_fresh_server_says_where_it_listens_and_exports_its_metrics_at_zero() {
     let listening =
         format!("listening on http://127.0.0.1:{port}, admin on http://127.0.0.1:{admin}");
     assert!(log.contains(&listening), "{log}");
+    let mut requests = Vec::new();
     for line in log.lines() {
         let event: Value = serde_json::from_str(line).unwrap_or_else(|e| panic!("{e}: {line}"));
         let fields = event["fields"].as_object().unwrap();
+        if fields["message"] == "request" {
+            assert!(
+                fields["request_id"].is_string() && fields["ms"].is_f64(),
+                "{line}"
+            );
+            requests.push(format!(
+                "{} {} {}",
+                fields["method"], fields["path"], fields["status"]
+            ));
+        }
         for (name, value) in fields {
             let text = value.to_string();
             assert!(
@@ -524,6 +535,13 @@ fn a_fresh_server_says_where_it_listens_and_exports_its_metrics_at_zero() {
             );
         }
     }
+    // One access-log line per request, none for the metrics scrape.
+    let activated = "\"POST\" \"/admin/v1/models/ward6/versions/1/activate\" 200";
+    assert!(requests.iter().any(|r| r == activated), "{requests:?}");
+    assert!(
+        !requests.iter().any(|r| r.contains("/metrics")),
+        "{requests:?}"
+    );
 }
 
 #[test]
@@ -1009,7 +1027,7 @@ fn the_models_folder_removed_or_replaced_while_serving() {
     copy_dir(&root.join("models/ward6/1"), &models.join("ward6/2"));
     let file = models.join("ward6/2/model.json");
     let text = std::fs::read_to_string(&file).unwrap();
-    std::fs::write(&file, text.replacen("\"version\": 1", "\"version\": 2", 1)).unwrap();
+    std::fs::write(&file, text.replacen("\"version\":1", "\"version\":2", 1)).unwrap();
     let versions = json_call(server.admin, "GET", "/admin/v1/models/ward6/versions", None).json();
     assert_eq!(versions["active"], 1, "{versions}");
     assert_eq!(

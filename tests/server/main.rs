@@ -7,6 +7,7 @@ mod common;
 mod admin;
 mod api;
 mod faults;
+mod honest;
 mod hostile;
 mod openapi;
 mod page;

@@ -5,7 +5,9 @@
 //! fits a phone's width; `/docs` renders the served OpenAPI document.
 //!
 //! Needs Debian's `chromium` and `chromium-driver` (`.ci/run` installs them). Without them the
-//! test says so and passes, unless `REFLECTANCE_REQUIRE_BROWSER=1` (set by `.ci/run`).
+//! test is marked ignored, with the reason in the summary (`build.rs` decides at build time:
+//! `touch build.rs` after installing them), unless `REFLECTANCE_REQUIRE_BROWSER=1` (set by
+//! `.ci/run`), with which it runs and fails if they are missing.
 //! `REFLECTANCE_UPDATE_SCREENSHOT=1` rewrites `docs/page.jpg` from the run.
 
 use crate::common;
@@ -378,6 +380,50 @@ fn classify_and_read_the_answer(browser: &Browser) {
         "{shown}"
     );
     assert!(!shown["description"].as_str().unwrap().is_empty());
+    // The prediction set as chips, the label first; a photograph of a sphere is in domain.
+    let honest = browser.script(
+        "return { chips: [...document.querySelectorAll('#set li')].map(li => li.textContent), \
+                  set_shown: !document.getElementById('set-box').hidden, \
+                  banner: !document.getElementById('domain-box').hidden };",
+    );
+    assert_eq!(honest["set_shown"], true, "{honest}");
+    assert_eq!(honest["chips"][0], "white_shiny", "{honest}");
+    assert_eq!(honest["banner"], false, "{honest}");
+    // The nearest images' captions do not run into each other.
+    let overlaps = browser.script(
+        "const boxes = [...document.querySelectorAll('#neighbours li')].map(li => li.getBoundingClientRect()); \
+         let n = 0; \
+         for (let i = 0; i < boxes.length; i++) for (let j = i + 1; j < boxes.length; j++) { \
+           const a = boxes[i], b = boxes[j]; \
+           if (a.left < b.right && b.left < a.right && a.top < b.bottom && b.top < a.bottom) n++; } \
+         const spill = [...document.querySelectorAll('#neighbours li')] \
+           .filter(li => li.scrollWidth > li.clientWidth + 1).length; \
+         return n + spill;",
+    );
+    assert_eq!(overlaps, 0, "captions overlap or spill out of their box");
+}
+
+/// The page's own icon loads (no request for a missing /favicon.ico), and the model menu
+/// shows whole names.
+fn the_icon_loads_and_the_model_names_are_whole(browser: &Browser) {
+    let icon = browser.wait_for(
+        "the icon",
+        "(() => { const link = document.querySelector('link[rel=icon]'); \
+         if (!link) return 'missing'; \
+         if (!window.__icon) { window.__icon = new Image(); window.__icon.src = link.href; } \
+         return window.__icon.complete && (window.__icon.naturalWidth > 0 ? 'loaded' : 'broken'); })()",
+    );
+    assert_eq!(icon, "loaded");
+    let menu = browser.script(
+        "const s = document.getElementById('model'); \
+         return { whole: s.scrollWidth <= s.clientWidth + 1, \
+                  options: [...s.options].map(o => o.textContent) };",
+    );
+    assert_eq!(menu["whole"], true, "{menu}");
+    assert!(
+        menu["options"][0].as_str().unwrap().ends_with("classes)"),
+        "{menu}"
+    );
 }
 
 fn a_non_image_shows_the_problem(browser: &Browser) {
@@ -388,8 +434,13 @@ fn a_non_image_shows_the_problem(browser: &Browser) {
     );
     assert_eq!(title, "Unsupported image format");
     let detail = browser.script("return document.getElementById('error-detail').textContent;");
+    let detail = detail.as_str().unwrap();
+    assert!(detail.contains("expected PNG, JPEG"), "{detail}");
+    // The title is not said twice.
     assert!(
-        detail.as_str().unwrap().contains("expected PNG, JPEG"),
+        !detail
+            .to_lowercase()
+            .starts_with("unsupported image format"),
         "{detail}"
     );
 }
@@ -406,6 +457,10 @@ fn keep_the_screenshot(png: &[u8]) {
     }
 }
 
+#[cfg_attr(
+    not(browser),
+    ignore = "needs chromium and chromedriver (Debian: chromium chromium-driver; then touch build.rs)"
+)]
 #[test]
 fn the_page_classifies_a_photograph_in_a_real_browser() {
     let Some(browser) = browser_or_skip(1280, 1180) else {
@@ -423,6 +478,7 @@ fn the_page_classifies_a_photograph_in_a_real_browser() {
     adjust_the_circle(&browser, (cx, r));
     outline_the_white_card(&browser);
     classify_and_read_the_answer(&browser);
+    the_icon_loads_and_the_model_names_are_whole(&browser);
     browser.script("window.scrollTo(0, 0);");
     keep_the_screenshot(&browser.screenshot());
     a_non_image_shows_the_problem(&browser);
@@ -432,6 +488,7 @@ fn the_page_classifies_a_photograph_in_a_real_browser() {
     browser.open(&page);
     upload_and_detect(&browser);
     classify_and_read_the_answer_on_a_phone(&browser);
+    the_icon_loads_and_the_model_names_are_whole(&browser);
 
     // The API reference, rendered offline by the vendored viewer.
     browser.open(&format!("http://127.0.0.1:{}/docs", server.port));

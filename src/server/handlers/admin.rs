@@ -45,6 +45,7 @@ const LEARN: &[&str] = &[
     "capture_features",
     "centre_features",
     "domain_features",
+    "calibration_folds",
     "working_radius",
     "saturation",
 ];

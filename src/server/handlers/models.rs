@@ -66,6 +66,85 @@ pub struct CvSummaryOut {
     pub confusion: Vec<Vec<usize>>,
 }
 
+/// What held-out images showed of the prediction sets at one coverage.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct SetsMeasured {
+    pub coverage: f64,
+    /// The fraction of held-out images whose set held the truth.
+    pub held_out_coverage: f64,
+    pub mean_size: f64,
+}
+
+/// The prediction sets' calibration.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct SetsOut {
+    /// Held-out images that calibrated them.
+    pub images: usize,
+    /// Folds of whole illuminations (else stratified rows).
+    pub folds: usize,
+    pub by_illumination: bool,
+    pub measured: Vec<SetsMeasured>,
+}
+
+/// The domain check's calibration.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct DomainCalibrationOut {
+    /// Held-out images that calibrated it.
+    pub images: usize,
+    /// The checks it makes: `typicality`, `outline`, `brightness`.
+    pub checks: Vec<String>,
+    /// The rate it was set to flag held-out valid images at, and the rate it did.
+    pub false_alarm: f64,
+    pub held_out_flagged: f64,
+}
+
+/// What a classifier knows of its own reliability.
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct ReliabilityOut {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prediction_sets: Option<SetsOut>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub domain: Option<DomainCalibrationOut>,
+}
+
+/// The calibrations of the classifier used with a white reference and of the one used
+/// without (absent when the model has none: it then answers with the first).
+#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+pub struct CalibrationOut {
+    pub with_white: ReliabilityOut,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub without_white: Option<ReliabilityOut>,
+}
+
+fn reliability(head: crate::model::Head) -> ReliabilityOut {
+    ReliabilityOut {
+        prediction_sets: head.prediction_sets.map(|s| SetsOut {
+            images: s.n,
+            folds: s.folds,
+            by_illumination: s.by_illumination,
+            measured: s
+                .measured
+                .iter()
+                .map(|m| SetsMeasured {
+                    coverage: m.coverage,
+                    held_out_coverage: m.held_out_coverage,
+                    mean_size: m.mean_size,
+                })
+                .collect(),
+        }),
+        domain: head.domain.map(|d| DomainCalibrationOut {
+            images: d.n,
+            checks: d
+                .checks
+                .iter()
+                .map(|c| crate::inference::wire_name(&c.kind))
+                .collect(),
+            false_alarm: d.false_alarm,
+            held_out_flagged: d.held_out_flagged,
+        }),
+    }
+}
+
 #[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
 pub struct TrainingOut {
     pub dataset: String,
@@ -89,6 +168,8 @@ pub struct ModelDetail {
     pub training: TrainingOut,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cv: Option<CvSummaryOut>,
+    /// Prediction sets and the domain check, calibrated on held-out illuminations.
+    pub calibration: CalibrationOut,
     /// SHA-256 of the active version's model file content.
     pub sha256: String,
 }
@@ -139,6 +220,10 @@ pub fn detail(model: &LoadedModel, versions: Vec<u32>) -> ModelDetail {
                 .collect(),
             confusion: cv.confusion.clone(),
         }),
+        calibration: CalibrationOut {
+            with_white: reliability(f.head(true)),
+            without_white: f.no_white.as_ref().map(|_| reliability(f.head(false))),
+        },
         sha256: f.sha256.clone(),
     }
 }

@@ -175,11 +175,14 @@ pub async fn model_metadata(
             t("cy", "FP64", vec![1]),
             t("r", "FP64", vec![1]),
             t("encoding", "BYTES", vec![1]),
+            t("coverage", "FP64", vec![1]),
         ],
         outputs: vec![
             t("label", "BYTES", vec![1]),
             t("probabilities", "FP64", vec![k]),
             t("classes", "BYTES", vec![k]),
+            t("prediction_set", "BYTES", vec![-1]),
+            t("in_domain", "BOOL", vec![1]),
         ],
     }))
 }
@@ -274,10 +277,14 @@ fn raw_input(request: &InferRequest) -> Result<RawInput, ApiError> {
             "cx" => &mut raw.cx,
             "cy" => &mut raw.cy,
             "r" => &mut raw.r,
+            "coverage" => &mut raw.coverage,
             other => {
                 return Err(ApiError::new(
                     Kind::UnknownField,
-                    format!("unknown input {other:?} (expected image, white, cx, cy, r, encoding)"),
+                    format!(
+                        "unknown input {other:?} (expected image, white, cx, cy, r, encoding, \
+                         coverage)"
+                    ),
                 ));
             }
         };
@@ -346,6 +353,23 @@ pub async fn infer(
         ],
     };
     let mut body = body;
+    if let Some(set) = &c.decision.set {
+        body.outputs.push(InferOutput {
+            name: "prediction_set".into(),
+            shape: vec![set.len() as i64],
+            datatype: "BYTES".into(),
+            data: set
+                .iter()
+                .map(|&i| Value::String(classes[i].clone()))
+                .collect(),
+        });
+    }
+    body.outputs.push(InferOutput {
+        name: "in_domain".into(),
+        shape: vec![1],
+        datatype: "BOOL".into(),
+        data: vec![Value::Bool(c.decision.in_domain())],
+    });
     if let Some(w) = &c.ward {
         // Rows ρd, ρs, α; columns value, low, high.
         let data = [w.rho_d, w.rho_s, w.alpha]

@@ -75,6 +75,11 @@ pub struct LearnParams {
     /// Choose C and γ by inner leave-one-illumination-out CV.
     #[serde(default)]
     pub grid: bool,
+    /// Folds of illuminations that calibrate the probabilities, the prediction sets and the
+    /// domain check (0: every illumination held out in turn).
+    #[serde(default = "default_calibration_folds")]
+    #[schema(default = 5)]
+    pub calibration_folds: usize,
     #[serde(default = "default_seed")]
     #[schema(default = 1)]
     pub seed: u64,
@@ -121,6 +126,10 @@ fn default_classifier() -> String {
 fn default_c() -> f64 {
     crate::learn::DEFAULT_C
 }
+fn default_calibration_folds() -> usize {
+    crate::learn::pipeline::CALIBRATION_FOLDS
+}
+
 fn default_seed() -> u64 {
     1
 }

@@ -214,6 +214,7 @@ fn spec_of(p: &LearnParams) -> Result<TrainSpec, ApiError> {
         c: p.c,
         gamma: p.gamma,
         grid: p.grid,
+        calibration_folds: p.calibration_folds,
     };
     text.parse(&names).map_err(|e| invalid(e.to_string()))
 }

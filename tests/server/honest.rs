@@ -1,0 +1,371 @@
+//! Honest answers from the shipped `ward6` through the real router: the label is the most
+//! probable class, every answer carries a prediction set and a domain verdict, and each
+//! kind of input the model does not know is flagged (docs/design.md §3 "Prediction sets",
+//! "Domain", "Without white"). The spheres are rendered here under a probe the shipped
+//! models never saw (`ict_grace`, not CC0) and captured through the camera model.
+
+use crate::common;
+
+use common::server::{Part, TestServer, config, copy_dir, post_multipart, send, start, temp_dir};
+use ndarray::Array2;
+use reflectance::image::geometry::Circle;
+use reflectance::render::capture::{self, CaptureSettings, Quantization};
+use reflectance::render::envmap::EnvMap;
+use reflectance::render::ward::Material;
+use reflectance::render::{self as renderer, Lighting, Quality, View};
+use reflectance::util::rng::Rng;
+use serde_json::Value;
+use std::path::Path;
+
+/// A photograph-like capture of a rendered sphere: PNG bytes, its circle and white.
+struct Shot {
+    png: Vec<u8>,
+    circle: Circle,
+    white: f64,
+}
+
+/// `class` of ward6 rendered under `map` and captured at r = `radius` px as an 8-bit sRGB
+/// PNG on a mid-grey background, reported exactly.
+fn shot(map: &EnvMap, class: &str, radius: f64) -> Shot {
+    let classes = [
+        ("black_matte", 0.1, 0.0, 0.0),
+        ("black_shiny", 0.1, 0.1, 0.01),
+        ("chrome", 0.0, 0.75, 0.0),
+        ("gray_shiny", 0.25, 0.05, 0.01),
+        ("white_matte", 0.9, 0.0, 0.0),
+        ("white_shiny", 0.7, 0.25, 0.01),
+    ];
+    let &(name, rho_d, rho_s, alpha) = classes.iter().find(|c| c.0 == class).unwrap();
+    let material = Material {
+        name: name.into(),
+        rho_d,
+        rho_s,
+        alpha,
+    };
+    let lighting = Lighting::new(map.clone());
+    let view = View::default();
+    let size = 200;
+    let mut rng = Rng::new(5);
+    let rendering = renderer::render(
+        &lighting,
+        &material,
+        size,
+        &view,
+        &Quality::default(),
+        &mut rng,
+    );
+    let luminance = Array2::from_shape_fn((size, size), |(y, x)| {
+        f64::from(rendering.luminance[y * size + x])
+    });
+    let settings = CaptureSettings {
+        quantization: Quantization::Srgb8,
+        background: 0.5,
+        ..CaptureSettings::ideal(radius)
+    };
+    let white = lighting.white(&view);
+    let taken = capture::capture(
+        luminance.view(),
+        &rendering.circle,
+        white,
+        &settings,
+        &mut rng,
+    )
+    .unwrap();
+    Shot {
+        png: taken.bytes,
+        circle: taken.circle,
+        white: taken.white,
+    }
+}
+
+fn probe(name: &str) -> EnvMap {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/probes")
+        .join(name);
+    EnvMap::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// A server on a copy of the shipped models.
+fn shipped() -> TestServer {
+    let models = temp_dir("honest").join("models");
+    copy_dir(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("models"),
+        &models,
+    );
+    start(config(&models))
+}
+
+/// Classify with the given circle, white (`None`: none) and extra fields.
+async fn classify(
+    server: &TestServer,
+    image: &[u8],
+    circle: &Circle,
+    white: Option<f64>,
+    extra: &[(&str, &str)],
+) -> Value {
+    let texts = [circle.cx, circle.cy, circle.r].map(|v| v.to_string());
+    let white = white.map(|w| w.to_string());
+    let mut fields = vec![
+        ("image", Part::File(image)),
+        ("cx", Part::Text(&texts[0])),
+        ("cy", Part::Text(&texts[1])),
+        ("r", Part::Text(&texts[2])),
+    ];
+    if let Some(w) = &white {
+        fields.push(("white", Part::Text(w)));
+    }
+    fields.extend(extra.iter().map(|&(k, v)| (k, Part::Text(v))));
+    let answer = send(&server.data, post_multipart("/v1/classify", &fields)).await;
+    assert_eq!(
+        answer.status,
+        200,
+        "{}",
+        String::from_utf8_lossy(&answer.body)
+    );
+    let doc = answer.json();
+    assert_label_rule(&doc);
+    doc
+}
+
+/// One rule: the label is the most probable class, the first of the probabilities and of
+/// the prediction set.
+fn assert_label_rule(doc: &Value) {
+    let probabilities = doc["probabilities"].as_array().unwrap();
+    let label = doc["label"].as_str().unwrap();
+    assert_eq!(probabilities[0]["label"], label, "{doc}");
+    let p: Vec<f64> = probabilities
+        .iter()
+        .map(|p| p["p"].as_f64().unwrap())
+        .collect();
+    assert!(p.windows(2).all(|w| w[0] >= w[1]), "{doc}");
+    assert_eq!(doc["prediction_set"]["labels"][0], label, "{doc}");
+    assert_eq!(doc["class"]["name"], label);
+}
+
+fn in_domain(doc: &Value) -> bool {
+    doc["domain"]["in_domain"].as_bool().unwrap()
+}
+
+fn set(doc: &Value) -> Vec<String> {
+    doc["prediction_set"]["labels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l.as_str().unwrap().to_string())
+        .collect()
+}
+
+/// The check named `kind` failed (`typicality`, `outline`, `brightness`), by its p-value or
+/// its bound.
+fn failed(doc: &Value, kind: &str) -> bool {
+    let check = doc["domain"]["checks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["check"] == kind);
+    check.is_some_and(|c| {
+        let value = c["value"].as_f64().unwrap();
+        c["p_value"].as_f64().is_some_and(|p| p < 0.01)
+            || c["limit"].as_f64().is_some_and(|l| value > l)
+    })
+}
+
+/// The capture moved onto a canvas with `margin` px of background on every side.
+fn padded(png: &[u8], margin: u32) -> Vec<u8> {
+    let image = image::load_from_memory(png).unwrap().to_luma8();
+    let (w, h) = image.dimensions();
+    let background = image.get_pixel(0, 0).0[0];
+    let canvas = image::GrayImage::from_fn(w + 2 * margin, h + 2 * margin, |x, y| {
+        let inside = (margin..margin + w).contains(&x) && (margin..margin + h).contains(&y);
+        match inside {
+            true => *image.get_pixel(x - margin, y - margin),
+            false => image::Luma([background]),
+        }
+    });
+    let mut out = Vec::new();
+    canvas
+        .write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png)
+        .unwrap();
+    out
+}
+
+#[cfg_attr(
+    not(shared_data),
+    ignore = "needs ../shared/data/probes beside the repository"
+)]
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn spheres_under_unseen_light_get_sets_and_are_in_domain() {
+    let server = shipped();
+    let grace = probe("ict_grace.hdr");
+    for class in [
+        "black_matte",
+        "chrome",
+        "gray_shiny",
+        "white_matte",
+        "white_shiny",
+    ] {
+        let s = shot(&grace, class, 110.0);
+        let doc = classify(&server, &s.png, &s.circle, Some(s.white), &[]).await;
+        assert!(in_domain(&doc), "{class}: {}", doc["domain"]);
+        assert!(set(&doc).contains(&class.to_string()), "{class}: {doc}");
+        // A higher coverage never gives a smaller set; a lower one never a larger.
+        let wide = classify(
+            &server,
+            &s.png,
+            &s.circle,
+            Some(s.white),
+            &[("coverage", "0.999")],
+        )
+        .await;
+        let narrow = classify(
+            &server,
+            &s.png,
+            &s.circle,
+            Some(s.white),
+            &[("coverage", "0.5")],
+        )
+        .await;
+        assert_eq!(wide["prediction_set"]["coverage"], 0.999);
+        assert!(set(&wide).len() >= set(&doc).len() && set(&narrow).len() <= set(&doc).len());
+        if class.ends_with("matte") {
+            // Without white the exposure hides black from white: both matte classes.
+            let doc = classify(&server, &s.png, &s.circle, None, &[]).await;
+            let labels = set(&doc);
+            assert!(
+                labels.contains(&"black_matte".into()) && labels.contains(&"white_matte".into()),
+                "{class} without white: {labels:?}"
+            );
+            assert!(
+                doc["warnings"]
+                    .to_string()
+                    .contains("without a white reference")
+            );
+        }
+    }
+    // The coverage is checked like any field.
+    let s = shot(&grace, "chrome", 110.0);
+    let texts = [s.circle.cx, s.circle.cy, s.circle.r, s.white].map(|v| v.to_string());
+    for bad in ["1", "0.2", "lots"] {
+        let fields = [
+            ("image", Part::File(&s.png)),
+            ("cx", Part::Text(&texts[0])),
+            ("cy", Part::Text(&texts[1])),
+            ("r", Part::Text(&texts[2])),
+            ("white", Part::Text(&texts[3])),
+            ("coverage", Part::Text(bad)),
+        ];
+        let answer = send(&server.data, post_multipart("/v1/classify", &fields)).await;
+        answer.problem(422, "invalid-field");
+    }
+}
+
+#[cfg_attr(
+    not(shared_data),
+    ignore = "needs ../shared/data/probes beside the repository"
+)]
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn each_kind_of_input_the_model_does_not_know_is_flagged() {
+    let server = shipped();
+    let grace = probe("ict_grace.hdr");
+    let flagged = |doc: &Value, what: &str| {
+        assert!(!in_domain(doc), "{what}: {}", doc["domain"]);
+        let reasons = doc["domain"]["reasons"].as_array().unwrap();
+        assert!(!reasons.is_empty(), "{what}: no reason");
+        assert!(
+            doc["warnings"][0]
+                .as_str()
+                .unwrap()
+                .starts_with("out of domain"),
+            "{what}: {}",
+            doc["warnings"]
+        );
+    };
+    // Not a sphere: coloured rectangles, with a plausible circle and white.
+    let mut rng = Rng::new(3);
+    let mut pattern = image::RgbImage::new(300, 300);
+    for _ in 0..10 {
+        let [x0, y0] = [rng.below(220) as u32, rng.below(220) as u32];
+        let colour = [
+            rng.below(256) as u8,
+            rng.below(256) as u8,
+            rng.below(256) as u8,
+        ];
+        for y in y0..(y0 + 80).min(300) {
+            for x in x0..(x0 + 80).min(300) {
+                pattern.put_pixel(x, y, image::Rgb(colour));
+            }
+        }
+    }
+    let mut png = Vec::new();
+    pattern
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    let centred = Circle {
+        cx: 149.5,
+        cy: 149.5,
+        r: 120.0,
+    };
+    let doc = classify(&server, &png, &centred, Some(0.8), &[]).await;
+    flagged(&doc, "rectangles");
+    assert!(failed(&doc, "outline"), "{}", doc["domain"]);
+
+    // A circle that misses the sphere: moved by 0.6 r, 1.5 times too large, 0.6 times too
+    // small.
+    let s = shot(&grace, "white_shiny", 110.0);
+    let margin = 120;
+    let png = padded(&s.png, margin);
+    let c = Circle {
+        cx: s.circle.cx + f64::from(margin),
+        cy: s.circle.cy + f64::from(margin),
+        r: s.circle.r,
+    };
+    let right = classify(&server, &png, &c, Some(s.white), &[]).await;
+    assert!(in_domain(&right), "padded: {}", right["domain"]);
+    for (what, wrong) in [
+        (
+            "moved",
+            Circle {
+                cx: c.cx + 0.6 * c.r,
+                ..c
+            },
+        ),
+        ("too large", Circle { r: 1.5 * c.r, ..c }),
+        ("too small", Circle { r: 0.6 * c.r, ..c }),
+    ] {
+        let doc = classify(&server, &png, &wrong, Some(s.white), &[]).await;
+        flagged(&doc, what);
+        assert!(failed(&doc, "outline"), "{what}: {}", doc["domain"]);
+    }
+
+    // A white reference 20 times too small: the sphere brighter than any reflectance.
+    let s = shot(&grace, "white_matte", 110.0);
+    let doc = classify(&server, &s.png, &s.circle, Some(s.white / 20.0), &[]).await;
+    flagged(&doc, "white / 20");
+    assert!(
+        failed(&doc, "brightness") || failed(&doc, "typicality"),
+        "{}",
+        doc["domain"]
+    );
+
+    // One small light in the dark: a chrome sphere shows a black disc with one highlight.
+    let lamp = EnvMap::from_fn(256, 128, |d| {
+        let toward = (0.3 * d.x + 0.5 * d.y + 0.81 * d.z) / (0.3f64.hypot(0.5).hypot(0.81));
+        if toward > 0.999 { 2000.0 } else { 0.01 }
+    });
+    let s = shot(&lamp, "chrome", 110.0);
+    let doc = classify(&server, &s.png, &s.circle, Some(s.white), &[]).await;
+    flagged(&doc, "one lamp in the dark");
+    assert!(failed(&doc, "typicality"), "{}", doc["domain"]);
+
+    // A capture outside the envelope of every class: a sphere of 45 px (trained: 60–400).
+    let s = shot(&grace, "gray_shiny", 45.0);
+    let doc = classify(&server, &s.png, &s.circle, Some(s.white), &[]).await;
+    flagged(&doc, "r = 45 px");
+    assert!(
+        doc["domain"]["reasons"]
+            .to_string()
+            .contains("radius 45 px"),
+        "{}",
+        doc["domain"]
+    );
+}
