@@ -22,6 +22,7 @@
 use crate::image::detect::{RIM_STEP, RimSlopes, rim_slopes};
 use crate::image::geometry::Circle;
 use ndarray::ArrayView2;
+use std::ops::Range;
 
 /// The annulus measured, as fractions of the radius (the features' default annulus).
 const INNER: f64 = 0.2;
@@ -33,22 +34,71 @@ const MIN_BLOCKS: usize = 64;
 /// Samples at or above this fraction of full scale count as clipped.
 const CLIPPED: f64 = 0.999;
 
-/// Pixel (x, y) lies in the annulus. Squared distances decide all but the points within a
-/// hair of an edge, which `hypot` decides as it always has (the measurements, and so the
-/// models trained on them, do not depend on the shortcut).
+/// Pixel (x, y) lies in the annulus: beyond its hole and within its outer edge. Squared
+/// distances decide all but the points within a hair of an edge, which `hypot` decides as it
+/// always has (the measurements, and so the models trained on them, do not depend on the
+/// shortcut).
 fn inside(c: &Circle, x: f64, y: f64) -> bool {
-    const HAIR: f64 = 1e-9;
     let (dx, dy) = (x - c.cx, y - c.cy);
-    let d2 = dx * dx + dy * dy;
-    let (inner2, outer2) = ((INNER * c.r).powi(2), (OUTER * c.r).powi(2));
-    if d2 > inner2 * (1.0 + HAIR) && d2 < outer2 * (1.0 - HAIR) {
-        return true;
+    beyond_inner(c, dx, dy) && within_outer(c, dx, dy)
+}
+
+const HAIR: f64 = 1e-9;
+
+fn beyond_inner(c: &Circle, dx: f64, dy: f64) -> bool {
+    let (d2, inner2) = (dx * dx + dy * dy, (INNER * c.r).powi(2));
+    if d2 > inner2 * (1.0 + HAIR) || d2 < inner2 * (1.0 - HAIR) {
+        return d2 > inner2;
     }
-    if d2 < inner2 * (1.0 - HAIR) || d2 > outer2 * (1.0 + HAIR) {
-        return false;
+    dx.hypot(dy) >= INNER * c.r
+}
+
+fn within_outer(c: &Circle, dx: f64, dy: f64) -> bool {
+    let (d2, outer2) = (dx * dx + dy * dy, (OUTER * c.r).powi(2));
+    if d2 > outer2 * (1.0 + HAIR) || d2 < outer2 * (1.0 - HAIR) {
+        return d2 < outer2;
     }
-    let d = dx.hypot(dy);
-    d >= INNER * c.r && d <= OUTER * c.r
+    dx.hypot(dy) <= OUTER * c.r
+}
+
+/// The columns of row `y` in the annulus, as two runs (either may be empty): both tests are
+/// monotone in |dx|, so each edge is found from its closed form and checked by the test
+/// itself, pixel by pixel, where rounding could move it.
+fn annulus_runs(c: &Circle, y: usize, cols: Range<usize>) -> [Range<usize>; 2] {
+    let dy = y as f64 - c.cy;
+    let half = |radius: f64| (radius * radius - dy * dy).max(0.0).sqrt();
+    let dx = |x: usize| x as f64 - c.cx;
+    let outer = run(&cols, c.cx, half(OUTER * c.r), |x| {
+        within_outer(c, dx(x), dy)
+    });
+    let hole = run(&cols, c.cx, half(INNER * c.r), |x| {
+        !beyond_inner(c, dx(x), dy)
+    });
+    if hole.is_empty() {
+        return [outer, 0..0];
+    }
+    [outer.start..hole.start, hole.end..outer.end]
+}
+
+/// The columns of `cols` where `holds` is true, given that they form one run about `centre`
+/// whose half-width `half` estimates to within a pixel.
+fn run(cols: &Range<usize>, centre: f64, half: f64, holds: impl Fn(usize) -> bool) -> Range<usize> {
+    let clamp = |v: f64| v.clamp(cols.start as f64, cols.end as f64) as usize;
+    let mut lo = clamp((centre - half).ceil());
+    let mut hi = clamp((centre + half).floor() + 1.0).max(lo);
+    while lo > cols.start && holds(lo - 1) {
+        lo -= 1;
+    }
+    while lo < hi && !holds(lo) {
+        lo += 1;
+    }
+    while hi < cols.end && holds(hi) {
+        hi += 1;
+    }
+    while hi > lo && !holds(hi - 1) {
+        hi -= 1;
+    }
+    lo..hi
 }
 
 /// The rows and columns the annulus spans, clamped to the image.
@@ -64,13 +114,17 @@ fn span(c: &Circle, (h, w): (usize, usize)) -> (std::ops::Range<usize>, std::ops
 /// Fraction of the annulus's pixels at or above `full_scale`.
 pub fn clipped_fraction(image: ArrayView2<f64>, c: &Circle, full_scale: f64) -> f64 {
     let (rows, cols) = span(c, image.dim());
+    let ceiling = CLIPPED * full_scale;
     let (mut clipped, mut total) = (0usize, 0usize);
     for y in rows {
-        for x in cols.clone() {
-            if inside(c, x as f64, y as f64) {
-                total += 1;
-                clipped += usize::from(image[[y, x]] >= CLIPPED * full_scale);
-            }
+        let row = image.row(y);
+        for run in annulus_runs(c, y, cols.clone()) {
+            total += run.len();
+            clipped += row
+                .slice(ndarray::s![run])
+                .iter()
+                .filter(|&&v| v >= ceiling)
+                .count();
         }
     }
     clipped as f64 / total.max(1) as f64
@@ -238,6 +292,64 @@ mod tests {
         cy: 119.5,
         r: 110.0,
     };
+
+    #[test]
+    fn the_annulus_runs_hold_exactly_the_pixels_inside() {
+        let mut rng = Rng::new(3);
+        // Centres on and between pixels, radii whose edges land on pixel centres (r = 50:
+        // 0.2 r = 10 and 0.9 r = 45), circles cut by the image's border, and random ones.
+        let mut circles = vec![
+            Circle {
+                cx: 60.0,
+                cy: 60.0,
+                r: 50.0,
+            },
+            Circle {
+                cx: 60.5,
+                cy: 60.5,
+                r: 50.0,
+            },
+            Circle {
+                cx: 10.25,
+                cy: 100.0,
+                r: 40.0,
+            },
+            Circle {
+                cx: 60.0,
+                cy: 60.0,
+                r: 0.7,
+            },
+        ];
+        circles.extend((0..200).map(|_| Circle {
+            cx: rng.next_f64() * 120.0,
+            cy: rng.next_f64() * 120.0,
+            r: 1.0 + rng.next_f64() * 70.0,
+        }));
+        let image = Array2::from_shape_fn((120, 120), |_| rng.next_f64());
+        for c in &circles {
+            let (rows, cols) = span(c, image.dim());
+            for y in rows {
+                let mut expected: Vec<usize> = cols
+                    .clone()
+                    .filter(|&x| inside(c, x as f64, y as f64))
+                    .collect();
+                let mut got: Vec<usize> = annulus_runs(c, y, cols.clone())
+                    .into_iter()
+                    .flatten()
+                    .collect();
+                expected.sort_unstable();
+                got.sort_unstable();
+                assert_eq!(got, expected, "{c:?}, row {y}");
+            }
+            let clipped = (span(c, image.dim()).0)
+                .flat_map(|y| span(c, image.dim()).1.map(move |x| (y, x)))
+                .filter(|&(y, x)| inside(c, x as f64, y as f64))
+                .map(|(y, x)| usize::from(image[[y, x]] >= CLIPPED * 0.5))
+                .collect::<Vec<_>>();
+            let share = clipped.iter().sum::<usize>() as f64 / clipped.len().max(1) as f64;
+            assert_eq!(clipped_fraction(image.view(), c, 0.5), share, "{c:?}");
+        }
+    }
 
     /// A smooth shaded sphere (white = 2) with shot and read noise at white of `k`.
     fn noisy(k: f64, shot_share: f64, seed: u64) -> Array2<f64> {
