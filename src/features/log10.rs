@@ -129,8 +129,13 @@ mod tests {
     #[test]
     fn simd_and_portable_builds_agree_bit_for_bit() {
         let xs: Vec<f64> = (0..10_000).map(|i| 1e-4 + i as f64 * 0.013_7).collect();
-        let a = log10_floored(&xs, 1e-4);
         let b = log10_floored_portable(&xs, 1e-4);
-        assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+        let same = |a: Vec<f64>| assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+        same(log10_floored(&xs, 1e-4));
+        #[cfg(target_arch = "x86_64")]
+        if crate::util::simd_under_test("avx2") {
+            // SAFETY: the CPU supports AVX2.
+            same(unsafe { log10_floored_avx2(&xs, 1e-4) });
+        }
     }
 }

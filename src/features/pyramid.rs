@@ -251,12 +251,19 @@ mod tests {
         let img = Array2::from_shape_fn((96, 448), |(y, x)| {
             ((x * 31 + y * 17) % 23) as f64 / 7.0 - 1.3
         });
-        let a = build(img.view(), 4, Edge::Periodic);
         let b = build_portable(img.view(), 4, Edge::Periodic);
-        for (la, lb) in a.levels.iter().zip(&b.levels) {
-            for (x, y) in [(&la.h, &lb.h), (&la.v, &lb.v), (&la.d, &lb.d)] {
-                assert!(x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits()));
+        let same = |a: &Pyramid| {
+            for (la, lb) in a.levels.iter().zip(&b.levels) {
+                for (x, y) in [(&la.h, &lb.h), (&la.v, &lb.v), (&la.d, &lb.d)] {
+                    assert!(x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits()));
+                }
             }
+        };
+        same(&build(img.view(), 4, Edge::Periodic));
+        #[cfg(target_arch = "x86_64")]
+        if crate::util::simd_under_test("avx2") {
+            // SAFETY: the CPU supports AVX2.
+            same(&unsafe { build_avx2(img.view(), 4, Edge::Periodic) });
         }
     }
 

@@ -521,6 +521,18 @@ mod tests {
             bits(lane_central_sums(&values, 123.456)),
             bits(portable_central_sums(&values, 123.456))
         );
+        #[cfg(target_arch = "x86_64")]
+        if crate::util::simd_under_test("avx") {
+            // SAFETY: the CPU supports AVX.
+            let (sums, central) = unsafe {
+                (
+                    avx::lane_sums_and_range(&values),
+                    avx::lane_central_sums(&values, 123.456),
+                )
+            };
+            assert_eq!(bits(sums), bits(portable_sums_and_range(&values)));
+            assert_eq!(bits(central), bits(portable_central_sums(&values, 123.456)));
+        }
     }
 
     #[test]

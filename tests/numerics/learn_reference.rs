@@ -30,7 +30,7 @@ fn strings(v: &Value) -> Vec<String> {
         .collect()
 }
 
-fn svm_agreement(set: &str) {
+fn svm_agreement(set: &str, decision_bound: f64) {
     let (ds, expected) = load();
     assert_eq!(ds.classes, strings(&expected["classes"]));
     // scikit-learn's SVC(probability=True) calibrates with libsvm's Platt procedure.
@@ -80,11 +80,14 @@ fn svm_agreement(set: &str) {
         diffs[diffs.len() * 99 / 100],
         correct_by_decision as f64 / predicted.len() as f64
     );
-    assert!(agreement >= 0.995, "{set}: agreement {agreement}");
-    // Both solvers stop within ε = 1e-3 of the optimum; decision values stay close.
-    assert!(max_diff < 2e-2, "{set}: max decision difference {max_diff}");
-    let accuracy = correct_by_decision as f64 / predicted.len() as f64;
-    assert!((accuracy - sk_acc).abs() <= 0.005);
+    assert_eq!(same, predicted.len(), "{set}: predictions that differ");
+    // Both solvers stop within ε = 1e-3 of the optimum; decision values stay this close
+    // (the bounds docs/development.md states).
+    assert!(
+        max_diff < decision_bound,
+        "{set}: max decision difference {max_diff}"
+    );
+    assert_eq!(correct_by_decision as f64 / predicted.len() as f64, sk_acc);
     // Calibration: libsvm's Platt procedure per class (its own random internal folds) and
     // ours (seeded stratified folds) give close log-losses and calibration errors.
     let cal = &want["calibrated"];
@@ -105,12 +108,12 @@ fn svm_agreement(set: &str) {
 
 #[test]
 fn svm_hand6_matches_sklearn() {
-    svm_agreement("hand6");
+    svm_agreement("hand6", 5e-3);
 }
 
 #[test]
 fn svm_all_matches_sklearn() {
-    svm_agreement("all");
+    svm_agreement("all", 1e-3);
 }
 
 #[test]
@@ -162,5 +165,5 @@ fn platt_matches_reference_minimizer() {
     let s = Sigmoid::fit(&dec, &pos);
     let (a, b) = (p["a"].as_f64().unwrap(), p["b"].as_f64().unwrap());
     eprintln!("platt: rust A={} B={}, reference A={a} B={b}", s.a, s.b);
-    assert!((s.a - a).abs() < 1e-5 && (s.b - b).abs() < 1e-5);
+    assert!((s.a - a).abs() < 1e-11 && (s.b - b).abs() < 1e-11);
 }

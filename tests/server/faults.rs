@@ -550,33 +550,49 @@ fn start_up_falls_back_to_the_newest_version_that_loads() {
     use reflectance::server::{build_state, load_models};
     let base = setup("fallback");
     let models = base.join("models");
+    // The model has a name of its own: the counters checked below are process-wide, and
+    // other tests of this binary count ward6's.
+    let registry = reflectance::model::registry::Registry::new(&models);
+    let mut model = registry.load("ward6", 1).unwrap();
+    model.name = "fallback".into();
+    assert_eq!(registry.publish(&mut model, &[]).unwrap().0, 1);
     // Versions 2 (truncated file, newest) and 3 (a copy of 1: stored under the wrong
     // version number) do not load; ACTIVE names 3.
-    copy_dir(&models.join("ward6/1"), &models.join("ward6/2"));
-    let file = models.join("ward6/2/model.json");
+    copy_dir(&models.join("fallback/1"), &models.join("fallback/2"));
+    let file = models.join("fallback/2/model.json");
     let bytes = std::fs::read(&file).unwrap();
     std::fs::write(&file, &bytes[..bytes.len() / 2]).unwrap();
-    copy_dir(&models.join("ward6/1"), &models.join("ward6/3"));
-    std::fs::write(models.join("ward6/ACTIVE"), "3\n").unwrap();
+    copy_dir(&models.join("fallback/1"), &models.join("fallback/3"));
+    std::fs::write(models.join("fallback/ACTIVE"), "3\n").unwrap();
     // A second model with no loadable version at all.
-    copy_dir(&models.join("ward6/2"), &models.join("broken/1"));
+    copy_dir(&models.join("fallback/2"), &models.join("broken/1"));
 
-    let mut config = Config::new(&models, "ward6");
+    let mut config = Config::new(&models, "fallback");
     config.cpu_threads = 1;
     let state = build_state(config).unwrap();
-    load_models(&state).expect("ward6 is served from version 1");
-    assert_eq!(state.models.active("ward6").unwrap().version(), 1);
+    load_models(&state).expect("served from version 1");
+    assert_eq!(state.models.active("fallback").unwrap().version(), 1);
     assert!(!state.models.is_served("broken"));
     // The registry's record is left alone.
     assert_eq!(
-        std::fs::read_to_string(models.join("ward6/ACTIVE")).unwrap(),
+        std::fs::read_to_string(models.join("fallback/ACTIVE")).unwrap(),
         "3\n"
     );
+    // One fallback, after the two versions that failed to load.
     let metrics = reflectance::server::metrics::render();
-    assert!(
-        metrics
-            .lines()
-            .any(|l| l.starts_with("reflectance_model_fallbacks_total{model=\"ward6\"}")),
+    let count = |family: &str| {
+        let key = format!("{family}{{model=\"fallback\"}} ");
+        let line = metrics.lines().find(|l| l.starts_with(&key));
+        line.and_then(|l| l[key.len()..].parse::<f64>().ok())
+    };
+    assert_eq!(
+        count("reflectance_model_fallbacks_total"),
+        Some(1.0),
+        "{metrics}"
+    );
+    assert_eq!(
+        count("reflectance_model_load_failures_total"),
+        Some(2.0),
         "{metrics}"
     );
 

@@ -95,9 +95,59 @@ fn shipped() -> TestServer {
     start(config(&models))
 }
 
+/// Every model shipped under `models/` is served and classifies the README's sphere
+/// with a set and a domain verdict (a model other than the default that fails to load is
+/// only logged, so nothing else would notice).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_shipped_model_is_served_and_classifies() {
+    let server = shipped();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut names: Vec<String> = std::fs::read_dir(root.join("models"))
+        .unwrap()
+        .map(|entry| entry.unwrap().file_name().into_string().unwrap())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["ward11", "ward6"]);
+    let png = std::fs::read(root.join("tests/fixtures/features/sphere_rgb8.png")).unwrap();
+    let circle = Circle {
+        cx: 96.5,
+        cy: 94.25,
+        r: 85.0,
+    };
+    for name in &names {
+        assert!(server.state.models.is_served(name), "{name} is not served");
+        let path = format!("/v1/models/{name}/classify");
+        let doc = classify_at(&server, &path, &png, &circle, Some(0.8), &[]).await;
+        assert_eq!(doc["model"]["name"], name.as_str());
+        // A metal under both class sets (ward6's chrome, ward11's D or K), in domain, and in
+        // its own prediction set.
+        let ward = &doc["class"]["ward"];
+        assert_eq!(
+            (ward["rho_d"].as_f64(), ward["rho_s"].as_f64()),
+            (Some(0.0), Some(0.75)),
+            "{name}: {doc}"
+        );
+        assert!(in_domain(&doc), "{name}: {}", doc["domain"]);
+        let label = doc["label"].as_str().unwrap().to_string();
+        assert!(set(&doc).contains(&label), "{name}: {doc}");
+    }
+}
+
 /// Classify with the given circle, white (`None`: none) and extra fields.
 async fn classify(
     server: &TestServer,
+    image: &[u8],
+    circle: &Circle,
+    white: Option<f64>,
+    extra: &[(&str, &str)],
+) -> Value {
+    classify_at(server, "/v1/classify", image, circle, white, extra).await
+}
+
+/// [`classify`] at a given classification path.
+async fn classify_at(
+    server: &TestServer,
+    path: &str,
     image: &[u8],
     circle: &Circle,
     white: Option<f64>,
@@ -115,7 +165,7 @@ async fn classify(
         fields.push(("white", Part::Text(w)));
     }
     fields.extend(extra.iter().map(|&(k, v)| (k, Part::Text(v))));
-    let answer = send(&server.data, post_multipart("/v1/classify", &fields)).await;
+    let answer = send(&server.data, post_multipart(path, &fields)).await;
     assert_eq!(
         answer.status,
         200,
