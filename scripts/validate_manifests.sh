@@ -93,6 +93,8 @@ if command -v kubectl >/dev/null; then
     || status=$?
   [ -z "$report" ] || printf '%s\n' "$report"
   [ "$status" -eq 0 ] && ! grep -q '^WARN' <<<"$report" || die "a rendered kustomization is not valid (above)"
+elif [ -n "${REFLECTANCE_REQUIRE_KUBECTL:-}" ]; then
+  die "REFLECTANCE_REQUIRE_KUBECTL is set but kubectl is not found: the kustomizations cannot be rendered"
 else
   echo "validate_manifests: kubectl not found: the kustomizations are checked but not rendered" >&2
 fi

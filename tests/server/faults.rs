@@ -237,17 +237,17 @@ fn launch(base: &Path, how: Launch) -> Server {
     if let Some(pause) = how.pause {
         command.env("REFLECTANCE_TEST_PAUSE", pause);
     }
-    // SAFETY: geteuid cannot fail.
-    let as_root = unsafe { libc::geteuid() } == 0;
-    if !as_root {
+    let by = read_only_by();
+    if by != ReadOnlyBy::Mount {
         for dir in &how.read_only {
             set_writable(dir, false);
         }
     }
+    let drop_override = by == ReadOnlyBy::PermissionsWithoutOverride && !how.read_only.is_empty();
     let read_only: Vec<std::ffi::CString> = how
         .read_only
         .iter()
-        .filter(|_| as_root)
+        .filter(|_| by == ReadOnlyBy::Mount)
         .map(|p| std::ffi::CString::new(p.as_os_str().as_encoded_bytes()).unwrap())
         .collect();
     let file_size_limit = how.file_size_limit;
@@ -270,6 +270,17 @@ fn launch(base: &Path, how: Launch) -> Server {
                     rlim_max: libc::RLIM_INFINITY,
                 };
                 check(libc::setrlimit(libc::RLIMIT_FSIZE, &limit))?;
+            }
+            if drop_override {
+                // Root ignores write bits through CAP_DAC_OVERRIDE: the server is exec'd
+                // without it (a capability gone from the bounding set is not regained).
+                check(libc::prctl(
+                    libc::PR_CAPBSET_DROP,
+                    CAP_DAC_OVERRIDE,
+                    0,
+                    0,
+                    0,
+                ))?;
             }
             if !read_only.is_empty() {
                 let none = std::ptr::null();
@@ -304,9 +315,7 @@ fn launch(base: &Path, how: Launch) -> Server {
         });
     }
     let server = Server {
-        child: command
-            .spawn()
-            .expect("the server starts (read-only mounts need root)"),
+        child: command.spawn().expect("the server starts"),
         port,
         admin,
     };
@@ -322,6 +331,47 @@ fn launch(base: &Path, how: Launch) -> Server {
         .is_some_and(|r| r.status == 200)
     });
     server
+}
+
+const CAP_DAC_OVERRIDE: libc::c_ulong = 1;
+
+/// How a server is kept from writing into folders.
+#[derive(Clone, Copy, PartialEq, Debug)]
+enum ReadOnlyBy {
+    /// A read-only bind mount, in a mount namespace of the server's own (as root).
+    Mount,
+    /// The write bits removed (not root: they bind).
+    Permissions,
+    /// The write bits removed, and root's capability to ignore them dropped for the server:
+    /// as root where namespaces are refused (a container without CAP_SYS_ADMIN), or with
+    /// `REFLECTANCE_TEST_NO_NAMESPACES` set to try this path.
+    PermissionsWithoutOverride,
+}
+
+fn read_only_by() -> ReadOnlyBy {
+    use std::os::unix::process::CommandExt;
+    static CHOICE: std::sync::OnceLock<ReadOnlyBy> = std::sync::OnceLock::new();
+    *CHOICE.get_or_init(|| {
+        // SAFETY: geteuid cannot fail.
+        if unsafe { libc::geteuid() } != 0 {
+            return ReadOnlyBy::Permissions;
+        }
+        if std::env::var_os("REFLECTANCE_TEST_NO_NAMESPACES").is_some() {
+            return ReadOnlyBy::PermissionsWithoutOverride;
+        }
+        let mut probe = std::process::Command::new("true");
+        // SAFETY: unshare is async-signal-safe.
+        unsafe {
+            probe.pre_exec(|| match libc::unshare(libc::CLONE_NEWNS) {
+                0 => Ok(()),
+                _ => Err(std::io::Error::last_os_error()),
+            });
+        }
+        match probe.status() {
+            Ok(status) if status.success() => ReadOnlyBy::Mount,
+            _ => ReadOnlyBy::PermissionsWithoutOverride,
+        }
+    })
 }
 
 /// Add or remove the write permission of a folder and everything in it.
@@ -960,7 +1010,6 @@ fn a_read_only_registry_fails_training_clearly_and_keeps_serving() {
     );
     let id = accepted(server.admin, &train_job("always"));
     let doc = finished(server.admin, &id);
-    set_writable(&models, true);
     assert_eq!(doc["state"], "failed", "{doc}");
     let error = doc["error"].as_str().unwrap();
     assert!(
@@ -974,6 +1023,7 @@ fn a_read_only_registry_fails_training_clearly_and_keeps_serving() {
     let reply = activate(server.admin, 1);
     assert_eq!(reply.status, 200, "{}", reply.json());
     assert_eq!(reply.json()["persisted"], false, "{}", reply.json());
+    set_writable(&models, true);
 }
 
 #[test]
