@@ -317,8 +317,25 @@ async fn render_train_activate_roll_back_and_delete() {
     assert_eq!(done["state"], "succeeded", "{done}");
     let report = &done["result"]["estimate"];
     assert_eq!(report["n"], done["result"]["images"], "{done}");
-    let coverage = report["coverage_rho_s"].as_f64().unwrap();
-    assert!((0.0..=1.0).contains(&coverage), "{done}");
+    // The same figures as the command line's estimate on the same table, to the bit.
+    let cli = std::process::Command::new(env!("CARGO_BIN_EXE_reflectance"))
+        .args(["cv", "--features", "hand6", "--table"])
+        .arg(data.join("table.csv"))
+        .args(["--estimate", "--ward-classes"])
+        .arg(data.join("classes.json"))
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(
+        cli.status.success(),
+        "{}",
+        String::from_utf8_lossy(&cli.stderr)
+    );
+    let cli: Value = serde_json::from_slice(&cli.stdout).unwrap();
+    assert_eq!(
+        report, &cli,
+        "the job's estimate against the command line's"
+    );
     assert!(
         report["half_widths"]["rho_d"].as_f64().unwrap() > 0.0,
         "{done}"
