@@ -5,6 +5,7 @@
 #   scripts/loadtest.sh                 # 20 s, 32 connections, 2 wrk threads
 #   DURATION=60s CONNECTIONS=64 scripts/loadtest.sh
 #   MODELS=models scripts/loadtest.sh   # a registry with ward6 (default: train one from the fixture table)
+#   MODELS=models MODEL=ward11 scripts/loadtest.sh   # any model of the registry
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -12,6 +13,7 @@ DURATION=${DURATION:-20s}
 CONNECTIONS=${CONNECTIONS:-32}
 THREADS=${THREADS:-2}
 PORT=${PORT:-18080}
+MODEL=${MODEL:-ward6}
 
 if ! command -v wrk >/dev/null; then
   echo "== installing wrk" >&2
@@ -37,11 +39,11 @@ if [ -n "${MODELS:-}" ]; then
 else
   REGISTRY=$WORK/models
   "$BIN" train --table tests/fixtures/learn/table.csv --features hand6 --classifier svm \
-    --models "$REGISTRY" --name ward6 --no-cv >/dev/null
+    --models "$REGISTRY" --name "$MODEL" --no-cv >/dev/null
 fi
 python3 scripts/loadtest/sphere_png.py "$WORK/sphere.png"
 
-"$BIN" serve --models "$REGISTRY" --default-model ward6 --listen "127.0.0.1:$PORT" \
+"$BIN" serve --models "$REGISTRY" --default-model "$MODEL" --listen "127.0.0.1:$PORT" \
   --log-format json --log warn 2>"$WORK/server.log" &
 SERVER_PID=$!
 for _ in $(seq 1 100); do
