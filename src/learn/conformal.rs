@@ -90,7 +90,8 @@ fn conformal_quantile(sorted: &[f64], coverage: f64) -> f64 {
 }
 
 /// What held-out images showed at one coverage.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[schema(as = SetsMeasured)]
 pub struct Measured {
     pub coverage: f64,
     /// The fraction of held-out images whose set held the truth, each fold's sets made from

@@ -66,15 +66,6 @@ pub struct CvSummaryOut {
     pub confusion: Vec<Vec<usize>>,
 }
 
-/// What held-out images showed of the prediction sets at one coverage.
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
-pub struct SetsMeasured {
-    pub coverage: f64,
-    /// The fraction of held-out images whose set held the truth.
-    pub held_out_coverage: f64,
-    pub mean_size: f64,
-}
-
 /// The prediction sets' calibration.
 #[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
 pub struct SetsOut {
@@ -83,7 +74,7 @@ pub struct SetsOut {
     /// Folds of whole illuminations (else stratified rows).
     pub folds: usize,
     pub by_illumination: bool,
-    pub measured: Vec<SetsMeasured>,
+    pub measured: Vec<crate::learn::conformal::Measured>,
 }
 
 /// The domain check's calibration.
@@ -122,15 +113,7 @@ fn reliability(head: crate::model::Head) -> ReliabilityOut {
             images: s.n,
             folds: s.folds,
             by_illumination: s.by_illumination,
-            measured: s
-                .measured
-                .iter()
-                .map(|m| SetsMeasured {
-                    coverage: m.coverage,
-                    held_out_coverage: m.held_out_coverage,
-                    mean_size: m.mean_size,
-                })
-                .collect(),
+            measured: s.measured.clone(),
         }),
         domain: head.domain.map(|d| DomainCalibrationOut {
             images: d.n,
