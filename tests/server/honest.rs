@@ -85,9 +85,10 @@ fn probe(name: &str) -> EnvMap {
     EnvMap::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
-/// A server on a copy of the shipped models.
-fn shipped() -> TestServer {
-    let models = temp_dir("honest").join("models");
+/// A server on a private copy of the shipped registry (`name` keeps tests that run in
+/// parallel out of each other's folders).
+fn shipped(name: &str) -> TestServer {
+    let models = temp_dir(name).join("models");
     copy_dir(
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("models"),
         &models,
@@ -100,7 +101,7 @@ fn shipped() -> TestServer {
 /// only logged, so nothing else would notice).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn every_shipped_model_is_served_and_classifies() {
-    let server = shipped();
+    let server = shipped("honest-every");
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut names: Vec<String> = std::fs::read_dir(root.join("models"))
         .unwrap()
@@ -245,7 +246,7 @@ fn padded(png: &[u8], margin: u32) -> Vec<u8> {
 )]
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn spheres_under_unseen_light_get_sets_and_are_in_domain() {
-    let server = shipped();
+    let server = shipped("honest-unseen");
     let grace = probe("ict_grace.hdr");
     for class in [
         "black_matte",
@@ -315,7 +316,7 @@ async fn spheres_under_unseen_light_get_sets_and_are_in_domain() {
 )]
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn each_kind_of_input_the_model_does_not_know_is_flagged() {
-    let server = shipped();
+    let server = shipped("honest-ood");
     let grace = probe("ict_grace.hdr");
     let flagged = |doc: &Value, what: &str| {
         assert!(!in_domain(doc), "{what}: {}", doc["domain"]);
