@@ -389,15 +389,6 @@ fn materials_design_a_class_file_that_render_and_the_estimate_take() {
     common::assert_success(&out);
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["n"], 16, "{report}");
-    for key in [
-        "mae_rho_d",
-        "mae_rho_s",
-        "mirror_accuracy",
-        "coverage_rho_s",
-    ] {
-        let v = report[key].as_f64().unwrap();
-        assert!((0.0..=1.0).contains(&v), "{key} = {v}");
-    }
     let out = cv(&[]);
     assert_eq!(
         out.status.code(),
@@ -414,6 +405,8 @@ fn materials_design_a_class_file_that_render_and_the_estimate_take() {
         serde_json::from_slice(&std::fs::read(report_dir.join("estimate.json")).unwrap()).unwrap();
     let rows = written["details"]["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 16, "{written}");
+    assert_eq!(written["report"], report, "--json and --out disagree");
+    assert_summary_matches_rows(&report, rows);
     assert_eq!(
         written["details"]["illuminations"]
             .as_array()
@@ -485,4 +478,53 @@ fn materials_design_a_class_file_that_render_and_the_estimate_take() {
         csv.lines().nth(1).unwrap().split(',').count(),
         header.split(',').count()
     );
+}
+
+/// The estimate report's figures, recomputed from the held-out rows it writes: the mean
+/// errors, mirror-or-not, and the coverage of each row's ρ intervals.
+fn assert_summary_matches_rows(report: &serde_json::Value, rows: &[serde_json::Value]) {
+    let n = rows.len() as f64;
+    let mean = |f: &dyn Fn(&serde_json::Value) -> f64| rows.iter().map(f).sum::<f64>() / n;
+    let value = |row: &serde_json::Value, p: &str| row["estimate"][p]["value"].as_f64().unwrap();
+    let truth = |row: &serde_json::Value, p: &str| row["truth"][p].as_f64().unwrap();
+    let covered = |row: &serde_json::Value, p: &str| {
+        let (t, e) = (truth(row, p), &row["estimate"][p]);
+        f64::from(u8::from(
+            e["low"].as_f64().unwrap() <= t && t <= e["high"].as_f64().unwrap(),
+        ))
+    };
+    let expected = [
+        (
+            "mae_rho_d",
+            mean(&|r| (value(r, "rho_d") - truth(r, "rho_d")).abs()),
+        ),
+        (
+            "mae_rho_s",
+            mean(&|r| (value(r, "rho_s") - truth(r, "rho_s")).abs()),
+        ),
+        (
+            "mae_total",
+            mean(&|r| {
+                (value(r, "rho_d") + value(r, "rho_s") - truth(r, "rho_d") - truth(r, "rho_s"))
+                    .abs()
+            }),
+        ),
+        (
+            "mirror_accuracy",
+            mean(&|r| {
+                f64::from(u8::from(
+                    (value(r, "alpha") == 0.0) == (truth(r, "alpha") == 0.0),
+                ))
+            }),
+        ),
+        ("coverage_rho_d", mean(&|r| covered(r, "rho_d"))),
+        ("coverage_rho_s", mean(&|r| covered(r, "rho_s"))),
+    ];
+    for (key, want) in expected {
+        let got = report[key].as_f64().unwrap();
+        assert!(
+            (got - want).abs() < 1e-12,
+            "{key}: report {got}, rows {want}"
+        );
+    }
 }
