@@ -167,6 +167,20 @@ fn stage_unwrap(bencher: Bencher) {
     bencher.bench(|| extractor.unwrap(divan::black_box(image.luminance.view()), &c, 1.0));
 }
 
+/// [`stage_unwrap`] after reduction to the shipped models' working radius (the sphere's
+/// radius 233 to 116): the difference is the reduction's cost.
+#[divan::bench]
+fn stage_reduce_and_unwrap(bencher: Bencher) {
+    let image = decoded();
+    let config = FeatureConfig {
+        working_radius: Some(116.363_636_363_636_36),
+        ..FeatureConfig::default()
+    };
+    let extractor = Extractor::new(config).expect("config");
+    let c = circle();
+    bencher.bench(|| extractor.unwrap(divan::black_box(image.luminance.view()), &c, 1.0));
+}
+
 fn unwrapped() -> Array2<f64> {
     let extractor = Extractor::new(FeatureConfig::default()).expect("config");
     extractor.unwrap(decoded().luminance.view(), &circle(), 1.0)

@@ -9,6 +9,7 @@
 
 use crate::image::circle::Circle;
 use ndarray::{Array2, ArrayView2};
+use std::borrow::Cow;
 
 /// Per output index along one axis: (first source index, weights of consecutive sources).
 fn axis_weights(source: usize, factor: f64) -> Vec<(usize, Vec<f64>)> {
@@ -37,41 +38,97 @@ pub fn downsample(image: ArrayView2<f64>, factor: f64) -> Array2<f64> {
     let (h, w) = image.dim();
     let (wy, wx) = (axis_weights(h, factor), axis_weights(w, factor));
     let across = wx.len();
-    let covered: Vec<f64> = wx.iter().map(|(_, q)| q.iter().sum()).collect();
-    let mut rows = vec![0.0; h * across];
-    let mut copy = Vec::with_capacity(w);
-    for (row, sums) in image.rows().into_iter().zip(rows.chunks_exact_mut(across)) {
-        let line = match row.as_slice() {
-            Some(line) => line,
-            None => {
-                copy.clear();
-                copy.extend(row.iter().copied());
-                &copy[..]
-            }
-        };
-        for ((first, weights), sum) in wx.iter().zip(sums.iter_mut()) {
-            let sources = &line[*first..*first + weights.len()];
-            *sum = weights.iter().zip(sources).map(|(q, v)| q * v).sum();
+    let rows = reduce_rows(image, &wx);
+    let mut out = vec![0.0; wy.len() * across];
+    for ((first, weights), line) in wy.iter().zip(out.chunks_exact_mut(across)) {
+        let sources = &rows[first * across..(first + weights.len()) * across];
+        reduce_columns(sources, weights, line);
+        let covered: f64 = weights.iter().sum();
+        for v in line.iter_mut() {
+            *v /= covered;
         }
-        // Divided apart from the sums, so that the divisions run four at a time.
-        for (sum, c) in sums.iter_mut().zip(&covered) {
+    }
+    Array2::from_shape_vec((wy.len(), across), out).expect("the shape of the weights")
+}
+
+/// Columns summed at once by the second pass, in registers.
+const COLUMNS_AT_ONCE: usize = 8;
+
+/// The second pass for one output row: `line[x]` = Σ qᵢ·rowᵢ[x] over the consecutive rows
+/// of `sources` (each `line.len()` long), in row order from −0.0.
+fn reduce_columns(sources: &[f64], weights: &[f64], line: &mut [f64]) {
+    let across = line.len();
+    for (start, chunk) in (0..across)
+        .step_by(COLUMNS_AT_ONCE)
+        .zip(line.chunks_mut(COLUMNS_AT_ONCE))
+    {
+        let mut acc = [-0.0; COLUMNS_AT_ONCE];
+        for (q, row) in weights.iter().zip(sources.chunks_exact(across)) {
+            let row = &row[start..start + chunk.len()];
+            for (a, v) in acc.iter_mut().zip(row) {
+                *a += q * v;
+            }
+        }
+        chunk.copy_from_slice(&acc[..chunk.len()]);
+    }
+}
+
+/// Rows reduced at once by the first pass: each output's sum is one chain of dependent
+/// additions, so several rows' chains run side by side.
+const ROWS_AT_ONCE: usize = 8;
+
+/// The first pass: every row of `image` reduced along x by the weights `wx` (row-major,
+/// `wx.len()` values per row).
+fn reduce_rows(image: ArrayView2<f64>, wx: &[(usize, Vec<f64>)]) -> Vec<f64> {
+    let across = wx.len();
+    let lines: Vec<Cow<[f64]>> = image
+        .rows()
+        .into_iter()
+        .map(|row| match row.to_slice() {
+            Some(line) => Cow::Borrowed(line),
+            None => Cow::Owned(row.to_vec()),
+        })
+        .collect();
+    let mut rows = vec![0.0; lines.len() * across];
+    for (block, sums) in lines
+        .chunks(ROWS_AT_ONCE)
+        .zip(rows.chunks_mut(ROWS_AT_ONCE * across))
+    {
+        match <&[Cow<[f64]>; ROWS_AT_ONCE]>::try_from(block) {
+            Ok(block) => reduce_block(block.each_ref().map(|line| &line[..]), wx, sums),
+            Err(_) => {
+                for (line, sums) in block.iter().zip(sums.chunks_exact_mut(across)) {
+                    reduce_block([&line[..]], wx, sums);
+                }
+            }
+        }
+    }
+    // Divided apart from the sums, so that the divisions run four at a time.
+    let covered: Vec<f64> = wx.iter().map(|(_, q)| q.iter().sum()).collect();
+    for row in rows.chunks_exact_mut(across) {
+        for (sum, c) in row.iter_mut().zip(&covered) {
             *sum /= c;
         }
     }
-    let mut out = Vec::with_capacity(wy.len() * across);
-    let mut sum = vec![0.0; across];
-    for (first, weights) in &wy {
-        sum.fill(-0.0);
+    rows
+}
+
+/// `N` lines reduced along x into `sums` (`N` rows of `wx.len()`): each sum is Σ qᵢ·vᵢ in
+/// source order from −0.0, as `Iterator::sum` adds.
+fn reduce_block<const N: usize>(lines: [&[f64]; N], wx: &[(usize, Vec<f64>)], sums: &mut [f64]) {
+    let across = wx.len();
+    for (k, (first, weights)) in wx.iter().enumerate() {
+        let sources = lines.map(|line| &line[*first..*first + weights.len()]);
+        let mut acc = [-0.0; N];
         for (i, q) in weights.iter().enumerate() {
-            let source = &rows[(first + i) * across..][..across];
-            for (s, v) in sum.iter_mut().zip(source) {
-                *s += q * v;
+            for (a, source) in acc.iter_mut().zip(&sources) {
+                *a += q * source[i];
             }
         }
-        let covered: f64 = weights.iter().sum();
-        out.extend(sum.iter().map(|s| s / covered));
+        for (r, a) in acc.into_iter().enumerate() {
+            sums[r * across + k] = a;
+        }
     }
-    Array2::from_shape_vec((wy.len(), across), out).expect("the shape of the weights")
 }
 
 /// The part of `image` around `circle` (with a margin), reduced so that the circle has
