@@ -6,6 +6,7 @@
 #   DURATION=60s CONNECTIONS=64 scripts/loadtest.sh
 #   MODELS=models scripts/loadtest.sh   # a registry with ward6 (default: train one from the fixture table)
 #   MODELS=models MODEL=ward11 scripts/loadtest.sh   # any model of the registry
+#   BIN=/elsewhere/reflectance scripts/loadtest.sh     # another build (no build here)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -20,9 +21,11 @@ if ! command -v wrk >/dev/null; then
   apt-get update -qq >/dev/null && apt-get install -y -qq wrk >/dev/null
 fi
 
-echo "== building (release)" >&2
-cargo build --release -q
-BIN=${CARGO_TARGET_DIR:-target}/release/reflectance
+if [ -z "${BIN:-}" ]; then
+  echo "== building (release)" >&2
+  cargo build --release -q
+  BIN=${CARGO_TARGET_DIR:-target}/release/reflectance
+fi
 
 WORK=$(mktemp -d)
 SERVER_PID=
