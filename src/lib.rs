@@ -1,24 +1,18 @@
 //! `reflectance`: what a sphere is made of, from one photograph under unknown real-world
 //! lighting (Dror, Adelson & Willsky 2001). `docs/design.md` is the specification and
-//! `docs/architecture.md` the map. The modules follow the pipeline:
-//! image (decode, locate, white) → features → learn → model → inference → server / cli,
-//! with render (training data) and report (tables and plots) beside it.
+//! `docs/architecture.md` the map. This crate is the binary's: the command line, the
+//! service and the reports, on `reflectance-core` (the pipeline, without HTTP) and
+//! `reflectance-render` (training data), whose modules it re-exports under their names.
 
 pub mod cli;
-pub mod dataset;
-pub mod features;
-pub mod image;
-pub mod inference;
-pub mod learn;
-pub mod model;
-pub mod render;
 pub(crate) mod report;
 pub mod server;
-pub mod util;
+
+pub use reflectance_core::{dataset, features, image, inference, learn, material, model, util};
+pub use reflectance_render as render;
 
 // The entry points for embedding: a photograph in, a classification out.
-pub use features::{Extractor, FeatureConfig};
-pub use image::decode::{DecodeOptions, decode, decode_file};
-pub use inference::{ClassifyResponse, Input, LoadedModel, classify};
-pub use model::ModelFile;
-pub use model::registry::Registry;
+pub use reflectance_core::{
+    ClassifyResponse, DecodeOptions, Extractor, FeatureConfig, Input, LoadedModel, ModelFile,
+    Registry, classify, decode, decode_file,
+};

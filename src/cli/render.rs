@@ -68,7 +68,7 @@ pub struct RenderArgs {
 pub fn run(args: RenderArgs) -> CliResult {
     let spec = BatchSpec {
         probes: batch::probe_list(&args.probes).map_err(|e| e.to_string())?,
-        classes: batch::load_classes(&args.classes).map_err(|e| e.to_string())?,
+        classes: crate::material::load_classes(&args.classes).map_err(|e| e.to_string())?,
         out: args.out,
         size: args.size,
         seed: args.seed,

@@ -25,7 +25,6 @@ use crate::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
 use crate::image::decode::DecodeOptions;
 use crate::learn::estimate::{self as ward, EstimateReport};
 use crate::learn::{self, ClassifierKind, CvReport, Dataset, FeatureSet, TrainSpec};
-use crate::render::batch;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -287,7 +286,7 @@ fn estimate_of(
     if !dir.join("manifest.csv").is_file() {
         return Ok(None);
     }
-    let materials = batch::load_classes(&dir.join(classes)).map_err(|e| {
+    let materials = crate::material::load_classes(&dir.join(classes)).map_err(|e| {
         ReportError::Input(format!(
             "{}: {e} (the materials' class file, as rendered, belongs beside the manifest)",
             dir.display()

@@ -10,7 +10,7 @@ use crate::dataset::{self, Manifest};
 use crate::image::decode::{self, DecodeOptions};
 use crate::image::geometry::Circle;
 use crate::inference::{self, Input, LoadedModel, LocateSpec, WhiteSpec};
-use crate::render::capture::{self, CaptureRanges, CaptureSettings, Quantization};
+use crate::render::capture::{self, CaptureRanges, CaptureSettings, DrawSettings, Quantization};
 use crate::util::progress;
 use crate::util::rng::Rng;
 use ndarray::Array2;

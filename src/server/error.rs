@@ -628,7 +628,10 @@ mod tests {
         let decode = [
             (DecodeError::UnsupportedFormat, 415),
             (
-                DecodeError::corrupt(crate::image::decode::Format::Png, "x"),
+                DecodeError::Corrupt {
+                    format: crate::image::decode::Format::Png,
+                    detail: "x".into(),
+                },
                 422,
             ),
             (

@@ -101,7 +101,7 @@ fn render(dir: &Path, probes: Vec<PathBuf>, out: &str) -> PathBuf {
     std::fs::write(&classes_path, CLASSES_JSON).unwrap();
     let spec = BatchSpec {
         probes,
-        classes: batch::load_classes(&classes_path).unwrap(),
+        classes: reflectance::material::load_classes(&classes_path).unwrap(),
         out: dir.join(out),
         size: 96,
         seed: 1,
@@ -124,7 +124,7 @@ pub fn fixture() -> &'static Fixture {
         let manifest = dataset::read_manifest(&train_manifest).unwrap();
         let table: FeatureTable =
             dataset::extract_manifest(&extractor, &manifest, &DecodeOptions::default()).unwrap();
-        let classes = batch::load_classes(&dir.join("classes.json")).unwrap();
+        let classes = reflectance::material::load_classes(&dir.join("classes.json")).unwrap();
         let options = TrainOptions {
             name: "ward6".into(),
             spec: TrainSpec::new(FeatureSet::Named("hand6"), ClassifierKind::Svm),

@@ -2,7 +2,7 @@
 //! energy, rotation, determinism.
 
 use reflectance::render::envmap::EnvMap;
-use reflectance::render::ward::Material;
+use reflectance::render::ward::{Material, WardBrdf};
 use reflectance::render::{Lighting, Quality, Rendering, View, circle, render, white};
 use reflectance::util::rng::Rng;
 use std::f64::consts::PI;

@@ -8,6 +8,7 @@ use crate::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
 use crate::image::decode::{DecodeOptions, Limits};
 use crate::learn::estimate::{self, EstimateReport};
 use crate::learn::{self, CvReport, Dataset, LearnError, SpecText, TrainSpec};
+use crate::material::{ClassFileError, load_classes};
 use crate::model::registry;
 use crate::model::train::{self, TrainError, TrainOptions};
 use crate::render::Quality;
@@ -163,6 +164,12 @@ macro_rules! failure_from {
 }
 
 failure_from!(DatasetError, LearnError, RenderError);
+
+impl From<ClassFileError> for Failure {
+    fn from(e: ClassFileError) -> Failure {
+        Failure::Error(e.to_string())
+    }
+}
 
 impl From<TrainError> for Failure {
     fn from(e: TrainError) -> Failure {
@@ -321,7 +328,7 @@ fn estimator_data(
     Ok(Some(train::EstimatorData {
         table: FeatureTable::read(&table_path)?,
         label: table.clone(),
-        materials: batch::load_classes(&classes_path)?,
+        materials: load_classes(&classes_path)?,
         features: None,
         size: RIDGE_SIZE,
         gamma: p.gamma,
@@ -381,7 +388,7 @@ pub fn execute(
             let classes = match classes {
                 Some(c) => {
                     let path = data.existing("classes", c).map_err(Failure::Error)?;
-                    Some(batch::load_classes(&path)?)
+                    Some(load_classes(&path)?)
                 }
                 None => None,
             };
@@ -522,7 +529,7 @@ pub fn execute(
             let path = data
                 .existing("ward_classes", classes)
                 .map_err(Failure::Error)?;
-            let materials = batch::load_classes(&path)?;
+            let materials = load_classes(&path)?;
             let (table, label, _) = load_table(p, data, limits, observer)?;
             let ds = Dataset::from_table(&table)?;
             observer.stage("cross_validate");
@@ -565,7 +572,7 @@ pub fn execute(
             }
             let spec = BatchSpec {
                 probes: probe_files,
-                classes: batch::load_classes(&classes_path)?,
+                classes: load_classes(&classes_path)?,
                 out: out_path,
                 size: *size,
                 seed: *seed,

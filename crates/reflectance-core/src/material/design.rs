@@ -6,7 +6,7 @@
 //! ρs is uniform in [0, ρs_max]; ρd uniform in [0, 1 − ρs] (energy conservation); α is 0
 //! (an ideal mirror) for a share of the materials, else log-uniform in [α_min, α_max].
 
-use super::ward::Material;
+use super::Material;
 use crate::util::rng::Rng;
 
 /// The parameter ranges of the design.

@@ -17,7 +17,6 @@ use bytes::Bytes;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 use std::time::Instant;
-use utoipa::ToSchema;
 
 /// A verified model version, ready to classify: the file and its feature extractor.
 #[derive(Debug)]
@@ -405,7 +404,8 @@ fn prediction_set(
 }
 
 /// Where the sphere is in a photograph, before classifying it.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct LocateResponse {
     pub request_id: String,
     /// The image's size in pixels (after its EXIF orientation), the circle's coordinate frame.
@@ -457,20 +457,23 @@ pub fn locate(
 }
 
 /// The served model version.
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ModelId {
     pub name: String,
     pub version: u32,
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct LabelProbability {
     pub label: String,
     pub p: f64,
 }
 
 /// Ward reflectance parameters of a rendered class.
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct WardParams {
     pub rho_d: f64,
     pub rho_s: f64,
@@ -478,7 +481,8 @@ pub struct WardParams {
 }
 
 /// A class of the model, for people.
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ClassOut {
     pub name: String,
     /// In words (from the Ward parameters when known), e.g. "white, glossy: sharp
@@ -504,7 +508,8 @@ impl From<&ClassInfo> for ClassOut {
 }
 
 /// Names and values, index by index.
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct NamedValues {
     pub names: Vec<String>,
     pub values: Vec<f64>,
@@ -513,7 +518,8 @@ pub struct NamedValues {
 /// The classifier's inputs (the model's selected features, raw; for `pca<N>` models the
 /// standardized principal components `pc1…`), and with `include=features` every extracted
 /// feature in canonical order (117 with the default configuration).
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct FeaturesOut {
     pub names: Vec<String>,
     pub values: Vec<f64>,
@@ -521,13 +527,14 @@ pub struct FeaturesOut {
     pub all: Option<NamedValues>,
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct GeometryOut {
     pub cx: f64,
     pub cy: f64,
     pub r: f64,
     /// `given`, `mask` (mask image), `alpha` (the image's alpha channel) or `auto`.
-    #[schema(value_type = String, example = "given")]
+    #[cfg_attr(feature = "openapi", schema(value_type = String, example = "given"))]
     pub method: GeometryMethod,
     /// Automatic detection only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -546,16 +553,18 @@ impl From<&geometry::Geometry> for GeometryOut {
     }
 }
 
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct WhiteOut {
     pub value: f64,
     /// `given`, `white_image` or `none` (no reference: the image is taken as normalized).
-    #[schema(value_type = String, example = "given")]
+    #[cfg_attr(feature = "openapi", schema(value_type = String, example = "given"))]
     pub method: WhiteMethod,
 }
 
 /// Milliseconds per stage.
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct TimingMs {
     pub decode: f64,
     pub features: f64,
@@ -564,7 +573,8 @@ pub struct TimingMs {
 }
 
 /// A training image near the classified one, in the classifier's standardized input space.
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Neighbour {
     pub path: String,
     pub class: String,
@@ -576,7 +586,8 @@ pub struct Neighbour {
 }
 
 /// With `include=images`: what the features see, as 8-bit grey PNG data URLs.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ImagesOut {
     /// The unwrapped annulus divided by white (angle across, radius down, at the model's
     /// working radius and saturation; white is full brightness, brighter clips).
@@ -586,13 +597,14 @@ pub struct ImagesOut {
     pub subbands: Vec<SubbandImage>,
 }
 
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct SubbandImage {
     /// 1 is the finest.
     pub scale: usize,
     /// `h` (horizontal structure), `v` (vertical: radial on the sphere) or `d` (diagonal),
     /// as in the feature names (`wav.s1.h.var`).
-    #[schema(example = "h")]
+    #[cfg_attr(feature = "openapi", schema(example = "h"))]
     pub orientation: String,
     pub image: String,
 }
@@ -635,20 +647,22 @@ fn images_of(extractor: &Extractor, image: &decode::LinearImage, analysis: &Anal
 /// The smallest set of classes that holds the true class with probability at least
 /// `coverage`, for a photograph under light the model never saw (split conformal,
 /// calibrated on held-out illuminations).
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct PredictionSetOut {
-    #[schema(example = 0.95)]
+    #[cfg_attr(feature = "openapi", schema(example = 0.95))]
     pub coverage: f64,
     /// Most probable first; the label is always the first.
     pub labels: Vec<String>,
 }
 
 /// One domain check's measurement.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct DomainCheckOut {
     /// `typicality` (distance to the training images), `outline` (how well the circle
     /// follows a sphere's outline) or `brightness` (log10 of the centre over white).
-    #[schema(example = "outline")]
+    #[cfg_attr(feature = "openapi", schema(example = "outline"))]
     pub check: String,
     pub value: f64,
     /// Statistical checks: how often an image of a sphere under held-out light is at least
@@ -662,7 +676,8 @@ pub struct DomainCheckOut {
 
 /// Whether the input is like what the model was trained on: a sphere, the circle on it, a
 /// plausible white, natural light, a capture within the trained envelope.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct DomainOut {
     pub in_domain: bool,
     /// Fisher's −2 Σ ln p over the checks; out of domain above `threshold`. Absent for a
@@ -688,7 +703,8 @@ pub const WITHOUT_WHITE_WARNING: &str = "answered without a white reference: onl
 pub const OUT_OF_DOMAIN_WARNING: &str =
     "out of domain: the class and its probabilities are unreliable";
 
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ClassifyResponse {
     pub request_id: String,
     pub model: ModelId,

@@ -8,13 +8,13 @@
 
 pub mod calibration;
 pub mod conformal;
-pub(crate) mod cv;
+pub mod cv;
 pub mod domain;
 pub(crate) mod error;
 pub mod estimate;
 pub(crate) mod feature_set;
 pub(crate) mod knn;
-pub(crate) mod matrix;
+pub mod matrix;
 pub(crate) mod normal;
 pub(crate) mod pca;
 pub mod pipeline;

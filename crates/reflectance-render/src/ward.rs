@@ -4,50 +4,26 @@
 //! reflectance ρs.
 
 use super::Vec3;
-use serde::{Deserialize, Serialize};
+pub use reflectance_core::material::{Material, MaterialError};
 use std::f64::consts::PI;
 
-/// One reflectance class.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Material {
-    pub name: String,
-    pub rho_d: f64,
-    pub rho_s: f64,
-    pub alpha: f64,
-}
-
-#[derive(Debug, thiserror::Error, PartialEq)]
-#[error("class {name:?}: need 0 ≤ rho_d, 0 ≤ rho_s, rho_d + rho_s ≤ 1 and 0 ≤ alpha ≤ 1")]
-pub struct MaterialError {
-    pub name: String,
-}
-
-impl Material {
-    pub fn validate(&self) -> Result<(), MaterialError> {
-        let ok = self.rho_d >= 0.0
-            && self.rho_s >= 0.0
-            && self.rho_d + self.rho_s <= 1.0 + 1e-12
-            && (0.0..=1.0).contains(&self.alpha)
-            && !self.name.is_empty();
-        if ok {
-            Ok(())
-        } else {
-            Err(MaterialError {
-                name: self.name.clone(),
-            })
-        }
-    }
-
+/// The Ward BRDF of a [`Material`].
+pub trait WardBrdf {
     /// The specular BRDF value for incident `wi` and view `v` at normal `n` (all unit).
-    pub fn specular_brdf(&self, n: Vec3, v: Vec3, wi: Vec3) -> f64 {
+    fn specular_brdf(&self, n: Vec3, v: Vec3, wi: Vec3) -> f64;
+    /// [`Self::specular_brdf`], or None (without evaluating the exponential) where
+    /// tan²δ > `max_tan2` or ωi is below the surface.
+    fn specular_brdf_within(&self, n: Vec3, v: Vec3, wi: Vec3, max_tan2: f64) -> Option<f64>;
+}
+
+impl WardBrdf for Material {
+    fn specular_brdf(&self, n: Vec3, v: Vec3, wi: Vec3) -> f64 {
         self.specular_brdf_within(n, v, wi, f64::INFINITY)
             .unwrap_or(0.0)
     }
 
-    /// [`Self::specular_brdf`], or None (without evaluating the exponential) where
-    /// tan²δ > `max_tan2` or ωi is below the surface.
     #[inline]
-    pub fn specular_brdf_within(&self, n: Vec3, v: Vec3, wi: Vec3, max_tan2: f64) -> Option<f64> {
+    fn specular_brdf_within(&self, n: Vec3, v: Vec3, wi: Vec3, max_tan2: f64) -> Option<f64> {
         let h = wi + v;
         let hn = h.dot(n);
         if self.alpha == 0.0 || hn <= 0.0 || wi.dot(n) <= 0.0 {

@@ -11,12 +11,12 @@ use crate::learn::domain::{self, DomainCheck};
 use crate::learn::estimate::{self, EstimateReport, WardRegressor};
 use crate::learn::pipeline::{HeldOut, fit_rows_held_out};
 use crate::learn::{self, Classifier, CvReport, Dataset, FeatureSet, LearnError, TrainSpec};
+use crate::material::Material;
+use crate::material::{CaptureEnvelope, CaptureRanges, VIEW_TAG};
 use crate::model::{
     self, ClassInfo, CvSummary, Exemplar, FeatureSpec, ModelError, ModelFile, NoWhite, Provenance,
     SelfTest, Ward,
 };
-use crate::render::capture::{self, CaptureEnvelope, CaptureRanges};
-use crate::render::ward::Material;
 use crate::util::progress::{Observer, Silent};
 use rayon::prelude::*;
 use serde_json::json;
@@ -90,7 +90,7 @@ pub struct Trained {
 /// `render --captures` draws from, and per class the 99th percentiles of its capture
 /// measurements.
 fn capture_envelope(table: &FeatureTable) -> Option<CaptureEnvelope> {
-    let captured = |s: &Sample| s.illumination.contains(capture::VIEW_TAG);
+    let captured = |s: &Sample| s.illumination.contains(VIEW_TAG);
     if !table.samples.iter().any(captured) {
         return None;
     }

@@ -7,5 +7,5 @@ pub mod decode;
 pub(crate) mod detect;
 pub mod display;
 pub mod geometry;
-pub(crate) mod resample;
-pub(crate) mod white;
+pub mod resample;
+pub mod white;

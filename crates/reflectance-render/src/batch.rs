@@ -5,17 +5,17 @@
 //! same images and writes its part of the manifest ([`crate::util::shard`]).
 
 use super::envmap::{EnvMap, EnvMapError};
-use super::ward::{Material, MaterialError};
+use super::ward::Material;
 use super::{Lighting, Quality, View, render};
+use crate::capture::{self, CaptureRanges, CaptureSettings, DrawSettings};
 use crate::dataset::{SYNTHETIC_ILLUMINATION, format_f64};
 use crate::image::decode::pfm;
-use crate::render::capture::{self, CaptureRanges, CaptureSettings};
 use crate::util::durable::write_atomic;
 use crate::util::progress;
 use crate::util::rng::Rng;
 use crate::util::shard::Shard;
 use rayon::prelude::*;
-use serde::Deserialize;
+use reflectance_core::material::ClassFileError;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -26,12 +26,8 @@ pub enum RenderError {
         path: String,
         source: std::io::Error,
     },
-    #[error("{path}: not a class file ({detail})")]
-    Classes { path: String, detail: String },
     #[error(transparent)]
-    Material(#[from] MaterialError),
-    #[error("duplicate class name {0:?}")]
-    DuplicateClass(String),
+    Classes(#[from] ClassFileError),
     #[error(transparent)]
     Probe(#[from] EnvMapError),
     #[error("no probes found in {0}")]
@@ -49,34 +45,6 @@ fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> RenderError + '_ {
         path: path.display().to_string(),
         source,
     }
-}
-
-#[derive(Deserialize)]
-struct ClassFile {
-    classes: Vec<Material>,
-}
-
-/// Read a class file (`{"classes": [{"name", "rho_d", "rho_s", "alpha"}, …]}`).
-pub fn load_classes(path: &Path) -> Result<Vec<Material>, RenderError> {
-    let text = std::fs::read_to_string(path).map_err(io_error(path))?;
-    let file: ClassFile = serde_json::from_str(&text).map_err(|e| RenderError::Classes {
-        path: path.display().to_string(),
-        detail: e.to_string(),
-    })?;
-    let mut seen = std::collections::HashSet::new();
-    for class in &file.classes {
-        class.validate()?;
-        if !seen.insert(class.name.as_str()) {
-            return Err(RenderError::DuplicateClass(class.name.clone()));
-        }
-    }
-    if file.classes.is_empty() {
-        return Err(RenderError::Classes {
-            path: path.display().to_string(),
-            detail: "no classes".into(),
-        });
-    }
-    Ok(file.classes)
 }
 
 /// Probe files: every `*.hdr` of a directory (sorted), or the names listed in a text file
@@ -136,7 +104,7 @@ pub struct Augment {
     /// original view only, labelled `synthetic@s<seed>-<index>`: one group that never
     /// holds originals, so cross-validation trains on them in every fold and never tests them.
     pub synthetic: usize,
-    /// Photograph-like captures of every rendered image ([`crate::render::capture`]), each with its
+    /// Photograph-like captures of every rendered image ([`crate::capture`]), each with its
     /// own settings drawn from `capture_ranges`: `@cap<k>` views (8-bit PNG, JPEG or 16-bit
     /// linear PNG files, with the white and circle a user would report).
     pub captures: usize,

@@ -163,7 +163,7 @@ fn smooth_grid(sources: &[Source]) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::testing::shared_probe;
+    use crate::testing::shared_probe;
 
     fn normals(count: usize) -> Vec<Vec3> {
         let mut rng = crate::util::rng::Rng::new(11);

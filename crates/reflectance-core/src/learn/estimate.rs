@@ -13,10 +13,9 @@ use super::feature_set::FeatureSet;
 use super::matrix::Dataset;
 use super::regress::{self, Ridge, RidgeSpec};
 use super::scaler::Scaler;
-use crate::render::ward::Material;
+use crate::material::Material;
 use ndarray::{Array2, Axis};
 use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
 
 /// log10 α of a mirror on the regression's axis: half the smallest glossy α (0.005).
 pub const MIRROR_LOG_ALPHA: f64 = -2.602_059_991_327_962;
@@ -77,7 +76,8 @@ pub fn parameters(prediction: &[f64]) -> (f64, f64, f64, f64) {
 }
 
 /// A parameter with its interval.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Interval {
     pub value: f64,
     pub low: f64,
@@ -86,7 +86,8 @@ pub struct Interval {
 
 /// The Ward parameters estimated from one photograph, each with its 90 % interval (α = 0
 /// is an ideal mirror).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct WardEstimate {
     pub rho_d: Interval,
     pub rho_s: Interval,
@@ -94,7 +95,8 @@ pub struct WardEstimate {
 }
 
 /// Conformal half-widths at [`COVERAGE`].
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct HalfWidths {
     pub rho_d: f64,
     pub rho_s: f64,
@@ -220,7 +222,8 @@ pub fn estimate_of(prediction: &[f64], widths: &HalfWidths) -> WardEstimate {
 }
 
 /// Leave-one-illumination-out accuracy of an estimator.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct EstimateReport {
     /// Over every row evaluated, the augmented views (captures, rotations, …) among them.
     #[serde(flatten)]
@@ -236,7 +239,8 @@ pub struct EstimateReport {
 }
 
 /// The measures over some of the rows (all, the originals, one illumination, …).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Errors {
     /// Rows evaluated.
     pub n: usize,
@@ -643,7 +647,7 @@ mod tests {
 
     #[test]
     fn estimates_held_out_illuminations_with_calibrated_intervals() {
-        let design = crate::render::design::continuous(60, 2, &Default::default());
+        let design = crate::material::design::continuous(60, 2, &Default::default());
         let ds = dataset(&design);
         let spec = RidgeSpec {
             features: 300,

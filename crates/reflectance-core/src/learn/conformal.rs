@@ -90,8 +90,9 @@ fn conformal_quantile(sorted: &[f64], coverage: f64) -> f64 {
 }
 
 /// What held-out images showed at one coverage.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
-#[schema(as = SetsMeasured)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[cfg_attr(feature = "openapi", schema(as = SetsMeasured))]
 pub struct Measured {
     pub coverage: f64,
     /// The fraction of held-out images whose set held the truth, each fold's sets made from

@@ -9,7 +9,6 @@
 
 pub mod batch;
 pub mod capture;
-pub mod design;
 pub mod envmap;
 pub(crate) mod fastmath;
 pub(crate) mod highlights;
@@ -18,6 +17,11 @@ pub mod preview;
 pub(crate) mod synthetic;
 pub mod ward;
 
+// The core's modules under the names the renderer has always used.
+/// The design of continuous materials (it lives with the materials, in the core).
+pub use reflectance_core::material::design;
+pub(crate) use reflectance_core::{dataset, image, util};
+
 use crate::image::geometry::Circle;
 use crate::util::rng::Rng;
 use envmap::EnvMap;
@@ -25,7 +29,7 @@ use highlights::{BrightSources, SourcePoint, points_per_side};
 use irradiance::Irradiance;
 use std::f64::consts::PI;
 use std::ops::{Add, Mul, Sub};
-use ward::{Frame, LocalHalf, Material, lobe_sample, local_half};
+use ward::{Frame, LocalHalf, Material, WardBrdf, lobe_sample, local_half};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Vec3 {
@@ -496,7 +500,7 @@ pub(crate) mod testing {
     use std::path::PathBuf;
 
     pub fn probes_dir() -> PathBuf {
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/probes")
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/probes")
     }
 
     /// A probe from ../shared/data/probes (tests that call this are ignored without them,

@@ -12,7 +12,7 @@ use crate::learn::conformal::PredictionSets;
 use crate::learn::domain::DomainCheck;
 use crate::learn::estimate::WardRegressor;
 use crate::learn::{Classifier, LearnError};
-use crate::render::capture::CaptureEnvelope;
+use crate::material::CaptureEnvelope;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use sha2::{Digest, Sha256};
