@@ -147,6 +147,24 @@ fn features_with_outline(bencher: Bencher, outline: bool) {
     });
 }
 
+/// What `reflectance.features(array, cx=…, cy=…, r=…, white=…)` asks of the core for the
+/// 512 × 512 sphere handed over as linear luminance: the array taken over (a copy: Python
+/// keeps its own), checked, and its 117 features. `python/bench.py` times the same call from
+/// Python; the difference is the binding's cost.
+#[divan::bench]
+fn features_of_an_array(bencher: Bencher) {
+    let luminance = decoded().luminance;
+    let extractor = Extractor::new(FeatureConfig::default()).expect("config");
+    let locate = Locate::Circle(circle());
+    let white = WhiteInput::Value(1.0);
+    bencher.bench(|| {
+        let image =
+            decode::from_luminance(divan::black_box(&luminance).clone(), &Default::default())
+                .expect("valid luminance");
+        analysis::analyze(&extractor, &image, &locate, &white).expect("features")
+    });
+}
+
 #[divan::bench]
 fn features_including_decode(bencher: Bencher) {
     let bytes = png_bytes();

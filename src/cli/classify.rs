@@ -4,7 +4,7 @@
 
 use super::{CliResult, LimitArgs, SphereArgs};
 use crate::image::decode::Encoding;
-use crate::image::geometry::{Circle, GeometryError, MIN_RADIUS};
+use crate::image::geometry;
 use crate::inference::{
     self, ClassifyResponse, InferenceError, Input, LoadedModel, LocateSpec, WhiteSpec,
 };
@@ -56,10 +56,7 @@ fn load_model(path: &Path) -> Result<LoadedModel, String> {
 fn input(args: &ClassifyArgs) -> Result<Input, String> {
     let sphere = &args.sphere;
     let white = match (&sphere.white, &sphere.white_image) {
-        (Some(v), _) => {
-            crate::image::white::given(*v).map_err(|e| e.to_string())?;
-            WhiteSpec::Value(*v)
-        }
+        (Some(v), _) => WhiteSpec::value(*v).map_err(|e| e.to_string())?,
         (None, Some(path)) => WhiteSpec::Card {
             bytes: read(path, "white image")?,
             reflectance: sphere.card_reflectance()?,
@@ -72,18 +69,11 @@ fn input(args: &ClassifyArgs) -> Result<Input, String> {
             None => WhiteSpec::Missing,
         },
     };
-    let locate = match (sphere.cx, sphere.cy, sphere.r, &sphere.mask) {
-        (Some(cx), Some(cy), Some(r), _) => {
-            if !(cx.is_finite() && cy.is_finite() && r.is_finite()) {
-                return Err(GeometryError::NotFinite { cx, cy, r }.to_string());
-            }
-            if r < MIN_RADIUS {
-                return Err(GeometryError::TooSmall { r, min: MIN_RADIUS }.to_string());
-            }
-            LocateSpec::Circle(Circle { cx, cy, r })
-        }
-        (_, _, _, Some(mask)) => LocateSpec::Mask(read(mask, "mask")?),
-        _ => LocateSpec::Auto,
+    let circle = geometry::given(sphere.cx, sphere.cy, sphere.r).map_err(|e| e.to_string())?;
+    let locate = match (circle, &sphere.mask) {
+        (Some(given), _) => LocateSpec::Circle(given.circle()),
+        (None, Some(mask)) => LocateSpec::Mask(read(mask, "mask")?),
+        (None, None) => LocateSpec::Auto,
     };
     let coverage = args
         .coverage

@@ -7,7 +7,7 @@ use crate::features::analysis::{self, Analysis, AnalysisError, Locate, WhiteInpu
 use crate::image::decode::{self, DecodeError, DecodeOptions, Encoding};
 use crate::image::display;
 use crate::image::geometry::{self, Method as GeometryMethod};
-use crate::image::white::{Method as WhiteMethod, Rect};
+use crate::image::white::{Method as WhiteMethod, Rect, WhiteError};
 use crate::learn::LearnError;
 use crate::learn::conformal;
 use crate::learn::domain::Verdict;
@@ -106,6 +106,13 @@ pub enum WhiteSpec {
         reflectance: f64,
     },
     Missing,
+}
+
+impl WhiteSpec {
+    /// A white reference given as a number: finite and positive.
+    pub fn value(value: f64) -> Result<WhiteSpec, WhiteError> {
+        crate::image::white::given(value).map(|_| WhiteSpec::Value(value))
+    }
 }
 
 /// Where the sphere is, before decoding.
@@ -284,23 +291,51 @@ pub fn classify(
         }
         LocateSpec::Auto => Locate::Auto,
     };
-    let decode_ms = ms(t);
+    let answer = Answer {
+        include_features: input.include_features,
+        include_explain: input.include_explain,
+        include_images: input.include_images,
+        coverage: input.coverage,
+    };
+    classify_decoded(model, image, &locate, &white, &answer, ms(t))
+}
+
+/// What an answer includes beyond the class, and the prediction set's coverage.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Answer {
+    pub include_features: bool,
+    pub include_explain: bool,
+    pub include_images: bool,
+    /// `None`: [`conformal::DEFAULT_COVERAGE`].
+    pub coverage: Option<f64>,
+}
+
+/// Locate, extract and classify an image already decoded (or handed over as an array,
+/// [`decode::from_luminance`]); `decode_ms` is what its decoding took.
+pub fn classify_decoded(
+    model: Arc<LoadedModel>,
+    image: decode::LinearImage,
+    locate: &Locate,
+    white: &WhiteInput,
+    answer: &Answer,
+    decode_ms: f64,
+) -> Result<Classified, InferenceError> {
     let t = Instant::now();
     // Unless every feature is asked for, extract only those the classifier reads.
     let wanted = match &model.needed {
-        Some(needed) if !input.include_features => Some(needed.as_slice()),
+        Some(needed) if !answer.include_features => Some(needed.as_slice()),
         _ => None,
     };
     let envelope = model.file.capture.as_ref();
     let mut analysis = analysis::analyze_subset(
         &model.extractor,
         &image,
-        &locate,
-        &white,
+        locate,
+        white,
         wanted,
         envelope.is_some(),
     )?;
-    let images = input
+    let images = answer
         .include_images
         .then(|| images_of(&model.extractor, &image, &analysis));
     drop(image);
@@ -310,7 +345,7 @@ pub fn classify(
         white_given: analysis.white.method != WhiteMethod::None,
         radius: analysis.geometry.circle().r,
         measured: analysis.measured.as_ref(),
-        coverage: input.coverage.unwrap_or(conformal::DEFAULT_COVERAGE),
+        coverage: answer.coverage.unwrap_or(conformal::DEFAULT_COVERAGE),
     };
     let decision = decide(&model.file, &analysis.values, context)?;
     // Outside the predicted class's envelope but not the model's: a warning, not a reason.
@@ -334,7 +369,7 @@ pub fn classify(
             .map(|&i| analysis.values[i])
             .collect()
     };
-    let explain = if input.include_explain {
+    let explain = if answer.include_explain {
         let nearest = model.file.nearest(&analysis.values, 3)?;
         Some(
             nearest
@@ -364,7 +399,7 @@ pub fn classify(
         explain,
         images,
         ward,
-        include_features: input.include_features,
+        include_features: answer.include_features,
         decode_ms,
         features_ms,
         predict_ms,

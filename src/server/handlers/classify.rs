@@ -139,9 +139,7 @@ impl RawInput {
             return Err(WhiteError::BadReflectance(reflectance).into());
         }
         if let Some(text) = self.white.take() {
-            let value = number("white", &text)?;
-            crate::image::white::given(value)?;
-            return Ok(WhiteSpec::Value(value));
+            return Ok(WhiteSpec::value(number("white", &text)?)?);
         }
         if let Some(bytes) = self.white_image.take() {
             return Ok(WhiteSpec::Card { bytes, reflectance });
@@ -178,17 +176,7 @@ impl RawInput {
                     "give cx, cy and r, or a mask, not both",
                 ));
             }
-            (Some(g), None) => {
-                let c = g.circle();
-                if c.r < geometry::MIN_RADIUS {
-                    return Err(geometry::GeometryError::TooSmall {
-                        r: c.r,
-                        min: geometry::MIN_RADIUS,
-                    }
-                    .into());
-                }
-                LocateSpec::Circle(c)
-            }
+            (Some(g), None) => LocateSpec::Circle(g.circle()),
             (None, Some(bytes)) => LocateSpec::Mask(bytes),
             (None, None) => LocateSpec::Auto,
         };

@@ -164,6 +164,51 @@ pub fn analyze(
     analyze_subset(extractor, image, how, white_input, None, false)
 }
 
+/// Where the sphere is and how bright white is, checked against the image and the
+/// extractor, with the warnings so far.
+pub struct Placed {
+    pub geometry: Geometry,
+    pub white: White,
+    pub warnings: Vec<String>,
+}
+
+/// The front half of [`analyze`]: the white reference resolved and checked against the
+/// image's range, and the sphere located.
+pub fn place(
+    extractor: &Extractor,
+    image: &LinearImage,
+    how: &Locate,
+    white_input: &WhiteInput,
+) -> Result<Placed, AnalysisError> {
+    let mut warnings = image.warnings.clone();
+    let (white, white_warning) = resolve_white(white_input, image)?;
+    check_scale(image, white.value)?;
+    let (geometry, geometry_warnings) = locate(image, how, extractor)?;
+    warnings.extend(geometry_warnings);
+    warnings.extend(white_warning);
+    Ok(Placed {
+        geometry,
+        white,
+        warnings,
+    })
+}
+
+/// The white-normalized annulus the features read (rows: radius, columns: angle), as
+/// [`analyze`] unwraps it.
+pub fn unwrapped(
+    extractor: &Extractor,
+    image: &LinearImage,
+    how: &Locate,
+    white_input: &WhiteInput,
+) -> Result<Array2<f64>, AnalysisError> {
+    let placed = place(extractor, image, how, white_input)?;
+    Ok(extractor.unwrap(
+        image.luminance.view(),
+        &placed.geometry.circle(),
+        placed.white.value,
+    ))
+}
+
 /// [`analyze`], extracting only the features at `wanted` (the others are NaN; see
 /// [`Extractor::extract_subset`]), or all of them for `None`; with `measure`, also the
 /// capture measurements.
@@ -175,12 +220,11 @@ pub fn analyze_subset(
     wanted: Option<&[usize]>,
     measure: bool,
 ) -> Result<Analysis, AnalysisError> {
-    let mut warnings = image.warnings.clone();
-    let (white, white_warning) = resolve_white(white_input, image)?;
-    check_scale(image, white.value)?;
-    let (geometry, geometry_warnings) = locate(image, how, extractor)?;
-    warnings.extend(geometry_warnings);
-    warnings.extend(white_warning);
+    let Placed {
+        geometry,
+        white,
+        warnings,
+    } = place(extractor, image, how, white_input)?;
     let (luminance, circle) = (image.luminance.view(), geometry.circle());
     // Integer samples clip at 1 once decoded; floating-point ones do not clip.
     let full_scale = (!image.is_float).then_some(1.0);

@@ -102,13 +102,8 @@ pub fn validate(
     outer: f64,
     r0: f64,
 ) -> Result<Vec<String>, GeometryError> {
+    check_alone(circle)?;
     let Circle { cx, cy, r } = *circle;
-    if !(cx.is_finite() && cy.is_finite() && r.is_finite()) {
-        return Err(GeometryError::NotFinite { cx, cy, r });
-    }
-    if r < MIN_RADIUS {
-        return Err(GeometryError::TooSmall { r, min: MIN_RADIUS });
-    }
     let inside = |reach: f64| {
         cx - reach >= -0.5
             && cy - reach >= -0.5
@@ -139,21 +134,35 @@ pub fn validate(
     Ok(warnings)
 }
 
-/// Circle from optional `cx, cy, r` request values: all or none.
+/// Circle from optional `cx, cy, r` request values: all or none, finite, and not too
+/// small (what can be checked before the image is seen; [`validate`] checks the rest).
 pub fn given(
     cx: Option<f64>,
     cy: Option<f64>,
     r: Option<f64>,
 ) -> Result<Option<Geometry>, GeometryError> {
     match (cx, cy, r) {
-        (Some(cx), Some(cy), Some(r)) => Ok(Some(Geometry::new(
-            Circle { cx, cy, r },
-            Method::Given,
-            None,
-        ))),
+        (Some(cx), Some(cy), Some(r)) => {
+            let circle = Circle { cx, cy, r };
+            check_alone(&circle)?;
+            Ok(Some(Geometry::new(circle, Method::Given, None)))
+        }
         (None, None, None) => Ok(None),
         _ => Err(GeometryError::Incomplete),
     }
+}
+
+/// A circle's own checks, whatever the image: finite, and a radius of at least
+/// [`MIN_RADIUS`].
+fn check_alone(circle: &Circle) -> Result<(), GeometryError> {
+    let Circle { cx, cy, r } = *circle;
+    if !(cx.is_finite() && cy.is_finite() && r.is_finite()) {
+        return Err(GeometryError::NotFinite { cx, cy, r });
+    }
+    if r < MIN_RADIUS {
+        return Err(GeometryError::TooSmall { r, min: MIN_RADIUS });
+    }
+    Ok(())
 }
 
 /// Least-squares circle fitted to the edge of a mask (`method` is Mask or Alpha).

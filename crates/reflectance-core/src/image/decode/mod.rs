@@ -77,6 +77,8 @@ pub enum Format {
     Hdr,
     Pfm,
     Exr,
+    /// Linear luminance handed over as an array, not a file ([`from_luminance`]).
+    Array,
 }
 
 impl fmt::Display for Format {
@@ -89,6 +91,7 @@ impl fmt::Display for Format {
             Format::Hdr => "Radiance HDR",
             Format::Pfm => "PFM",
             Format::Exr => "OpenEXR",
+            Format::Array => "array",
         };
         f.write_str(name)
     }
@@ -220,6 +223,27 @@ pub fn decode_file(path: &Path, options: &DecodeOptions) -> Result<LinearImage, 
     decode(&bytes, options)
 }
 
+/// Linear luminance handed over as an array (y = row) rather than a file: checked as a
+/// floating-point file is (within the limits, finite, non-negative), and laid out row-major
+/// as decoded images are.
+pub fn from_luminance(luminance: Array2<f64>, limits: &Limits) -> Result<LinearImage, DecodeError> {
+    let (height, width) = luminance.dim();
+    limits.check(width as u64, height as u64)?;
+    let luminance = match luminance.is_standard_layout() {
+        true => luminance,
+        false => luminance.as_standard_layout().into_owned(),
+    };
+    let nonfinite = luminance.iter().filter(|v| !v.is_finite()).count();
+    validate_float(&luminance, nonfinite)?;
+    Ok(float_image(
+        FloatPlane {
+            luminance,
+            alpha: None,
+        },
+        Format::Array,
+    ))
+}
+
 /// A float image's luminance plane after validation: finite and non-negative.
 pub(crate) struct FloatPlane {
     pub luminance: Array2<f64>,
@@ -290,6 +314,32 @@ mod tests {
     fn unknown_bytes_are_unsupported() {
         let err = decode(b"hello world, not an image", &DecodeOptions::default()).unwrap_err();
         assert!(matches!(err, DecodeError::UnsupportedFormat), "{err}");
+    }
+
+    #[test]
+    fn arrays_are_checked_as_float_files_and_laid_out_row_major() {
+        let limits = Limits::default();
+        let ramp = Array2::from_shape_fn((3, 4), |(y, x)| (y * 4 + x) as f64);
+        let columns_first = ramp.t().as_standard_layout().into_owned().reversed_axes();
+        assert!(!columns_first.is_standard_layout());
+        let image = from_luminance(columns_first, &limits).unwrap();
+        assert!(image.luminance.is_standard_layout());
+        assert_eq!(image.luminance, ramp);
+        assert_eq!((image.format, image.is_float), (Format::Array, true));
+        let mut bad = ramp.clone();
+        bad[[1, 2]] = f64::NAN;
+        assert!(matches!(
+            from_luminance(bad, &limits),
+            Err(DecodeError::NonFinite { count: 1 })
+        ));
+        assert!(matches!(
+            from_luminance(-ramp, &limits),
+            Err(DecodeError::Negative { count: 11, .. })
+        ));
+        assert!(matches!(
+            from_luminance(Array2::zeros((0, 5)), &limits),
+            Err(DecodeError::Empty { .. })
+        ));
     }
 
     #[test]

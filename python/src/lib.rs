@@ -1,0 +1,281 @@
+//! `reflectance` for Python: the features of a sphere's photograph and its classification,
+//! on `reflectance-core`, with the command line's numbers and messages. Images are file
+//! paths or 2-D numpy arrays of linear luminance; the GIL is released while computing.
+
+mod input;
+
+use input::{ImageArg, MaskArg};
+use numpy::{IntoPyArray, PyArray2};
+use pyo3::create_exception;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use reflectance_core::features::analysis::{self, AnalysisError, Locate, WhiteInput};
+use reflectance_core::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
+use reflectance_core::image::geometry::{self, GeometryError};
+use reflectance_core::inference::{self, Answer, InferenceError, LoadedModel};
+use reflectance_core::model::registry;
+use std::path::PathBuf;
+use std::sync::{Arc, OnceLock};
+use std::time::Instant;
+
+create_exception!(
+    reflectance,
+    ReflectanceError,
+    PyValueError,
+    "An input the pipeline refuses: a file that does not decode, a circle outside the image, \
+     a sphere that cannot be found, an invalid model file. The message is the command line's."
+);
+
+fn error(message: impl std::fmt::Display) -> PyErr {
+    ReflectanceError::new_err(message.to_string())
+}
+
+/// A failure to place the sphere asks for the arguments that place it.
+fn analysis_error(e: &AnalysisError) -> PyErr {
+    match e {
+        AnalysisError::Geometry(GeometryError::DetectionFailed { .. }) => {
+            error(format!("{e}; give cx, cy and r, or mask"))
+        }
+        other => error(other),
+    }
+}
+
+fn inference_error(e: InferenceError) -> PyErr {
+    match e {
+        InferenceError::Analysis(e) => analysis_error(&e),
+        other => error(other),
+    }
+}
+
+/// Where the sphere is: the circle, a mask, or found in the image.
+fn locate(
+    cx: Option<f64>,
+    cy: Option<f64>,
+    r: Option<f64>,
+    mask: Option<MaskArg>,
+) -> PyResult<Locate> {
+    let circle = geometry::given(cx, cy, r).map_err(error)?;
+    Ok(match (circle, mask) {
+        (Some(_), Some(_)) => return Err(error("give cx, cy and r, or a mask, not both")),
+        (Some(given), None) => Locate::Circle(given.circle()),
+        (None, Some(mask)) => Locate::Mask(mask.into_mask()?),
+        (None, None) => Locate::Auto,
+    })
+}
+
+fn white_input(white: Option<f64>) -> PyResult<WhiteInput> {
+    match white {
+        Some(value) => {
+            reflectance_core::image::white::given(value).map_err(error)?;
+            Ok(WhiteInput::Value(value))
+        }
+        None => Ok(WhiteInput::Missing),
+    }
+}
+
+/// The extractor of `reflectance features` (with `--log-features` for `log`), made once.
+fn extractor(log: bool) -> &'static Extractor {
+    static PLAIN: OnceLock<Extractor> = OnceLock::new();
+    static LOG: OnceLock<Extractor> = OnceLock::new();
+    let cell = if log { &LOG } else { &PLAIN };
+    cell.get_or_init(|| {
+        let extensions = Extensions {
+            log_domain: log,
+            ..Extensions::default()
+        };
+        let config = FeatureConfig::for_spec(extensions, "", Preprocessing::default())
+            .expect("the command line's default configuration");
+        Extractor::new(config).expect("the command line's default configuration")
+    })
+}
+
+/// The named features of a sphere, in the canonical order, as `reflectance features`
+/// computes them.
+#[pyfunction]
+#[pyo3(signature = (image, *, cx=None, cy=None, r=None, white=None, mask=None, log=false))]
+#[allow(clippy::too_many_arguments)]
+fn features<'py>(
+    py: Python<'py>,
+    image: &Bound<'py, PyAny>,
+    cx: Option<f64>,
+    cy: Option<f64>,
+    r: Option<f64>,
+    white: Option<f64>,
+    mask: Option<&Bound<'py, PyAny>>,
+    log: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let image = ImageArg::from_python(image)?;
+    let how = locate(cx, cy, r, mask.map(MaskArg::from_python).transpose()?)?;
+    let white = white_input(white)?;
+    let extractor = extractor(log);
+    let values = py.detach(|| -> PyResult<Vec<f64>> {
+        let decoded = image.decode()?;
+        let analysis =
+            analysis::analyze(extractor, &decoded, &how, &white).map_err(|e| analysis_error(&e))?;
+        Ok(analysis.values)
+    })?;
+    let out = PyDict::new(py);
+    for (name, value) in extractor.config().names().into_iter().zip(values) {
+        out.set_item(name, value)?;
+    }
+    Ok(out)
+}
+
+/// The white-normalized annulus the features read, 96 × 448 (rows: radius from 0.2 r to
+/// 0.9 r, columns: angle), as a float64 array.
+#[pyfunction]
+#[pyo3(signature = (image, *, cx=None, cy=None, r=None, white=None, mask=None))]
+#[allow(clippy::too_many_arguments)]
+fn unwrap<'py>(
+    py: Python<'py>,
+    image: &Bound<'py, PyAny>,
+    cx: Option<f64>,
+    cy: Option<f64>,
+    r: Option<f64>,
+    white: Option<f64>,
+    mask: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let image = ImageArg::from_python(image)?;
+    let how = locate(cx, cy, r, mask.map(MaskArg::from_python).transpose()?)?;
+    let white = white_input(white)?;
+    let annulus = py.detach(|| {
+        let decoded = image.decode()?;
+        analysis::unwrapped(extractor(false), &decoded, &how, &white)
+            .map_err(|e| analysis_error(&e))
+    })?;
+    Ok(annulus.into_pyarray(py))
+}
+
+/// A trained model, loaded and verified once, for many classifications (thread-safe).
+#[pyclass(frozen, module = "reflectance")]
+struct Model {
+    loaded: Arc<LoadedModel>,
+}
+
+#[pymethods]
+impl Model {
+    /// `path`: a model version's folder, or a model's folder (its active version), e.g.
+    /// `models/ward6`.
+    #[new]
+    fn new(py: Python<'_>, path: PathBuf) -> PyResult<Model> {
+        let loaded = py.detach(|| -> Result<LoadedModel, String> {
+            let file = registry::load_path(&path).map_err(|e| e.to_string())?;
+            LoadedModel::new(file).map_err(|e| e.to_string())
+        });
+        Ok(Model {
+            loaded: Arc::new(loaded.map_err(error)?),
+        })
+    }
+
+    #[getter]
+    fn name(&self) -> &str {
+        self.loaded.name()
+    }
+
+    #[getter]
+    fn version(&self) -> u32 {
+        self.loaded.version()
+    }
+
+    /// The class names, in the model's order.
+    #[getter]
+    fn classes(&self) -> Vec<String> {
+        self.loaded.file.head(true).classifier.classes.clone()
+    }
+
+    /// [`classify`] with this model.
+    #[pyo3(signature = (image, *, cx=None, cy=None, r=None, white=None, coverage=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn classify<'py>(
+        &self,
+        py: Python<'py>,
+        image: &Bound<'py, PyAny>,
+        cx: Option<f64>,
+        cy: Option<f64>,
+        r: Option<f64>,
+        white: Option<f64>,
+        coverage: Option<f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        classify_with(py, &self.loaded, image, cx, cy, r, white, coverage)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Model(name={:?}, version={})",
+            self.loaded.name(),
+            self.loaded.version()
+        )
+    }
+}
+
+/// The service's JSON answer (`POST /v1/classify`, `reflectance classify --json`) for one
+/// photograph, as Python objects. `model`: a [`Model`] or a model's path.
+#[pyfunction]
+#[pyo3(signature = (image, *, model, cx=None, cy=None, r=None, white=None, coverage=None))]
+#[allow(clippy::too_many_arguments)]
+fn classify<'py>(
+    py: Python<'py>,
+    image: &Bound<'py, PyAny>,
+    model: &Bound<'py, PyAny>,
+    cx: Option<f64>,
+    cy: Option<f64>,
+    r: Option<f64>,
+    white: Option<f64>,
+    coverage: Option<f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let loaded = match model.cast::<Model>() {
+        Ok(model) => model.get().loaded.clone(),
+        Err(_) => Model::new(py, model.extract::<PathBuf>()?)?.loaded,
+    };
+    classify_with(py, &loaded, image, cx, cy, r, white, coverage)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn classify_with<'py>(
+    py: Python<'py>,
+    model: &Arc<LoadedModel>,
+    image: &Bound<'py, PyAny>,
+    cx: Option<f64>,
+    cy: Option<f64>,
+    r: Option<f64>,
+    white: Option<f64>,
+    coverage: Option<f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let started = Instant::now();
+    let image = ImageArg::from_python(image)?;
+    let how = locate(cx, cy, r, None)?;
+    let white = white_input(white)?;
+    let coverage = coverage
+        .map(reflectance_core::learn::conformal::check_coverage)
+        .transpose()
+        .map_err(error)?;
+    let answer = Answer {
+        coverage,
+        ..Answer::default()
+    };
+    let model = model.clone();
+    let json = py.detach(|| -> PyResult<String> {
+        let t = Instant::now();
+        let decoded = image.decode()?;
+        let decode_ms = t.elapsed().as_secs_f64() * 1e3;
+        let classified =
+            inference::classify_decoded(model, decoded, &how, &white, &answer, decode_ms)
+                .map_err(inference_error)?;
+        let response = classified.response(String::new(), started.elapsed().as_secs_f64() * 1e3);
+        serde_json::to_string(&response).map_err(error)
+    })?;
+    py.import("json")?.call_method1("loads", (json,))
+}
+
+/// The extension module.
+#[pymodule(name = "reflectance")]
+fn reflectance_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(features, m)?)?;
+    m.add_function(wrap_pyfunction!(unwrap, m)?)?;
+    m.add_function(wrap_pyfunction!(classify, m)?)?;
+    m.add_class::<Model>()?;
+    m.add("ReflectanceError", m.py().get_type::<ReflectanceError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
