@@ -83,7 +83,7 @@ impl Modify for Extras {
     ),
     components(schemas(
         Problem,
-        classify::ClassifyForm,
+        classify::RawInput,
         crate::inference::ClassifyResponse,
         locate::LocateForm,
         jobs::JobRequest,

@@ -20,53 +20,6 @@ use serde::Deserialize;
 use std::time::Instant;
 use utoipa::{IntoParams, ToSchema};
 
-/// The multipart form of a classification request (no other fields are accepted).
-#[derive(Deserialize, ToSchema)]
-#[serde(deny_unknown_fields)]
-#[allow(dead_code)]
-pub struct ClassifyForm {
-    /// The photograph or rendering (PNG, JPEG, TIFF, PNM, Radiance HDR, PFM or OpenEXR).
-    #[schema(value_type = String, format = Binary)]
-    image: Vec<u8>,
-    /// Linear luminance of an ideal white surface at the sphere (finite, > 0).
-    #[schema(value_type = f64, required = false)]
-    white: Option<f64>,
-    /// A crop of a white card (its median luminance is the white reference); not with `white`.
-    #[schema(value_type = String, format = Binary, required = false)]
-    white_image: Option<Vec<u8>>,
-    /// A white card inside the photograph: the rectangle `x,y,w,h` in pixels (left, top,
-    /// width, height; every pixel it touches counts); not with `white` or `white_image`.
-    #[schema(value_type = String, required = false, example = "40,300,120,80")]
-    white_rect: Option<String>,
-    /// Reflectance of the white card in (0, 1] (default 1); only with `white_image` or
-    /// `white_rect`.
-    #[schema(value_type = f64, required = false)]
-    white_reflectance: Option<f64>,
-    /// Sphere centre x (column) in pixels; give cx, cy and r together.
-    #[schema(value_type = f64, required = false)]
-    cx: Option<f64>,
-    /// Sphere centre y (row) in pixels.
-    #[schema(value_type = f64, required = false)]
-    cy: Option<f64>,
-    /// Sphere radius in pixels (≥ 32).
-    #[schema(value_type = f64, required = false)]
-    r: Option<f64>,
-    /// A mask image of the sphere (same size; alpha, or luminance ≥ 0.5); not with cx/cy/r.
-    #[schema(value_type = String, format = Binary, required = false)]
-    mask: Option<Vec<u8>>,
-    /// How integer samples are linearized: `srgb` (default), `linear` or `gamma:<g>`.
-    #[schema(value_type = String, required = false, example = "srgb")]
-    encoding: Option<String>,
-    /// Extra output: `features` (all extracted features), `explain` (nearest training
-    /// images, with thumbnails) and/or `images` (the unwrapped annulus and the subbands as
-    /// PNG); comma-separated or repeated.
-    #[schema(value_type = String, required = false, example = "features,explain,images")]
-    include: Option<String>,
-    /// The prediction set's coverage, from 0.5 to 0.999 (default 0.95).
-    #[schema(value_type = f64, required = false, example = 0.9)]
-    coverage: Option<f64>,
-}
-
 #[derive(Deserialize, IntoParams)]
 #[into_params(parameter_in = Query)]
 pub struct VersionQuery {
@@ -96,20 +49,52 @@ fn number(field: &str, text: &str) -> Result<f64, ApiError> {
         })
 }
 
-/// Options shared by both protocols, as texts and files.
-#[derive(Default)]
+/// The multipart form of a classification request (no other fields are accepted).
+// The fields as received, texts and files, from the form or from a KServe V2 request's
+// parameters; `validate` makes an `Input` of them. The schema is the form's.
+#[derive(Default, ToSchema)]
+#[schema(as = ClassifyForm)]
+#[serde(deny_unknown_fields)]
 pub struct RawInput {
+    /// The photograph or rendering (PNG, JPEG, TIFF, PNM, Radiance HDR, PFM or OpenEXR).
+    #[schema(value_type = String, format = Binary, required = true)]
     pub image: Option<Bytes>,
+    /// Linear luminance of an ideal white surface at the sphere (finite, > 0).
+    #[schema(value_type = f64, required = false)]
     pub white: Option<String>,
+    /// A crop of a white card (its median luminance is the white reference); not with `white`.
+    #[schema(value_type = String, format = Binary, required = false)]
     pub white_image: Option<Bytes>,
+    /// Reflectance of the white card in (0, 1] (default 1); only with `white_image` or
+    /// `white_rect`.
+    #[schema(value_type = f64, required = false)]
     pub white_reflectance: Option<String>,
+    /// A white card inside the photograph: the rectangle `x,y,w,h` in pixels (left, top,
+    /// width, height; every pixel it touches counts); not with `white` or `white_image`.
+    #[schema(value_type = String, required = false, example = "40,300,120,80")]
     pub white_rect: Option<String>,
+    /// Sphere centre x (column) in pixels; give cx, cy and r together.
+    #[schema(value_type = f64, required = false)]
     pub cx: Option<String>,
+    /// Sphere centre y (row) in pixels.
+    #[schema(value_type = f64, required = false)]
     pub cy: Option<String>,
+    /// Sphere radius in pixels (≥ 32).
+    #[schema(value_type = f64, required = false)]
     pub r: Option<String>,
+    /// A mask image of the sphere (same size; alpha, or luminance ≥ 0.5); not with cx/cy/r.
+    #[schema(value_type = String, format = Binary, required = false)]
     pub mask: Option<Bytes>,
+    /// How integer samples are linearized: `srgb` (default), `linear` or `gamma:<g>`.
+    #[schema(value_type = String, required = false, example = "srgb")]
     pub encoding: Option<String>,
+    /// Extra output: `features` (all extracted features), `explain` (nearest training
+    /// images, with thumbnails) and/or `images` (the unwrapped annulus and the subbands as
+    /// PNG); comma-separated or repeated.
+    #[schema(value_type = String, required = false, example = "features,explain,images")]
     pub include: Vec<String>,
+    /// The prediction set's coverage, from 0.5 to 0.999 (default 0.95).
+    #[schema(value_type = f64, required = false, example = 0.9)]
     pub coverage: Option<String>,
 }
 
@@ -408,7 +393,7 @@ pub enum MultipartProblems {
     post,
     operation_id = "classify", path = "/v1/classify",
     tag = "classification",
-    request_body(content = ClassifyForm, content_type = "multipart/form-data"),
+    request_body(content = RawInput, content_type = "multipart/form-data"),
     responses(
         MultipartClassification,
         MultipartProblems,
@@ -431,7 +416,7 @@ pub async fn classify_default(
     operation_id = "classify_with_model", path = "/v1/models/{name}/classify",
     tag = "classification",
     params(("name" = String, Path, description = "Model name", example = "ward6"), VersionQuery),
-    request_body(content = ClassifyForm, content_type = "multipart/form-data"),
+    request_body(content = RawInput, content_type = "multipart/form-data"),
     responses(
         MultipartClassification,
         MultipartProblems,
