@@ -2,7 +2,7 @@
 //! [--cx X --cy Y --r R | --mask F] [--json]`: one photograph, without a server or a
 //! manifest; the same pipeline and, with `--json`, the same JSON as `POST /v1/classify`.
 
-use super::{CliResult, LimitArgs, SphereArgs};
+use super::{CliError, CliResult, LimitArgs, SphereArgs};
 use crate::image::decode::Encoding;
 use crate::image::geometry;
 use crate::inference::{
@@ -42,21 +42,21 @@ pub struct ClassifyArgs {
     limits: LimitArgs,
 }
 
-fn read(path: &Path, what: &str) -> Result<bytes::Bytes, String> {
+fn read(path: &Path, what: &str) -> CliResult<bytes::Bytes> {
     std::fs::read(path)
         .map(bytes::Bytes::from)
-        .map_err(|e| format!("{what} {}: {e}", path.display()))
+        .map_err(|e| CliError::Invalid(format!("{what} {}: {e}", path.display())))
 }
 
-fn load_model(path: &Path) -> Result<LoadedModel, String> {
-    let file = registry::load_path(path).map_err(|e| e.to_string())?;
-    LoadedModel::new(file).map_err(|e| e.to_string())
+fn load_model(path: &Path) -> CliResult<LoadedModel> {
+    let file = registry::load_path(path)?;
+    Ok(LoadedModel::new(file)?)
 }
 
-fn input(args: &ClassifyArgs) -> Result<Input, String> {
+fn input(args: &ClassifyArgs) -> CliResult<Input> {
     let sphere = &args.sphere;
     let white = match (&sphere.white, &sphere.white_image) {
-        (Some(v), _) => WhiteSpec::value(*v).map_err(|e| e.to_string())?,
+        (Some(v), _) => WhiteSpec::value(*v)?,
         (None, Some(path)) => WhiteSpec::Card {
             bytes: read(path, "white image")?,
             reflectance: sphere.card_reflectance()?,
@@ -69,7 +69,7 @@ fn input(args: &ClassifyArgs) -> Result<Input, String> {
             None => WhiteSpec::Missing,
         },
     };
-    let circle = geometry::given(sphere.cx, sphere.cy, sphere.r).map_err(|e| e.to_string())?;
+    let circle = geometry::given(sphere.cx, sphere.cy, sphere.r)?;
     let locate = match (circle, &sphere.mask) {
         (Some(given), _) => LocateSpec::Circle(given.circle()),
         (None, Some(mask)) => LocateSpec::Mask(read(mask, "mask")?),
@@ -99,7 +99,7 @@ pub fn run(args: ClassifyArgs) -> CliResult {
         .map_err(|e| error_text(&e, &args))?;
     let answer = classified.response(String::new(), started.elapsed().as_secs_f64() * 1e3);
     if args.json {
-        let text = serde_json::to_string_pretty(&answer).map_err(|e| e.to_string())?;
+        let text = serde_json::to_string_pretty(&answer)?;
         println!("{text}");
     } else {
         print!("{}", summary(&answer));

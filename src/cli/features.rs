@@ -1,7 +1,7 @@
 //! `reflectance features IMAGE …` (JSON) and `reflectance features --manifest M --out F
 //! [--shard I/N]` (CSV).
 
-use super::{CliResult, LimitArgs, SphereArgs};
+use super::{CliError, CliResult, LimitArgs, SphereArgs};
 use crate::dataset::{self, Manifest};
 use crate::features::Extractor;
 use crate::features::analysis::{self, Locate, WhiteInput};
@@ -49,13 +49,12 @@ struct Output<'a> {
 }
 
 pub fn run(args: FeaturesArgs) -> CliResult {
-    let extractor = Extractor::new(args.extensions.config("")?).map_err(|e| e.to_string())?;
+    let extractor = Extractor::new(args.extensions.config("")?)?;
     let encoding = args
         .encoding
         .as_deref()
         .map(str::parse::<Encoding>)
-        .transpose()
-        .map_err(|e| e.to_string())?;
+        .transpose()?;
     let options = DecodeOptions {
         encoding,
         limits: args.limits.limits(),
@@ -75,18 +74,17 @@ fn table(
     extractor: &Extractor,
     options: &DecodeOptions,
 ) -> CliResult {
-    let manifest: Manifest = dataset::read_manifest(manifest).map_err(|e| e.to_string())?;
+    let manifest: Manifest = dataset::read_manifest(manifest)?;
     let manifest = match shard {
         Some(shard) => manifest.shard(shard),
         None => manifest,
     };
-    let table =
-        dataset::extract_manifest(extractor, &manifest, options).map_err(|e| e.to_string())?;
+    let table = dataset::extract_manifest(extractor, &manifest, options)?;
     let Some(shard) = shard else {
-        return table.write(out).map_err(|e| e.to_string());
+        return Ok(table.write(out)?);
     };
     let part = shard.part_path(out);
-    table.write(&part).map_err(|e| e.to_string())?;
+    table.write(&part)?;
     println!("{}", part.display());
     Ok(())
 }
@@ -94,7 +92,7 @@ fn table(
 fn single(args: &FeaturesArgs, extractor: &Extractor, options: &DecodeOptions) -> CliResult {
     let path = args.image.as_ref().ok_or("give an IMAGE or --manifest")?;
     let decode = |p: &PathBuf, options: &DecodeOptions| {
-        decode::decode_file(p, options).map_err(|e| format!("{}: {e}", p.display()))
+        decode::decode_file(p, options).map_err(|e| CliError::at(p.display(), e))
     };
     let image = decode(path, options)?;
     let sphere = &args.sphere;
@@ -132,7 +130,7 @@ fn single(args: &FeaturesArgs, extractor: &Extractor, options: &DecodeOptions) -
         white: &result.white,
         warnings: &result.warnings,
     };
-    let json = serde_json::to_string_pretty(&output).map_err(|e| e.to_string())?;
+    let json = serde_json::to_string_pretty(&output)?;
     println!("{json}");
     Ok(())
 }

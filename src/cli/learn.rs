@@ -1,6 +1,6 @@
 //! `reflectance cv`, `train` and `predict`.
 
-use super::{CliResult, LimitArgs};
+use super::{CliError, CliResult, LimitArgs};
 use crate::dataset::{self, FeatureTable, Manifest};
 use crate::features::{CaptureMeasurements, Extensions, Extractor, FeatureConfig};
 use crate::inference;
@@ -30,11 +30,7 @@ pub struct DataArgs {
 
 impl DataArgs {
     /// The feature table and a label for provenance; manifests are extracted with `config`.
-    fn load(
-        &self,
-        limits: &LimitArgs,
-        config: FeatureConfig,
-    ) -> Result<(FeatureTable, String), String> {
+    fn load(&self, limits: &LimitArgs, config: FeatureConfig) -> CliResult<(FeatureTable, String)> {
         self.load_with_manifest(limits, config)
             .map(|(table, label, _)| (table, label))
     }
@@ -44,18 +40,17 @@ impl DataArgs {
         &self,
         limits: &LimitArgs,
         config: FeatureConfig,
-    ) -> Result<(FeatureTable, String, Option<Manifest>), String> {
+    ) -> CliResult<(FeatureTable, String, Option<Manifest>)> {
         if let Some(table) = &self.table {
-            let t = FeatureTable::read(table).map_err(|e| e.to_string())?;
+            let t = FeatureTable::read(table)?;
             return Ok((t, table.display().to_string(), None));
         }
         let path = self.manifest.as_ref().ok_or("give --manifest or --table")?;
-        let manifest = dataset::read_manifest(path).map_err(|e| e.to_string())?;
-        manifest.require_labels().map_err(|e| e.to_string())?;
-        let extractor = Extractor::new(config).map_err(|e| e.to_string())?;
+        let manifest = dataset::read_manifest(path)?;
+        manifest.require_labels()?;
+        let extractor = Extractor::new(config)?;
         let options = limits.decode_options();
-        let table = dataset::extract_manifest(&extractor, &manifest, &options)
-            .map_err(|e| e.to_string())?;
+        let table = dataset::extract_manifest(&extractor, &manifest, &options)?;
         Ok((table, path.display().to_string(), Some(manifest)))
     }
 }
@@ -95,11 +90,11 @@ pub struct SpecArgs {
 
 impl SpecArgs {
     /// The extraction configuration for manifests.
-    fn config(&self) -> Result<FeatureConfig, String> {
+    fn config(&self) -> CliResult<FeatureConfig> {
         self.extensions.config(&self.features)
     }
 
-    fn spec(&self, names: &[String]) -> Result<TrainSpec, String> {
+    fn spec(&self, names: &[String]) -> CliResult<TrainSpec> {
         let text = SpecText {
             features: &self.features,
             classifier: &self.classifier,
@@ -108,7 +103,7 @@ impl SpecArgs {
             grid: self.grid,
             calibration_folds: self.calibration_folds,
         };
-        text.parse(names).map_err(|e| e.to_string())
+        Ok(text.parse(names)?)
     }
 }
 
@@ -170,10 +165,15 @@ impl RidgeArgs {
         names: &[String],
         gamma: Option<f64>,
         seed: u64,
-    ) -> Result<RidgeSpec, String> {
+    ) -> CliResult<RidgeSpec> {
         let size = (self.ridge_features, self.ridge_lambda);
-        estimate::ridge_spec(features, names, size, self.ridge_gamma.or(gamma), seed)
-            .map_err(|e| e.to_string())
+        Ok(estimate::ridge_spec(
+            features,
+            names,
+            size,
+            self.ridge_gamma.or(gamma),
+            seed,
+        )?)
     }
 }
 
@@ -214,14 +214,14 @@ fn cv_estimate(args: &CvArgs, table: &FeatureTable, label: &str) -> CliResult {
         .ward_classes
         .as_ref()
         .ok_or("--estimate needs --ward-classes")?;
-    let materials = load_classes(path).map_err(|e| e.to_string())?;
+    let materials = load_classes(path)?;
     let features = args.spec.spec(&table.names)?.features;
-    let ds = Dataset::from_table(table).map_err(|e| e.to_string())?;
+    let ds = Dataset::from_table(table)?;
     let spec = args
         .estimate
         .ridge
         .spec(&features, &ds.names, args.spec.gamma, args.spec.seed)?;
-    let fit = estimate::fit(&ds, "", &materials, &features, &spec).map_err(|e| e.to_string())?;
+    let fit = estimate::fit(&ds, "", &materials, &features, &spec)?;
     let report = fit.report;
     if let Some(out) = &args.estimate.out {
         let title = format!("{} on {label}", args.spec.features);
@@ -231,15 +231,11 @@ fn cv_estimate(args: &CvArgs, table: &FeatureTable, label: &str) -> CliResult {
             Protocol::CrossValidated,
             &report,
             &fit.details,
-        )
-        .map_err(|e| e.to_string())?;
+        )?;
         eprintln!("written to {}", out.display());
     }
     match args.json {
-        true => println!(
-            "{}",
-            serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?
-        ),
+        true => println!("{}", serde_json::to_string_pretty(&report)?),
         false => print!("{}", estimate_summary(&report, Protocol::CrossValidated)),
     }
     Ok(())
@@ -251,16 +247,12 @@ pub fn cv(args: CvArgs) -> CliResult {
         return cv_estimate(&args, &table, &label);
     }
     let spec = args.spec.spec(&table.names)?;
-    let ds = Dataset::from_table(&table).map_err(|e| e.to_string())?;
+    let ds = Dataset::from_table(&table)?;
     let bar = progress::bar(0, "cv");
-    let report = crate::learn::cross_validate_with(&ds, &spec, args.spec.seed, &bar)
-        .map_err(|e| e.to_string())?;
+    let report = crate::learn::cross_validate_with(&ds, &spec, args.spec.seed, &bar)?;
     bar.finish();
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?
-        );
+        println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         print!("{}", human_report(&report, ds.group_names.len()));
     }
@@ -388,7 +380,7 @@ impl EstimatorArgs {
         &self,
         gamma: Option<f64>,
         names: &[String],
-    ) -> Result<Option<train::EstimatorData>, String> {
+    ) -> CliResult<Option<train::EstimatorData>> {
         let (Some(table), Some(classes)) = (&self.estimator_table, &self.estimator_classes) else {
             return Ok(None);
         };
@@ -396,12 +388,11 @@ impl EstimatorArgs {
             .estimator_features
             .as_deref()
             .map(|spec| FeatureSet::parse_with(spec, names))
-            .transpose()
-            .map_err(|e| e.to_string())?;
+            .transpose()?;
         Ok(Some(train::EstimatorData {
-            table: FeatureTable::read(table).map_err(|e| e.to_string())?,
+            table: FeatureTable::read(table)?,
             label: table.display().to_string(),
-            materials: load_classes(classes).map_err(|e| e.to_string())?,
+            materials: load_classes(classes)?,
             features,
             size: (self.ridge.ridge_features, self.ridge.ridge_lambda),
             gamma: self.ridge.ridge_gamma.or(gamma),
@@ -411,17 +402,12 @@ impl EstimatorArgs {
 
 pub fn train(args: TrainArgs) -> CliResult {
     if !registry::valid_name(&args.name) {
-        return Err(format!(
+        return Err(CliError::Invalid(format!(
             "invalid model name {:?} (use 1–64 of a-z, 0-9, '_' and '-')",
             args.name
-        ));
+        )));
     }
-    let classes = args
-        .classes
-        .as_deref()
-        .map(load_classes)
-        .transpose()
-        .map_err(|e| e.to_string())?;
+    let classes = args.classes.as_deref().map(load_classes).transpose()?;
     // A model's domain check reads how well each circle follows a sphere's outline.
     let config = FeatureConfig {
         domain: true,
@@ -440,8 +426,7 @@ pub fn train(args: TrainArgs) -> CliResult {
         estimator: args.estimator.data(args.spec.gamma, &table.names)?,
     };
     let bar = progress::bar(0, "train");
-    let mut trained =
-        train::train_with(&table, &label, &options, &bar).map_err(|e| e.to_string())?;
+    let mut trained = train::train_with(&table, &label, &options, &bar)?;
     bar.finish();
     if let Some(report) = &trained.estimate {
         eprint!(
@@ -453,15 +438,12 @@ pub fn train(args: TrainArgs) -> CliResult {
         .report
         .as_ref()
         .map(serde_json::to_vec_pretty)
-        .transpose()
-        .map_err(|e| e.to_string())?;
+        .transpose()?;
     let extra: Vec<(&str, &[u8])> = report
         .iter()
         .map(|r| ("report.json", r.as_slice()))
         .collect();
-    let (_, dir) = Registry::new(&args.models)
-        .publish(&mut trained.model, &extra)
-        .map_err(|e| e.to_string())?;
+    let (_, dir) = Registry::new(&args.models).publish(&mut trained.model, &extra)?;
     if let Some(r) = &trained.report {
         eprintln!(
             "cross-validated accuracy {:.1} % ({}/{})",
@@ -503,13 +485,12 @@ pub struct PredictArgs {
 }
 
 pub fn predict(args: PredictArgs) -> CliResult {
-    let model = registry::load_path(&args.model).map_err(|e| e.to_string())?;
+    let model = registry::load_path(&args.model)?;
     let (name, version) = (model.name.clone(), model.version);
-    let extractor = Extractor::new(model.features.config).map_err(|e| e.to_string())?;
-    let manifest = dataset::read_manifest(&args.manifest).map_err(|e| e.to_string())?;
+    let extractor = Extractor::new(model.features.config)?;
+    let manifest = dataset::read_manifest(&args.manifest)?;
     let options = args.limits.decode_options();
-    let table =
-        dataset::extract_manifest(&extractor, &manifest, &options).map_err(|e| e.to_string())?;
+    let table = dataset::extract_manifest(&extractor, &manifest, &options)?;
     let classes = &model.classifier.classes;
     let estimator = model.estimator.as_ref();
     let mut csv = String::from("path,label");
@@ -539,8 +520,7 @@ pub fn predict(args: PredictArgs) -> CliResult {
             measured: measured.as_ref(),
             coverage,
         };
-        let decision =
-            inference::decide(&model, &sample.values, context).map_err(|e| e.to_string())?;
+        let decision = inference::decide(&model, &sample.values, context)?;
         let label = &classes[decision.class];
         let _ = write!(csv, "{},{}", csv_field(&sample.path), csv_field(label));
         for p in &decision.probabilities {
@@ -588,13 +568,13 @@ pub fn predict(args: PredictArgs) -> CliResult {
         );
     }
     crate::util::durable::write_atomic(&args.out, csv.as_bytes())
-        .map_err(|e| format!("{}: {e}", args.out.display()))?;
+        .map_err(|e| CliError::at(args.out.display(), e))?;
     print!("{}", tally.summary(&name, version, coverage));
     match (&args.ward_classes, estimator) {
         (Some(path), Some(estimator)) => evaluate_estimator(&args, path, estimator, &table),
-        (Some(_), None) => Err(format!(
+        (Some(_), None) => Err(CliError::Invalid(format!(
             "{name} version {version} has no Ward-parameter estimator"
-        )),
+        ))),
         (None, _) => Ok(()),
     }
 }
@@ -660,16 +640,13 @@ fn evaluate_estimator(
     estimator: &estimate::WardRegressor,
     table: &FeatureTable,
 ) -> CliResult {
-    let materials = load_classes(path).map_err(|e| e.to_string())?;
-    let ds = Dataset::from_table(table).map_err(|e| e.to_string())?;
-    let (report, details) = estimator
-        .evaluate(&ds, &materials)
-        .map_err(|e| e.to_string())?;
+    let materials = load_classes(path)?;
+    let ds = Dataset::from_table(table)?;
+    let (report, details) = estimator.evaluate(&ds, &materials)?;
     print!("estimate: {}", estimate_summary(&report, Protocol::Unseen));
     if let Some(out) = &args.estimate_report {
         let title = format!("{} on {}", args.model.display(), args.manifest.display());
-        crate::report::estimate::write(out, &title, Protocol::Unseen, &report, &details)
-            .map_err(|e| e.to_string())?;
+        crate::report::estimate::write(out, &title, Protocol::Unseen, &report, &details)?;
         eprintln!("written to {}", out.display());
     }
     Ok(())

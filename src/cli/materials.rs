@@ -1,7 +1,7 @@
 //! `reflectance materials --count N --out C.json [--seed S]`: a class file of N materials
 //! over continuous Ward parameters (a Latin-hypercube design), for `render --classes`.
 
-use super::CliResult;
+use super::{CliError, CliResult};
 use crate::render::design::{self, Ranges};
 use clap::Args;
 use serde_json::json;
@@ -32,9 +32,9 @@ pub fn run(args: MaterialsArgs) -> CliResult {
         ),
         "classes": materials,
     });
-    let text = serde_json::to_string_pretty(&file).map_err(|e| e.to_string())?;
+    let text = serde_json::to_string_pretty(&file)?;
     crate::util::durable::write_atomic(&args.out, format!("{text}\n").as_bytes())
-        .map_err(|e| format!("{}: {e}", args.out.display()))?;
+        .map_err(|e| CliError::at(args.out.display(), e))?;
     println!("{}", args.out.display());
     Ok(())
 }

@@ -18,7 +18,7 @@ pub struct MergeArgs {
 }
 
 pub fn run(args: MergeArgs) -> CliResult {
-    let merged = shard::merge(&args.parts, &args.out).map_err(|e| e.to_string())?;
+    let merged = shard::merge(&args.parts, &args.out)?;
     eprintln!(
         "merged {} shards, {} rows after the header",
         merged.shards, merged.rows

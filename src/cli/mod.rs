@@ -1,6 +1,7 @@
 //! The command line (docs/design.md §6 is the contract: extend it, never rename).
 
 mod classify;
+mod error;
 mod features;
 mod learn;
 mod materials;
@@ -9,6 +10,8 @@ mod render;
 mod report;
 mod robustness;
 mod serve;
+
+pub use error::{CliError, CliResult};
 
 use crate::features::Extensions;
 use crate::image::white::{Rect, WhiteError};
@@ -135,11 +138,11 @@ pub struct SphereArgs {
 
 impl SphereArgs {
     /// The card's reflectance, checked.
-    pub fn card_reflectance(&self) -> Result<f64, String> {
+    pub fn card_reflectance(&self) -> CliResult<f64> {
         let r = self.white_reflectance;
         match r > 0.0 && r <= 1.0 {
             true => Ok(r),
-            false => Err(WhiteError::BadReflectance(r).to_string()),
+            false => Err(WhiteError::BadReflectance(r).into()),
         }
     }
 }
@@ -183,7 +186,7 @@ pub struct ExtensionArgs {
 
 impl ExtensionArgs {
     /// The configuration, with the extensions the feature-set `spec` names on too.
-    pub fn config(&self, spec: &str) -> Result<crate::features::FeatureConfig, String> {
+    pub fn config(&self, spec: &str) -> CliResult<crate::features::FeatureConfig> {
         let asked = Extensions {
             log_domain: self.log_features,
             radial: self.radial_features,
@@ -192,8 +195,11 @@ impl ExtensionArgs {
             centre: self.centre_features,
             domain: self.domain_features,
         };
-        crate::features::FeatureConfig::for_spec(asked, spec, self.preprocessing())
-            .map_err(|e| e.to_string())
+        Ok(crate::features::FeatureConfig::for_spec(
+            asked,
+            spec,
+            self.preprocessing(),
+        )?)
     }
 
     pub fn preprocessing(&self) -> crate::features::Preprocessing {
@@ -203,9 +209,6 @@ impl ExtensionArgs {
         }
     }
 }
-
-/// A command's failure: one line for stderr.
-pub type CliResult = Result<(), String>;
 
 /// An analysis failure in the command line's words: a sphere detection cannot find asks for
 /// the flags that place it.

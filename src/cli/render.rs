@@ -67,8 +67,8 @@ pub struct RenderArgs {
 
 pub fn run(args: RenderArgs) -> CliResult {
     let spec = BatchSpec {
-        probes: batch::probe_list(&args.probes).map_err(|e| e.to_string())?,
-        classes: crate::material::load_classes(&args.classes).map_err(|e| e.to_string())?,
+        probes: batch::probe_list(&args.probes)?,
+        classes: crate::material::load_classes(&args.classes)?,
         out: args.out,
         size: args.size,
         seed: args.seed,
@@ -89,7 +89,7 @@ pub fn run(args: RenderArgs) -> CliResult {
         shard: args.shard,
     };
     let start = std::time::Instant::now();
-    let summary = batch::render_dataset(&spec).map_err(|e| e.to_string())?;
+    let summary = batch::render_dataset(&spec)?;
     eprintln!(
         "rendered {} of {} images ({} already complete) in {:.1} s",
         summary.rendered,

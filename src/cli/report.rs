@@ -20,8 +20,7 @@ pub struct ReportArgs {
 pub fn run(args: ReportArgs) -> CliResult {
     let out = args.out.unwrap_or_else(|| report::default_out(&args.data));
     let options = args.run.limits.decode_options();
-    let result =
-        report::run(&args.data, &out, args.run.seed, &options).map_err(|e| e.to_string())?;
+    let result = report::run(&args.data, &out, args.run.seed, &options)?;
     print!("{}", report::markdown(&result));
     eprintln!("written to {}", out.display());
     Ok(())

@@ -27,25 +27,24 @@ pub struct RobustnessArgs {
 }
 
 pub fn run(args: RobustnessArgs) -> CliResult {
-    let manifest = dataset::read_manifest(&args.manifest).map_err(|e| e.to_string())?;
+    let manifest = dataset::read_manifest(&args.manifest)?;
     let options = args.run.limits.decode_options();
-    let images = robustness::test_images(&manifest, &options).map_err(|e| e.to_string())?;
+    let images = robustness::test_images(&manifest, &options)?;
     let mut radii: Vec<f64> = images.iter().map(|i| i.circle.r).collect();
     radii.sort_by(f64::total_cmp);
     let radius = *radii
         .get(radii.len() / 2)
         .ok_or("the manifest has no original renders")?;
-    let models = robustness::load_models(&args.model).map_err(|e| e.to_string())?;
+    let models = robustness::load_models(&args.model)?;
     let names: Vec<String> = models.iter().map(|(n, _)| n.clone()).collect();
     let settings = robustness::sweep(&CaptureRanges::default(), radius);
-    let cells = robustness::evaluate(&models, &images, &settings, args.run.seed)
-        .map_err(|e| e.to_string())?;
+    let cells = robustness::evaluate(&models, &images, &settings, args.run.seed)?;
     let out = args.out.unwrap_or_else(|| {
         args.manifest
             .parent()
             .map_or_else(|| PathBuf::from("."), PathBuf::from)
     });
-    robustness::write(&cells, &names, &out).map_err(|e| e.to_string())?;
+    robustness::write(&cells, &names, &out)?;
     print!("{}", robustness::markdown(&cells, &names));
     eprintln!("written to {}", out.display());
     Ok(())

@@ -1,6 +1,6 @@
 //! `reflectance serve` and `reflectance healthcheck`.
 
-use super::{CliResult, LimitArgs};
+use super::{CliError, CliResult, LimitArgs};
 use crate::server::config::{self, Config, LogFormat, defaults};
 use clap::Args;
 use std::io::{Read, Write};
@@ -86,30 +86,30 @@ pub struct ServeArgs {
     pub limits: LimitArgs,
 }
 
-fn seconds(what: &str, value: f64) -> Result<Duration, String> {
+fn seconds(what: &str, value: f64) -> CliResult<Duration> {
     if (0.0..1e9).contains(&value) {
         Ok(Duration::from_secs_f64(value))
     } else {
-        Err(format!(
+        Err(CliError::Invalid(format!(
             "{what} must be a number of seconds ≥ 0, not {value}"
-        ))
+        )))
     }
 }
 
-fn positive_seconds(what: &str, value: f64) -> Result<Duration, String> {
+fn positive_seconds(what: &str, value: f64) -> CliResult<Duration> {
     match seconds(what, value)? {
-        d if d.is_zero() => Err(format!("{what} must be > 0")),
+        d if d.is_zero() => Err(CliError::Invalid(format!("{what} must be > 0"))),
         d => Ok(d),
     }
 }
 
 impl ServeArgs {
     /// Validate the flags and read the admin token (`env_token`: REFLECTANCE_ADMIN_TOKEN).
-    pub fn into_config(self, env_token: Option<String>) -> Result<Config, String> {
+    pub fn into_config(self, env_token: Option<String>) -> CliResult<Config> {
         let token = match (&self.admin_token_file, env_token) {
             (Some(path), _) => {
                 let text = std::fs::read_to_string(path)
-                    .map_err(|e| format!("admin token file {}: {e}", path.display()))?;
+                    .map_err(|e| CliError::at(format!("admin token file {}", path.display()), e))?;
                 Some(text.trim().to_string())
             }
             (None, Some(token)) => Some(token.trim().to_string()),
@@ -119,27 +119,27 @@ impl ServeArgs {
             .as_ref()
             .is_some_and(|t| t.len() < defaults::MIN_TOKEN_LEN)
         {
-            return Err(format!(
+            return Err(CliError::Invalid(format!(
                 "the admin token must be at least {} characters",
                 defaults::MIN_TOKEN_LEN
-            ));
+            )));
         }
         if token.is_none() && !self.admin_listen.ip().is_loopback() {
-            return Err(format!(
+            return Err(CliError::Invalid(format!(
                 "--admin-listen {} is not a loopback address and no admin token is configured \
                  (--admin-token-file or REFLECTANCE_ADMIN_TOKEN)",
                 self.admin_listen
-            ));
+            )));
         }
         if !crate::model::registry::valid_name(&self.default_model) {
-            return Err(format!(
+            return Err(CliError::Invalid(format!(
                 "invalid --default-model {:?} (use 1–64 of a-z, 0-9, '_' and '-')",
                 self.default_model
-            ));
+            )));
         }
         let positive = |what: &str, n: usize| {
             if n == 0 {
-                Err(format!("{what} must be at least 1"))
+                Err(CliError::Invalid(format!("{what} must be at least 1")))
             } else {
                 Ok(n)
             }
@@ -182,7 +182,7 @@ impl ServeArgs {
 pub fn run(args: ServeArgs) -> CliResult {
     let token = std::env::var("REFLECTANCE_ADMIN_TOKEN").ok();
     let config = args.into_config(token)?;
-    crate::server::run(config)
+    Ok(crate::server::run(config)?)
 }
 
 #[derive(Args, Debug)]
@@ -208,40 +208,43 @@ pub fn healthcheck(args: HealthcheckArgs) -> CliResult {
         |given| {
             given
                 .to_socket_addrs()
-                .map_err(|e| format!("{given}: {e}"))?
+                .map_err(|e| CliError::at(given, e))?
                 .next()
-                .ok_or_else(|| format!("{given}: no address"))
+                .ok_or_else(|| CliError::at(given, "no address"))
         },
     )?;
     let mut stream =
-        TcpStream::connect_timeout(&addr, timeout).map_err(|e| format!("{addr}: {e}"))?;
+        TcpStream::connect_timeout(&addr, timeout).map_err(|e| CliError::at(addr, e))?;
     stream
         .set_read_timeout(Some(timeout))
         .and_then(|()| stream.set_write_timeout(Some(timeout)))
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| CliError::at(addr, e))?;
     write!(
         stream,
         "GET {} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n",
         args.path
     )
-    .map_err(|e| format!("{addr}: {e}"))?;
+    .map_err(|e| CliError::at(addr, e))?;
     let mut head = [0u8; 64];
-    let n = stream.read(&mut head).map_err(|e| format!("{addr}: {e}"))?;
+    let n = stream.read(&mut head).map_err(|e| CliError::at(addr, e))?;
     let line = String::from_utf8_lossy(&head[..n]);
     let status = line.split_whitespace().nth(1).unwrap_or_default();
     if status == "200" {
         Ok(())
     } else {
-        Err(format!("{addr}{} answered {status:?}", args.path))
+        Err(CliError::Invalid(format!(
+            "{addr}{} answered {status:?}",
+            args.path
+        )))
     }
 }
 
 /// Where to reach a server listening on `listen`: the same port, on loopback when it
 /// listens on every address.
-fn served_address(listen: &str) -> Result<SocketAddr, String> {
+fn served_address(listen: &str) -> CliResult<SocketAddr> {
     let mut addr: SocketAddr = listen
         .parse()
-        .map_err(|e| format!("REFLECTANCE_LISTEN {listen:?}: {e}"))?;
+        .map_err(|e| CliError::at(format!("REFLECTANCE_LISTEN {listen:?}"), e))?;
     if addr.ip().is_unspecified() {
         addr.set_ip(match addr {
             SocketAddr::V4(_) => std::net::Ipv4Addr::LOCALHOST.into(),
@@ -257,10 +260,10 @@ mod tests {
 
     #[test]
     fn the_health_check_reaches_the_listening_port_on_loopback() {
-        let at = |listen| served_address(listen).map(|a| a.to_string());
-        assert_eq!(at("0.0.0.0:9000").as_deref(), Ok("127.0.0.1:9000"));
-        assert_eq!(at("[::]:9000").as_deref(), Ok("[::1]:9000"));
-        assert_eq!(at("10.1.2.3:8080").as_deref(), Ok("10.1.2.3:8080"));
-        assert!(at("not an address").is_err());
+        let at = |listen| served_address(listen).map_or_else(|e| e.to_string(), |a| a.to_string());
+        assert_eq!(at("0.0.0.0:9000"), "127.0.0.1:9000");
+        assert_eq!(at("[::]:9000"), "[::1]:9000");
+        assert_eq!(at("10.1.2.3:8080"), "10.1.2.3:8080");
+        assert!(at("not an address").starts_with("REFLECTANCE_LISTEN \"not an address\": "));
     }
 }

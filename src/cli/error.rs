@@ -1,0 +1,86 @@
+//! The command line's failures: the layers' own errors, as they are, and what the command
+//! line itself refuses. Each prints as one line on stderr (`main`).
+
+use crate::dataset::DatasetError;
+use crate::features::ConfigError;
+use crate::image::decode::DecodeError;
+use crate::image::geometry::GeometryError;
+use crate::image::white::WhiteError;
+use crate::learn::LearnError;
+use crate::material::ClassFileError;
+use crate::model::ModelError;
+use crate::model::registry::RegistryError;
+use crate::model::train::TrainError;
+use crate::render::batch::RenderError;
+use crate::report::ReportError;
+use crate::util::shard::ShardError;
+
+#[derive(Debug, thiserror::Error)]
+pub enum CliError {
+    #[error(transparent)]
+    Decode(#[from] DecodeError),
+    #[error(transparent)]
+    Dataset(#[from] DatasetError),
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error(transparent)]
+    Geometry(#[from] GeometryError),
+    #[error(transparent)]
+    White(#[from] WhiteError),
+    #[error(transparent)]
+    Learn(#[from] LearnError),
+    #[error(transparent)]
+    Train(#[from] TrainError),
+    #[error(transparent)]
+    Registry(#[from] RegistryError),
+    #[error(transparent)]
+    Report(#[from] ReportError),
+    #[error(transparent)]
+    Shard(#[from] ShardError),
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    #[error(transparent)]
+    Classes(#[from] ClassFileError),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error(transparent)]
+    Json(#[from] serde_json::Error),
+    /// A failure about one thing (a file, an address): what it is, then what went wrong.
+    #[error("{what}: {source}")]
+    At {
+        what: String,
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// What the command line itself refuses: a combination of flags, a value out of range,
+    /// or a layer's failure put in the command line's words.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl CliError {
+    /// A failure about `what` (a path, an address).
+    pub fn at(
+        what: impl std::fmt::Display,
+        source: impl Into<Box<dyn std::error::Error + Send + Sync>>,
+    ) -> CliError {
+        CliError::At {
+            what: what.to_string(),
+            source: source.into(),
+        }
+    }
+}
+
+impl From<String> for CliError {
+    fn from(message: String) -> CliError {
+        CliError::Invalid(message)
+    }
+}
+
+impl From<&str> for CliError {
+    fn from(message: &str) -> CliError {
+        CliError::Invalid(message.to_string())
+    }
+}
+
+/// A command's result.
+pub type CliResult<T = ()> = Result<T, CliError>;
