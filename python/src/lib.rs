@@ -12,6 +12,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use reflectance_core::features::analysis::{self, AnalysisError, Locate, WhiteInput};
 use reflectance_core::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
+use reflectance_core::image::decode::LinearImage;
 use reflectance_core::image::geometry::{self, GeometryError};
 use reflectance_core::inference::{self, Answer, InferenceError, LoadedModel};
 use reflectance_core::model::registry;
@@ -74,6 +75,37 @@ fn white_input(white: Option<f64>) -> PyResult<WhiteInput> {
     }
 }
 
+/// A sphere's photograph as the arguments give it, checked before any decoding.
+struct Sphere {
+    image: ImageArg,
+    how: Locate,
+    white: WhiteInput,
+}
+
+impl Sphere {
+    fn new(
+        image: &Bound<'_, PyAny>,
+        (cx, cy, r): (Option<f64>, Option<f64>, Option<f64>),
+        white: Option<f64>,
+        mask: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Sphere> {
+        Ok(Sphere {
+            image: ImageArg::from_python(image)?,
+            how: locate(cx, cy, r, mask.map(MaskArg::from_python).transpose()?)?,
+            white: white_input(white)?,
+        })
+    }
+
+    /// `f` of the decoded image, where the sphere is and its white, without the GIL.
+    fn decoded<T: Send>(
+        self,
+        py: Python<'_>,
+        f: impl FnOnce(LinearImage, &Locate, &WhiteInput) -> PyResult<T> + Send,
+    ) -> PyResult<T> {
+        py.detach(move || f(self.image.decode()?, &self.how, &self.white))
+    }
+}
+
 /// The extractor of `reflectance features` (with `--log-features` for `log`), made once.
 fn extractor(log: bool) -> &'static Extractor {
     static PLAIN: OnceLock<Extractor> = OnceLock::new();
@@ -105,14 +137,11 @@ fn features<'py>(
     mask: Option<&Bound<'py, PyAny>>,
     log: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let image = ImageArg::from_python(image)?;
-    let how = locate(cx, cy, r, mask.map(MaskArg::from_python).transpose()?)?;
-    let white = white_input(white)?;
     let extractor = extractor(log);
-    let values = py.detach(|| -> PyResult<Vec<f64>> {
-        let decoded = image.decode()?;
+    let sphere = Sphere::new(image, (cx, cy, r), white, mask)?;
+    let values = sphere.decoded(py, |decoded, how, white| {
         let analysis =
-            analysis::analyze(extractor, &decoded, &how, &white).map_err(|e| analysis_error(&e))?;
+            analysis::analyze(extractor, &decoded, how, white).map_err(|e| analysis_error(&e))?;
         Ok(analysis.values)
     })?;
     let out = PyDict::new(py);
@@ -136,13 +165,9 @@ fn unwrap<'py>(
     white: Option<f64>,
     mask: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let image = ImageArg::from_python(image)?;
-    let how = locate(cx, cy, r, mask.map(MaskArg::from_python).transpose()?)?;
-    let white = white_input(white)?;
-    let annulus = py.detach(|| {
-        let decoded = image.decode()?;
-        analysis::unwrapped(extractor(false), &decoded, &how, &white)
-            .map_err(|e| analysis_error(&e))
+    let sphere = Sphere::new(image, (cx, cy, r), white, mask)?;
+    let annulus = sphere.decoded(py, |decoded, how, white| {
+        analysis::unwrapped(extractor(false), &decoded, how, white).map_err(|e| analysis_error(&e))
     })?;
     Ok(annulus.into_pyarray(py))
 }
@@ -243,9 +268,7 @@ fn classify_with<'py>(
     coverage: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let started = Instant::now();
-    let image = ImageArg::from_python(image)?;
-    let how = locate(cx, cy, r, None)?;
-    let white = white_input(white)?;
+    let sphere = Sphere::new(image, (cx, cy, r), white, None)?;
     let coverage = coverage
         .map(reflectance_core::learn::conformal::check_coverage)
         .transpose()
@@ -255,12 +278,11 @@ fn classify_with<'py>(
         ..Answer::default()
     };
     let model = model.clone();
-    let json = py.detach(|| -> PyResult<String> {
-        let t = Instant::now();
-        let decoded = image.decode()?;
-        let decode_ms = t.elapsed().as_secs_f64() * 1e3;
+    let decoding = Instant::now();
+    let json = sphere.decoded(py, |decoded, how, white| {
+        let decode_ms = decoding.elapsed().as_secs_f64() * 1e3;
         let classified =
-            inference::classify_decoded(model, decoded, &how, &white, &answer, decode_ms)
+            inference::classify_decoded(model, decoded, how, white, &answer, decode_ms)
                 .map_err(inference_error)?;
         let response = classified.response(String::new(), started.elapsed().as_secs_f64() * 1e3);
         serde_json::to_string(&response).map_err(error)
