@@ -434,16 +434,7 @@ pub fn train(args: TrainArgs) -> CliResult {
             estimate_summary(report, Protocol::CrossValidated)
         );
     }
-    let report = trained
-        .report
-        .as_ref()
-        .map(serde_json::to_vec_pretty)
-        .transpose()?;
-    let extra: Vec<(&str, &[u8])> = report
-        .iter()
-        .map(|r| ("report.json", r.as_slice()))
-        .collect();
-    let (_, dir) = Registry::new(&args.models).publish(&mut trained.model, &extra)?;
+    let (_, dir) = trained.publish(&Registry::new(&args.models))?;
     if let Some(r) = &trained.report {
         eprintln!(
             "cross-validated accuracy {:.1} % ({}/{})",

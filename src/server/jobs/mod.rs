@@ -30,19 +30,7 @@ use utoipa::ToSchema;
 
 pub use run::JobResult;
 
-/// What to do with a trained version.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum Activate {
-    /// Publish only (the active version stays).
-    #[default]
-    Never,
-    /// Activate the new version.
-    Always,
-    /// Activate when its cross-validated accuracy is higher than the active version's
-    /// stored one (or when the model has no active version).
-    IfBetter,
-}
+pub use crate::model::publish::Activate;
 
 /// Where the labelled data of a `train` or `cross_validate` job come from: exactly one of
 /// `dataset` (a manifest; features are extracted first) or `table` (a feature table written

@@ -2,13 +2,14 @@
 //! execution on a worker thread with progress and cancellation.
 
 use super::paths::DataDir;
-use super::{Activate, JobRequest, LearnParams};
+use super::{JobRequest, LearnParams};
 use crate::dataset::{self, DatasetError, FeatureTable, Manifest};
 use crate::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
 use crate::image::decode::{DecodeOptions, Limits};
 use crate::learn::estimate::{self, EstimateReport};
 use crate::learn::{self, CvReport, Dataset, LearnError, SpecText, TrainSpec};
 use crate::material::{ClassFileError, load_classes};
+use crate::model::publish::{Activate, Current};
 use crate::model::registry;
 use crate::model::train::{self, TrainError, TrainOptions};
 use crate::render::Quality;
@@ -423,16 +424,6 @@ pub fn execute(
                 return Err(Failure::Cancelled);
             }
             observer.stage("publish");
-            let report = trained
-                .report
-                .as_ref()
-                .map(serde_json::to_vec_pretty)
-                .transpose()
-                .map_err(|e| Failure::Error(e.to_string()))?;
-            let extra: Vec<(&str, &[u8])> = report
-                .iter()
-                .map(|r| ("report.json", r.as_slice()))
-                .collect();
             let version = {
                 let _serial = models.lock_registry();
                 let registry = models.registry();
@@ -447,10 +438,7 @@ pub fn execute(
                 {
                     tracing::warn!(model = %name, error = %e, "could not pin the active version");
                 }
-                let (version, _) = registry
-                    .publish(&mut trained.model, &extra)
-                    .map_err(|e| Failure::Error(format!("cannot publish a new version: {e}")))?;
-                version
+                trained.publish(registry)?.0
             };
             let new_accuracy = trained.model.training.cv.as_ref().map(|c| c.accuracy);
             let mut result = JobResult {
@@ -463,34 +451,11 @@ pub fn execute(
                 images: Some(table.samples.len()),
                 ..JobResult::default()
             };
-            let decision = match activate {
-                Activate::Never => Err("activate: never".to_string()),
-                Activate::Always => Ok("activate: always".to_string()),
-                Activate::IfBetter => {
-                    let current = models.active(name);
-                    match (current, new_accuracy) {
-                        (None, _) => Ok("no active version".to_string()),
-                        (Some(m), Some(new)) => match m.file.training.cv.as_ref() {
-                            Some(old) if new > old.accuracy => Ok(format!(
-                                "CV accuracy {new:.4} > {:.4} of version {}",
-                                old.accuracy,
-                                m.version()
-                            )),
-                            Some(old) => Err(format!(
-                                "CV accuracy {new:.4} ≤ {:.4} of version {}",
-                                old.accuracy,
-                                m.version()
-                            )),
-                            None => Err(format!(
-                                "active version {} has no stored CV accuracy to compare with",
-                                m.version()
-                            )),
-                        },
-                        (Some(_), None) => Err("no CV accuracy".to_string()),
-                    }
-                }
-            };
-            match decision {
+            let current = models.active(name).map(|m| Current {
+                version: m.version(),
+                accuracy: m.file.training.cv.as_ref().map(|cv| cv.accuracy),
+            });
+            match activate.decide(new_accuracy, current) {
                 Ok(reason) => {
                     observer.stage("activate");
                     match models.activate(name, version) {

@@ -2,6 +2,7 @@
 //! from a feature table to a verified model file.
 
 mod file;
+pub mod publish;
 pub mod registry;
 pub mod train;
 

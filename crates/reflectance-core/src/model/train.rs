@@ -40,6 +40,10 @@ pub enum TrainError {
     EstimatorColumns(String),
     #[error(transparent)]
     Dataset(#[from] crate::dataset::DatasetError),
+    #[error("cannot publish a new version: {0}")]
+    Publish(#[from] crate::model::registry::RegistryError),
+    #[error("cannot write the cross-validation report: {0}")]
+    Report(#[from] serde_json::Error),
 }
 
 pub struct TrainOptions {
