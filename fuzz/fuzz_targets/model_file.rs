@@ -15,7 +15,7 @@ fn exercise(model: ModelFile) {
         let row = vec![fill; n];
         if let Ok(z) = model.classifier.transform(&row) {
             let out = model.classifier.classify_transformed(&z);
-            assert!(out.class < model.classifier.classes.len());
+            assert!(out.class < model.classifier.classes().len());
         }
         let _ = model.nearest(&row, 3);
     }

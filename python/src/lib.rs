@@ -206,7 +206,7 @@ impl Model {
     /// The class names, in the model's order.
     #[getter]
     fn classes(&self) -> Vec<String> {
-        self.loaded.file.head(true).classifier.classes.clone()
+        self.loaded.file.head(true).classifier.classes().to_vec()
     }
 
     /// [`classify`] with this model.

@@ -482,7 +482,7 @@ pub fn predict(args: PredictArgs) -> CliResult {
     let manifest = dataset::read_manifest(&args.manifest)?;
     let options = args.limits.decode_options();
     let table = dataset::extract_manifest(&extractor, &manifest, &options)?;
-    let classes = &model.classifier.classes;
+    let classes = model.classifier.classes();
     let estimator = model.estimator.as_ref();
     let mut csv = String::from("path,label");
     for c in classes {

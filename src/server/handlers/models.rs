@@ -159,7 +159,7 @@ pub struct ModelDetail {
 
 pub fn detail(model: &LoadedModel, versions: Vec<u32>) -> ModelDetail {
     let f = &model.file;
-    let (c, gamma) = match &f.classifier.model {
+    let (c, gamma) = match f.classifier.model() {
         crate::learn::pipeline::Model::Svm(m) => (Some(m.c), Some(m.gamma)),
         _ => (None, None),
     };
@@ -175,10 +175,10 @@ pub fn detail(model: &LoadedModel, versions: Vec<u32>) -> ModelDetail {
             extracted: model.feature_names.len(),
         },
         classifier: ClassifierOut {
-            kind: f.classifier.kind.to_string(),
+            kind: f.classifier.kind().to_string(),
             c,
             gamma,
-            calibrated: f.classifier.calibration.is_some(),
+            calibrated: f.classifier.is_calibrated(),
         },
         training: TrainingOut {
             dataset: f.training.dataset.clone(),
@@ -227,7 +227,7 @@ pub async fn list(State(state): State<SharedState>) -> Json<ModelList> {
             name: m.name().to_string(),
             active_version: m.version(),
             default: m.name() == state.config.default_model,
-            classes: m.file.classifier.classes.clone(),
+            classes: m.file.classifier.classes().to_vec(),
             feature_set: m.file.features.set.clone(),
         })
         .collect();

@@ -158,7 +158,7 @@ pub async fn model_metadata(
     Path(name): Path<String>,
 ) -> Result<Json<ModelMetadata>, ApiError> {
     let model = state.models.active(&name).ok_or_else(|| unknown(&name))?;
-    let k = model.file.classifier.classes.len() as i64;
+    let k = model.file.classifier.classes().len() as i64;
     let t = |name: &str, datatype: &str, shape: Vec<i64>| TensorMetadata {
         name: name.into(),
         datatype: datatype.into(),
@@ -320,7 +320,7 @@ pub async fn infer(
     let Json(request) = body?;
     let input = raw_input(&request)?.validate()?;
     let c = classify::run(&state, &name, None, input).await?;
-    let classes = &c.model.file.classifier.classes;
+    let classes = c.model.file.classifier.classes();
     let k = classes.len() as i64;
     let body = InferResponse {
         model_name: name,

@@ -203,30 +203,33 @@ pub struct Output {
     pub decision: Vec<f64>,
 }
 
+/// A fitted classifier: the input transformation, the model and its calibration. Its parts
+/// are consistent by construction (training, or a model file that passed its checks); they
+/// are read through the methods below and cannot be changed from outside the core.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Classifier {
-    pub classes: Vec<String>,
+    pub(crate) classes: Vec<String>,
     /// Named `classifier` in model files.
     #[serde(rename = "classifier")]
-    pub kind: ClassifierKind,
+    pub(crate) kind: ClassifierKind,
     /// The feature set as specified (`hand6`, `auto6`, …).
-    pub feature_set: String,
+    pub(crate) feature_set: String,
     /// Names of the full input row's columns (the 117 features, canonical order).
-    pub input_names: Vec<String>,
+    pub(crate) input_names: Vec<String>,
     /// Names of the classifier's inputs: the selected features, in selection order, or
     /// `pc1…pcN` for PCA.
-    pub selected: Vec<String>,
+    pub(crate) selected: Vec<String>,
     /// Indices into the full row of the selected features (for PCA: of the PCA inputs,
     /// i.e. every column).
-    pub selected_indices: Vec<usize>,
+    pub(crate) selected_indices: Vec<usize>,
     /// auto<N>: the Bayes error of each feature when it was selected.
-    pub selection_errors: Option<Vec<f64>>,
-    pub pca: Option<Pca>,
-    pub scaler: Scaler,
-    pub model: Model,
-    pub calibration: Option<Calibration>,
-    pub grid_search: Option<GridSearch>,
-    pub n_train: usize,
+    pub(crate) selection_errors: Option<Vec<f64>>,
+    pub(crate) pca: Option<Pca>,
+    pub(crate) scaler: Scaler,
+    pub(crate) model: Model,
+    pub(crate) calibration: Option<Calibration>,
+    pub(crate) grid_search: Option<GridSearch>,
+    pub(crate) n_train: usize,
 }
 
 /// The input transformation fitted on training rows.
@@ -713,6 +716,25 @@ pub fn fit_rows_held_out(
 }
 
 impl Classifier {
+    /// The class names, in the order of every output.
+    pub fn classes(&self) -> &[String] {
+        &self.classes
+    }
+
+    pub fn kind(&self) -> ClassifierKind {
+        self.kind
+    }
+
+    /// The fitted model (an SVM's C and γ, …).
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// Whether its probabilities are calibrated.
+    pub fn is_calibrated(&self) -> bool {
+        self.calibration.is_some()
+    }
+
     pub fn n_classes(&self) -> usize {
         self.classes.len()
     }
