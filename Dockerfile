@@ -19,7 +19,8 @@ RUN cargo chef prepare --recipe-path recipe.json
 
 FROM chef AS builder
 COPY --from=planner /app/recipe.json recipe.json
-RUN cargo chef cook --release --recipe-path recipe.json
+# The binary's dependencies only (not the Python package's, a workspace member maturin builds).
+RUN cargo chef cook --release --recipe-path recipe.json --bin reflectance
 COPY . .
 RUN cargo build --release --locked --bin reflectance \
  && strip target/release/reflectance \
