@@ -6,7 +6,7 @@ use super::{CliError, CliResult, LimitArgs, SphereArgs};
 use crate::image::decode::Encoding;
 use crate::image::geometry;
 use crate::inference::{
-    self, ClassifyResponse, InferenceError, Input, LoadedModel, LocateSpec, WhiteSpec,
+    self, Answer, ClassifyResponse, InferenceError, Input, LoadedModel, LocateSpec, WhiteSpec,
 };
 use crate::model::registry;
 use clap::Args;
@@ -84,10 +84,12 @@ fn input(args: &ClassifyArgs) -> CliResult<Input> {
         white,
         locate,
         encoding: args.encoding,
-        include_features: args.all_features,
-        include_explain: args.explain,
-        include_images: false,
-        coverage,
+        answer: Answer {
+            include_features: args.all_features,
+            include_explain: args.explain,
+            include_images: false,
+            coverage,
+        },
     })
 }
 

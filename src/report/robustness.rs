@@ -9,7 +9,7 @@ use super::plots::{colour, plot_error, render_png};
 use crate::dataset::{self, Manifest};
 use crate::image::decode::{self, DecodeOptions};
 use crate::image::geometry::Circle;
-use crate::inference::{self, Input, LoadedModel, LocateSpec, WhiteSpec};
+use crate::inference::{self, Answer, Input, LoadedModel, LocateSpec, WhiteSpec};
 use crate::render::capture::{self, CaptureRanges, CaptureSettings, DrawSettings, Quantization};
 use crate::util::progress;
 use crate::util::rng::Rng;
@@ -271,10 +271,7 @@ pub fn evaluate(
                         white: WhiteSpec::Value(shot.white),
                         locate: LocateSpec::Circle(shot.circle),
                         encoding: shot.encoding,
-                        include_features: false,
-                        include_explain: false,
-                        include_images: false,
-                        coverage: None,
+                        answer: Answer::default(),
                     };
                     let classes = model.file.classifier.classes();
                     let truth = classes.iter().position(|c| *c == image.class);

@@ -128,11 +128,7 @@ pub struct Input {
     pub white: WhiteSpec,
     pub locate: LocateSpec,
     pub encoding: Option<Encoding>,
-    pub include_features: bool,
-    pub include_explain: bool,
-    pub include_images: bool,
-    /// The prediction set's coverage (`None`: [`conformal::DEFAULT_COVERAGE`]).
-    pub coverage: Option<f64>,
+    pub answer: Answer,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -291,13 +287,7 @@ pub fn classify(
         }
         LocateSpec::Auto => Locate::Auto,
     };
-    let answer = Answer {
-        include_features: input.include_features,
-        include_explain: input.include_explain,
-        include_images: input.include_images,
-        coverage: input.coverage,
-    };
-    classify_decoded(model, image, &locate, &white, &answer, ms(t))
+    classify_decoded(model, image, &locate, &white, &input.answer, ms(t))
 }
 
 /// What an answer includes beyond the class, and the prediction set's coverage.

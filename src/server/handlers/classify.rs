@@ -5,7 +5,7 @@
 use crate::image::decode::Encoding;
 use crate::image::geometry;
 use crate::image::white::{Rect, WhiteError};
-use crate::inference::{self, Classified, ClassifyResponse, Input, LocateSpec, WhiteSpec};
+use crate::inference::{self, Answer, Classified, ClassifyResponse, Input, LocateSpec, WhiteSpec};
 use crate::server::error::{ApiError, ClassificationProblems, Kind, Problem};
 use crate::server::metrics;
 use crate::server::state::SharedState;
@@ -183,10 +183,12 @@ impl RawInput {
             white,
             locate,
             encoding,
-            include_features,
-            include_explain,
-            include_images,
-            coverage,
+            answer: Answer {
+                include_features,
+                include_explain,
+                include_images,
+                coverage,
+            },
         })
     }
 }
