@@ -4,6 +4,7 @@
 //! service and the reports, on `reflectance-core` (the pipeline, without HTTP) and
 //! `reflectance-render` (training data), whose modules it re-exports under their names.
 
+pub mod archive;
 pub mod cli;
 pub(crate) mod report;
 pub mod server;

@@ -1,6 +1,7 @@
 //! The command line (docs/design.md §6 is the contract: extend it, never rename).
 
 mod classify;
+mod dataset;
 mod error;
 mod features;
 mod learn;
@@ -49,6 +50,10 @@ enum Command {
     Predict(learn::PredictArgs),
     /// Classify one photograph with a trained model (the answer of `POST /v1/classify`).
     Classify(classify::ClassifyArgs),
+    /// Datasets of your own photographs: `pack` makes the archive the server's
+    /// `POST /admin/v1/datasets` takes.
+    #[command(subcommand)]
+    Dataset(dataset::DatasetCommand),
     /// Reproduce the structure of the paper's Tables 1 and 2 (Markdown, JSON, plots).
     Report(report::ReportArgs),
     /// Accuracy of models on renders captured as photographs, one capture factor at a time.
@@ -244,6 +249,7 @@ pub fn main() -> ExitCode {
         Command::Train(args) => learn::train(args),
         Command::Predict(args) => learn::predict(args),
         Command::Classify(args) => classify::run(args),
+        Command::Dataset(command) => dataset::run(command),
         Command::Report(args) => report::run(args),
         Command::Robustness(args) => robustness::run(args),
         Command::Serve(args) => serve::run(args),

@@ -1,7 +1,8 @@
 //! `reflectance serve` and `reflectance healthcheck`.
 
 use super::{CliError, CliResult, LimitArgs};
-use crate::server::config::{self, Config, LogFormat, defaults};
+use crate::archive::ArchiveLimits;
+use crate::server::config::{self, Config, DatasetLimits, LogFormat, defaults};
 use clap::Args;
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream, ToSocketAddrs};
@@ -84,6 +85,19 @@ pub struct ServeArgs {
     pub log: String,
     #[command(flatten)]
     pub limits: LimitArgs,
+    /// Largest dataset archive accepted by `POST /admin/v1/datasets`, in bytes.
+    #[arg(long, env = "REFLECTANCE_DATASET_MAX_ARCHIVE", default_value_t = defaults::DATASET_MAX_ARCHIVE)]
+    pub dataset_max_archive: u64,
+    /// Largest unpacked size of a dataset archive, in bytes.
+    #[arg(long, env = "REFLECTANCE_DATASET_MAX_UNPACKED", default_value_t = defaults::DATASET_MAX_UNPACKED)]
+    pub dataset_max_unpacked: u64,
+    /// Most members (files and folders) a dataset archive may hold.
+    #[arg(long, env = "REFLECTANCE_DATASET_MAX_MEMBERS", default_value_t = defaults::DATASET_MAX_MEMBERS)]
+    pub dataset_max_members: usize,
+    /// Seconds a dataset upload may take: receiving, unpacking and checking every image
+    /// (answered with 408).
+    #[arg(long, env = "REFLECTANCE_DATASET_TIMEOUT", default_value_t = defaults::DATASET_TIMEOUT_S)]
+    pub dataset_timeout: f64,
 }
 
 fn seconds(what: &str, value: f64) -> CliResult<Duration> {
@@ -173,6 +187,14 @@ impl ServeArgs {
             drain_delay: seconds("--drain-delay", self.drain_delay)?,
             model_cache: self.model_cache,
             limits: self.limits.limits(),
+            datasets: DatasetLimits {
+                archive_bytes: self.dataset_max_archive,
+                archive: ArchiveLimits {
+                    members: positive("--dataset-max-members", self.dataset_max_members)?,
+                    unpacked_bytes: self.dataset_max_unpacked,
+                },
+                timeout: positive_seconds("--dataset-timeout", self.dataset_timeout)?,
+            },
             log_format: self.log_format,
             log: self.log,
         })

@@ -1,6 +1,7 @@
 //! The server's configuration: a plain struct with its defaults. The command line
 //! (`reflectance serve`, `src/cli/serve.rs`) builds it from flags and environment.
 
+use crate::archive::ArchiveLimits;
 use crate::image::decode::Limits;
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -27,6 +28,14 @@ pub mod defaults {
     pub const DRAIN_DELAY_S: f64 = 0.0;
     pub const MODEL_CACHE: usize = 4;
     pub const LOG: &str = "info";
+    /// Dataset uploads (`POST /admin/v1/datasets`): the archive's size in bytes, its
+    /// unpacked size, its members, and the time the whole upload may take.
+    pub const DATASET_MAX_ARCHIVE: u64 = 1 << 30;
+    pub const DATASET_MAX_UNPACKED: u64 = 4 << 30;
+    pub const DATASET_MAX_MEMBERS: usize = 10_000;
+    pub const DATASET_TIMEOUT_S: f64 = 900.0;
+    /// Under the data directory.
+    pub const DATASETS_SUBDIR: &str = "datasets";
     /// The shortest admin token accepted.
     pub const MIN_TOKEN_LEN: usize = 16;
 }
@@ -38,6 +47,29 @@ pub enum LogFormat {
     Auto,
     Json,
     Text,
+}
+
+/// What a dataset upload may be.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DatasetLimits {
+    /// Bytes of the uploaded archive.
+    pub archive_bytes: u64,
+    pub archive: ArchiveLimits,
+    /// The whole upload: receiving, unpacking and checking every image.
+    pub timeout: Duration,
+}
+
+impl Default for DatasetLimits {
+    fn default() -> DatasetLimits {
+        DatasetLimits {
+            archive_bytes: defaults::DATASET_MAX_ARCHIVE,
+            archive: ArchiveLimits {
+                members: defaults::DATASET_MAX_MEMBERS,
+                unpacked_bytes: defaults::DATASET_MAX_UNPACKED,
+            },
+            timeout: Duration::from_secs_f64(defaults::DATASET_TIMEOUT_S),
+        }
+    }
 }
 
 /// The validated configuration the server runs with. Its `Debug` output redacts the admin
@@ -64,6 +96,7 @@ pub struct Config {
     pub drain_delay: Duration,
     pub model_cache: usize,
     pub limits: Limits,
+    pub datasets: DatasetLimits,
     pub log_format: LogFormat,
     pub log: String,
 }
@@ -93,6 +126,7 @@ impl std::fmt::Debug for Config {
             .field("drain_delay", &self.drain_delay)
             .field("model_cache", &self.model_cache)
             .field("limits", &self.limits)
+            .field("datasets", &self.datasets)
             .field("log_format", &self.log_format)
             .field("log", &self.log)
             .finish()
@@ -125,6 +159,7 @@ impl Config {
             drain_delay: Duration::from_secs_f64(defaults::DRAIN_DELAY_S),
             model_cache: defaults::MODEL_CACHE,
             limits: Limits::default(),
+            datasets: DatasetLimits::default(),
             log_format: LogFormat::Auto,
             log: defaults::LOG.into(),
         }

@@ -20,6 +20,10 @@
 //! | model file refused (schema, checksum, self-test) | 422 | `invalid-model` |
 //! | deleting the active version | 409 | `version-active` |
 //! | KServe V2 health "false" (loading, draining) | 400 | `v2-not-ready` |
+//! | dataset archive: not tar/tar.gz/zip, unreadable | 422 | `invalid-archive` |
+//! | dataset archive: over a size or member limit | 413 | `archive-too-large` |
+//! | dataset: no usable image, too few illuminations | 422 | `unusable-dataset` |
+//! | dataset: name taken / unknown / used by a job | 409 / 404 / 409 | `dataset-exists` / `dataset-not-found` / `dataset-in-use` |
 //! | writing the server's files: disk full (ENOSPC, EFBIG, EDQUOT) | 507 | `insufficient-storage` |
 //! | writing the server's files: read-only or forbidden folder | 503 | `storage-unavailable` |
 
@@ -83,11 +87,17 @@ pub enum Kind {
     NotReadyV2,
     StorageFull,
     StorageUnavailable,
+    InvalidArchive,
+    ArchiveTooLarge,
+    UnusableDataset,
+    DatasetExists,
+    DatasetNotFound,
+    DatasetInUse,
     Internal,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 31] = [
+    pub const ALL: [Kind; 37] = [
         Kind::MalformedRequest,
         Kind::UnsupportedMediaType,
         Kind::MissingField,
@@ -118,6 +128,12 @@ impl Kind {
         Kind::NotReadyV2,
         Kind::StorageFull,
         Kind::StorageUnavailable,
+        Kind::InvalidArchive,
+        Kind::ArchiveTooLarge,
+        Kind::UnusableDataset,
+        Kind::DatasetExists,
+        Kind::DatasetNotFound,
+        Kind::DatasetInUse,
         Kind::Internal,
     ];
 
@@ -213,6 +229,24 @@ impl Kind {
                 "The server cannot write its files",
                 S::SERVICE_UNAVAILABLE,
             ),
+            Kind::InvalidArchive => (
+                "invalid-archive",
+                "Archive not readable",
+                S::UNPROCESSABLE_ENTITY,
+            ),
+            Kind::ArchiveTooLarge => (
+                "archive-too-large",
+                "Archive over a dataset limit",
+                S::PAYLOAD_TOO_LARGE,
+            ),
+            Kind::UnusableDataset => (
+                "unusable-dataset",
+                "Nothing to learn from",
+                S::UNPROCESSABLE_ENTITY,
+            ),
+            Kind::DatasetExists => ("dataset-exists", "Dataset name taken", S::CONFLICT),
+            Kind::DatasetNotFound => ("dataset-not-found", "Unknown dataset", S::NOT_FOUND),
+            Kind::DatasetInUse => ("dataset-in-use", "Dataset in use by a job", S::CONFLICT),
             Kind::Internal => (
                 "internal",
                 "Internal server error",
@@ -399,6 +433,18 @@ impl From<GeometryError> for ApiError {
             _ => "",
         };
         ApiError::new(Kind::BadGeometry, format!("{e}{advice}"))
+    }
+}
+
+impl From<crate::archive::ArchiveError> for ApiError {
+    fn from(e: crate::archive::ArchiveError) -> ApiError {
+        use crate::archive::ArchiveError as E;
+        let kind = match &e {
+            E::UnknownFormat | E::Corrupt(_) => Kind::InvalidArchive,
+            E::TooManyMembers { .. } | E::TooLarge { .. } => Kind::ArchiveTooLarge,
+            E::Io { source, .. } => return ApiError::storage(source, e.to_string()),
+        };
+        ApiError::new(kind, e.to_string())
     }
 }
 

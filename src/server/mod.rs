@@ -6,10 +6,12 @@
 //! * [`handlers`] — one module per area;
 //! * [`error`] — the one place errors become HTTP statuses and problem+json;
 //! * [`listener`] — the accept loop and its header deadline;
+//! * [`datasets`] — uploaded datasets under the data directory;
 //! * [`auth`], [`metrics`], [`jobs`], [`openapi`].
 
 pub(crate) mod auth;
 pub mod config;
+pub(crate) mod datasets;
 pub(crate) mod error;
 pub(crate) mod handlers;
 pub(crate) mod jobs;
@@ -38,6 +40,14 @@ pub fn build_state(config: Config) -> Result<SharedState, String> {
         Err(e) => tracing::warn!(error = %e, "could not clean the registry's staging leftovers"),
     }
     let models = Arc::new(ModelStore::new(registry, config.model_cache));
+    let datasets = if config.admin_enabled() {
+        Some(Arc::new(datasets::DatasetStore::open(
+            &config.data_dir,
+            config.datasets,
+        )))
+    } else {
+        None
+    };
     let jobs = if config.admin_enabled() {
         Some(jobs::JobManager::start(
             &config.jobs_dir,
@@ -58,6 +68,7 @@ pub fn build_state(config: Config) -> Result<SharedState, String> {
         readiness: Readiness::default(),
         cpu,
         jobs,
+        datasets,
         started: Instant::now(),
     }))
 }

@@ -3,7 +3,7 @@
 //! `REFLECTANCE_UPDATE_OPENAPI=1 cargo test --release --test server openapi` rewrites it.
 
 use super::error::Problem;
-use super::handlers::{admin, classify, health, locate, models, preview, v2, web};
+use super::handlers::{admin, classify, datasets, health, locate, models, preview, v2, web};
 use super::jobs;
 use axum::http::{HeaderValue, header};
 use axum::response::{IntoResponse, Response};
@@ -77,6 +77,10 @@ impl Modify for Extras {
         admin::versions,
         admin::activate,
         admin::delete_version,
+        datasets::upload,
+        datasets::list,
+        datasets::get,
+        datasets::delete,
         web::index,
         web::docs,
         web::asset,
@@ -86,6 +90,7 @@ impl Modify for Extras {
         classify::RawInput,
         crate::inference::ClassifyResponse,
         locate::LocateForm,
+        datasets::DatasetForm,
         jobs::JobRequest,
         jobs::JobRecord,
         jobs::JobState,
@@ -97,7 +102,7 @@ impl Modify for Extras {
         (name = "models", description = "Served models"),
         (name = "health", description = "Health, metrics, this document"),
         (name = "kserve-v2", description = "Open Inference Protocol (KServe V2 REST)"),
-        (name = "admin", description = "Admin plane: jobs and registry (bearer token)"),
+        (name = "admin", description = "Admin plane: jobs, datasets and registry (bearer token)"),
         (name = "page", description = "The page for people, and this reference (HTML)"),
     )
 )]

@@ -3,7 +3,7 @@
 //! catching, the per-request timeout and the body limit.
 
 use super::error::{self, ApiError, Kind, REQUEST_ID};
-use super::handlers::{admin, classify, health, locate, models, preview, v2, web};
+use super::handlers::{admin, classify, datasets, health, locate, models, preview, v2, web};
 use super::metrics;
 use super::state::SharedState;
 use axum::Router;
@@ -13,8 +13,7 @@ use axum::middleware::{self, Next};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::Instant;
-use tower::ServiceBuilder;
+use std::time::{Duration, Instant};
 use tower_http::catch_panic::CatchPanicLayer;
 use tower_http::limit::RequestBodyLimitLayer;
 use tower_http::timeout::TimeoutLayer;
@@ -109,22 +108,41 @@ async fn not_found() -> ApiError {
     ApiError::new(Kind::NotFound, "no such route")
 }
 
-/// The middleware stack shared by both planes.
-fn finish(router: Router<SharedState>, state: &SharedState) -> Router {
+/// What every request passes through inside the observer: panic catching, a time limit
+/// and a body limit.
+fn guarded(
+    router: Router<SharedState>,
+    timeout: Duration,
+    body_limit: Option<usize>,
+) -> Router<SharedState> {
+    let router = router
+        .layer(CatchPanicLayer::custom(panic_response))
+        .layer(TimeoutLayer::with_status_code(
+            StatusCode::REQUEST_TIMEOUT,
+            timeout,
+        ))
+        .layer(DefaultBodyLimit::disable());
+    match body_limit {
+        Some(limit) => router.layer(RequestBodyLimitLayer::new(limit)),
+        None => router,
+    }
+}
+
+/// The middleware stack shared by both planes; `long` holds routes with limits of their
+/// own (dataset uploads: the handler counts the bytes against its limit).
+fn finish(
+    router: Router<SharedState>,
+    long: Option<(Router<SharedState>, Duration)>,
+    state: &SharedState,
+) -> Router {
     let config = &state.config;
+    let mut router = guarded(router, config.request_timeout, Some(config.body_limit));
+    if let Some((long, timeout)) = long {
+        router = router.merge(guarded(long, timeout, None));
+    }
     router
         .fallback(not_found)
-        .layer(
-            ServiceBuilder::new()
-                .layer(middleware::from_fn(observe))
-                .layer(CatchPanicLayer::custom(panic_response))
-                .layer(TimeoutLayer::with_status_code(
-                    StatusCode::REQUEST_TIMEOUT,
-                    config.request_timeout,
-                ))
-                .layer(DefaultBodyLimit::disable())
-                .layer(RequestBodyLimitLayer::new(config.body_limit)),
-        )
+        .layer(middleware::from_fn(observe))
         .with_state(state.clone())
 }
 
@@ -150,7 +168,7 @@ pub fn data_router(state: SharedState) -> Router {
         .route("/v2/models/{name}", get(v2::model_metadata))
         .route("/v2/models/{name}/ready", get(v2::model_ready))
         .route("/v2/models/{name}/infer", post(v2::infer));
-    finish(router, &state)
+    finish(router, None, &state)
 }
 
 async fn admin_auth(State(state): State<SharedState>, request: Request, next: Next) -> Response {
@@ -172,6 +190,15 @@ pub fn admin_router(state: SharedState) -> Router {
             "/admin/v1/models/{name}/versions/{version}",
             axum::routing::delete(admin::delete_version),
         )
+        .route("/admin/v1/datasets", get(datasets::list))
+        .route(
+            "/admin/v1/datasets/{name}",
+            get(datasets::get).delete(datasets::delete),
+        )
         .route_layer(middleware::from_fn_with_state(state.clone(), admin_auth));
-    finish(router, &state)
+    let uploads = Router::new()
+        .route("/admin/v1/datasets", post(datasets::upload))
+        .route_layer(middleware::from_fn_with_state(state.clone(), admin_auth));
+    let upload_timeout = state.config.datasets.timeout;
+    finish(router, Some((uploads, upload_timeout)), &state)
 }

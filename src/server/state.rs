@@ -104,6 +104,8 @@ pub struct AppState {
     pub readiness: Readiness,
     pub cpu: CpuPool,
     pub jobs: Option<Arc<JobManager>>,
+    /// With the admin plane: the uploaded datasets.
+    pub datasets: Option<Arc<super::datasets::DatasetStore>>,
     pub started: std::time::Instant,
 }
 

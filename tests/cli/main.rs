@@ -4,6 +4,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod dataset;
 mod features;
 mod models;
 mod render;

@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// A data directory with four probes and the class file.
-fn data_dir(name: &str) -> PathBuf {
+pub(crate) fn data_dir(name: &str) -> PathBuf {
     let dir = temp_dir(name).join("data");
     write_probes(&dir.join("probes"));
     std::fs::write(dir.join("classes.json"), CLASSES_JSON).unwrap();
@@ -30,7 +30,10 @@ fn admin_server(name: &str, workers: usize, queue: usize) -> (TestServer, PathBu
     })
 }
 
-fn admin_server_with(name: &str, tweak: impl FnOnce(&mut Config)) -> (TestServer, PathBuf) {
+pub(crate) fn admin_server_with(
+    name: &str,
+    tweak: impl FnOnce(&mut Config),
+) -> (TestServer, PathBuf) {
     let data = data_dir(name);
     let mut cfg = config(&models_copy(&format!("{name}-models")));
     cfg.admin_token = Some(TOKEN.into());
@@ -40,11 +43,11 @@ fn admin_server_with(name: &str, tweak: impl FnOnce(&mut Config)) -> (TestServer
     (start(cfg), data)
 }
 
-fn authed(request: Request<Body>) -> Request<Body> {
+pub(crate) fn authed(request: Request<Body>) -> Request<Body> {
     with_token(request, TOKEN)
 }
 
-async fn submit(server: &TestServer, job: Value) -> Value {
+pub(crate) async fn submit(server: &TestServer, job: Value) -> Value {
     let answer = send(&server.admin, authed(post_json("/admin/v1/jobs", &job))).await;
     assert_eq!(
         answer.status,
@@ -69,7 +72,7 @@ async fn job(server: &TestServer, id: &str) -> Value {
 }
 
 /// Poll until the job is in one of `states`.
-async fn wait_for(server: &TestServer, id: &str, states: &[&str]) -> Value {
+pub(crate) async fn wait_for(server: &TestServer, id: &str, states: &[&str]) -> Value {
     let deadline = Instant::now() + Duration::from_secs(120);
     loop {
         let doc = job(server, id).await;
@@ -81,7 +84,7 @@ async fn wait_for(server: &TestServer, id: &str, states: &[&str]) -> Value {
     }
 }
 
-const TERMINAL: &[&str] = &["succeeded", "failed", "cancelled"];
+pub(crate) const TERMINAL: &[&str] = &["succeeded", "failed", "cancelled"];
 
 async fn classified_version(server: &TestServer) -> String {
     let (image, _, white) = &fixture().held_out[0];

@@ -963,6 +963,77 @@ fn a_full_disk_refuses_job_records_and_takes_them_again_once_there_is_room() {
     assert_eq!(doc["result"]["render"]["images"], 12, "{doc}");
 }
 
+/// An uncompressed tar of `members`.
+fn tar_of(members: &[(&str, &[u8])]) -> Vec<u8> {
+    let mut builder = tar::Builder::new(Vec::new());
+    for (name, data) in members {
+        let mut header = tar::Header::new_gnu();
+        header.set_size(data.len() as u64);
+        header.set_mode(0o644);
+        builder.append_data(&mut header, name, *data).unwrap();
+    }
+    builder.into_inner().unwrap()
+}
+
+fn upload_dataset(admin: u16, archive: &[u8]) -> Reply {
+    let (content_type, body) = multipart(&[
+        ("name", Part::Text("mine")),
+        ("archive", Part::File(archive)),
+    ]);
+    exchange(
+        admin,
+        "POST",
+        "/admin/v1/datasets",
+        &content_type,
+        &body,
+        Duration::from_secs(20),
+    )
+    .expect("an answer")
+}
+
+#[test]
+fn a_full_disk_during_an_upload_answers_507_and_leaves_nothing() {
+    let base = setup("full-upload");
+    let server = launch(
+        &base,
+        Launch {
+            file_size_limit: Some(64 * 1024),
+            ..Launch::default()
+        },
+    );
+    // The archive itself does not fit; then an archive that fits, but not unpacked.
+    let big = vec![7u8; 100_000];
+    let members: &[(&str, &[u8])] = &[
+        ("manifest.csv", b"path,class,illumination\n"),
+        ("a.pfm", &big),
+    ];
+    for archive in [tar_of(members), gzip(&tar_of(members))] {
+        let doc = assert_problem(
+            &upload_dataset(server.admin, &archive),
+            507,
+            "insufficient-storage",
+        );
+        let detail = doc["detail"].as_str().unwrap();
+        assert!(
+            detail.contains("archive") || detail.contains("a.pfm"),
+            "{doc}"
+        );
+        let datasets = base.join("data/datasets");
+        let left: Vec<_> = std::fs::read_dir(datasets.join(".incoming"))
+            .map(|d| d.map(|e| e.unwrap().path()).collect())
+            .unwrap_or_default();
+        assert!(left.is_empty(), "{left:?}");
+        assert!(!datasets.join("mine").exists());
+    }
+    assert_eq!(classify(server.port), 1);
+}
+
+fn gzip(bytes: &[u8]) -> Vec<u8> {
+    let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    encoder.write_all(bytes).unwrap();
+    encoder.finish().unwrap()
+}
+
 #[test]
 fn a_full_disk_while_a_version_is_written_fails_the_job_and_keeps_serving() {
     let base = setup("full-model");
@@ -1048,6 +1119,11 @@ fn a_read_only_data_dir_refuses_jobs_clearly_and_keeps_serving() {
     assert!(
         doc["detail"].as_str().unwrap().contains("job record"),
         "{doc}"
+    );
+    assert_problem(
+        &upload_dataset(server.admin, &tar_of(&[("manifest.csv", b"path\n")])),
+        503,
+        "storage-unavailable",
     );
     assert_eq!(classify(server.port), 1);
     drop(server);

@@ -11,6 +11,8 @@ use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+pub mod ingest;
+
 #[derive(Debug, thiserror::Error)]
 pub enum DatasetError {
     #[error("{path}: {source}")]
@@ -224,6 +226,37 @@ pub fn extract_entry(
     Ok(analysis::analyze(extractor, &image, &locate, &white)?.values)
 }
 
+/// `work` on every entry, in parallel, results in manifest order, with a progress bar
+/// labelled `what` and each finished entry reported to `observer`; a cancellation seen
+/// before an entry starts ends the run with [`DatasetError::Cancelled`].
+pub(crate) fn for_each_entry<T: Send>(
+    manifest: &Manifest,
+    what: &str,
+    observer: &dyn progress::Observer,
+    work: impl Fn(&Entry) -> T + Sync,
+) -> Result<Vec<T>, DatasetError> {
+    let bar = progress::bar(manifest.entries.len() as u64, what);
+    let counter = progress::Counter::new(observer, manifest.entries.len());
+    let results: Vec<Option<T>> = manifest
+        .entries
+        .par_iter()
+        .map(|entry| {
+            if counter.cancelled() {
+                return None;
+            }
+            let result = work(entry);
+            bar.inc(1);
+            counter.tick();
+            Some(result)
+        })
+        .collect();
+    bar.finish();
+    results
+        .into_iter()
+        .collect::<Option<Vec<T>>>()
+        .ok_or(DatasetError::Cancelled)
+}
+
 /// Features of every entry, in parallel, in manifest order; the first failing row (by line)
 /// fails the whole run.
 pub fn extract_manifest(
@@ -242,26 +275,9 @@ pub fn extract_manifest_with(
     options: &DecodeOptions,
     observer: &dyn progress::Observer,
 ) -> Result<FeatureTable, DatasetError> {
-    let bar = progress::bar(manifest.entries.len() as u64, "features");
-    let counter = progress::Counter::new(observer, manifest.entries.len());
-    let results: Vec<_> = manifest
-        .entries
-        .par_iter()
-        .map(|entry| {
-            if counter.cancelled() {
-                return None;
-            }
-            let result = extract_entry(extractor, entry, options);
-            bar.inc(1);
-            counter.tick();
-            Some(result)
-        })
-        .collect();
-    bar.finish();
-    if results.iter().any(Option::is_none) {
-        return Err(DatasetError::Cancelled);
-    }
-    let results = results.into_iter().flatten();
+    let results = for_each_entry(manifest, "features", observer, |entry| {
+        extract_entry(extractor, entry, options)
+    })?;
     let mut samples = Vec::with_capacity(manifest.entries.len());
     for (entry, result) in manifest.entries.iter().zip(results) {
         let values = result.map_err(|source| DatasetError::Image {

@@ -13,14 +13,14 @@ use serde_json::Value;
 use std::sync::Arc;
 use utoipa::{IntoParams, ToSchema};
 
-fn jobs(state: &SharedState) -> Result<Arc<JobManager>, ApiError> {
+pub(super) fn jobs(state: &SharedState) -> Result<Arc<JobManager>, ApiError> {
     state
         .jobs
         .clone()
         .ok_or_else(|| ApiError::internal("the job system is not running"))
 }
 
-async fn blocking<T: Send + 'static>(
+pub(super) async fn blocking<T: Send + 'static>(
     f: impl FnOnce() -> Result<T, ApiError> + Send + 'static,
 ) -> Result<T, ApiError> {
     tokio::task::spawn_blocking(f)

@@ -2,6 +2,7 @@
 
 pub(crate) mod admin;
 pub(crate) mod classify;
+pub(crate) mod datasets;
 pub(crate) mod health;
 pub(crate) mod locate;
 pub(crate) mod models;

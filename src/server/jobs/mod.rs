@@ -105,6 +105,12 @@ pub struct LearnParams {
     pub saturation: Option<f64>,
 }
 
+impl LearnParams {
+    fn paths(&self) -> [Option<&str>; 2] {
+        [self.dataset.as_deref(), self.table.as_deref()]
+    }
+}
+
 fn default_features() -> String {
     "hand6".into()
 }
@@ -200,6 +206,46 @@ impl JobRequest {
             JobRequest::Render { .. } => "render",
         }
     }
+
+    /// Every path of the data directory the job reads or writes.
+    fn paths(&self) -> Vec<&str> {
+        let found: Vec<Option<&str>> = match self {
+            JobRequest::Train {
+                data,
+                classes,
+                estimator_table,
+                estimator_classes,
+                ..
+            } => [
+                data.paths().as_slice(),
+                &[
+                    classes.as_deref(),
+                    estimator_table.as_deref(),
+                    estimator_classes.as_deref(),
+                ],
+            ]
+            .concat(),
+            JobRequest::CrossValidate { data, ward_classes } => {
+                [data.paths().as_slice(), &[ward_classes.as_deref()]].concat()
+            }
+            JobRequest::Render {
+                probes,
+                classes,
+                out,
+                ..
+            } => vec![Some(probes), Some(classes), Some(out)],
+        };
+        found.into_iter().flatten().collect()
+    }
+}
+
+/// Whether `rel`, a path relative to the data directory, is `folder` or inside it.
+fn is_under(rel: &str, folder: &Path) -> bool {
+    let rel: PathBuf = Path::new(rel)
+        .components()
+        .filter(|c| *c != std::path::Component::CurDir)
+        .collect();
+    rel.starts_with(folder)
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
@@ -514,6 +560,17 @@ impl JobManager {
         self.publish_metrics();
         tracing::info!(job = %id, kind = record.request.kind(), "job queued");
         Ok(record)
+    }
+
+    /// A queued or running job that reads or writes inside `folder` (relative to the data
+    /// directory), if any.
+    pub fn user_of(&self, folder: &Path) -> Option<String> {
+        self.lock()
+            .records
+            .values()
+            .filter(|r| !r.state.is_terminal())
+            .find(|r| r.request.paths().iter().any(|p| is_under(p, folder)))
+            .map(|r| r.id.clone())
     }
 
     pub fn get(&self, id: &str) -> Result<JobRecord, ApiError> {
@@ -906,7 +963,7 @@ fn load_records(dir: &Path) -> Result<BTreeMap<String, JobRecord>, String> {
 }
 
 /// A job id: time-ordered and unique (nanoseconds since the epoch, a process counter).
-fn new_id() -> String {
+pub(crate) fn new_id() -> String {
     static COUNTER: AtomicUsize = AtomicUsize::new(0);
     let nanos = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)

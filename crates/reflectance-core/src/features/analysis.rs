@@ -2,6 +2,7 @@
 //! image plus where the sphere is and how bright white is → features, with what was used
 //! and every warning.
 
+use crate::features::polar::UnwrapConfig;
 use crate::features::{CaptureMeasurements, Extractor};
 use crate::image::decode::{DecodeError, LinearImage};
 use crate::image::geometry::{self, Geometry, GeometryError, Method};
@@ -80,6 +81,15 @@ pub fn locate(
     how: &Locate,
     extractor: &Extractor,
 ) -> Result<(Geometry, Vec<String>), GeometryError> {
+    locate_for(image, how, &extractor.config().unwrap)
+}
+
+/// Find the sphere and check it fits the image and the annulus `unwrap` samples.
+pub(crate) fn locate_for(
+    image: &LinearImage,
+    how: &Locate,
+    unwrap: &UnwrapConfig,
+) -> Result<(Geometry, Vec<String>), GeometryError> {
     let (width, height) = (image.width(), image.height());
     let geometry = match how {
         Locate::Circle(c) => {
@@ -101,7 +111,6 @@ pub fn locate(
             None => geometry::detect(image.luminance.view())?,
         },
     };
-    let unwrap = &extractor.config().unwrap;
     let warnings = geometry::validate(&geometry.circle(), width, height, unwrap.outer, unwrap.r0)?;
     Ok((geometry, warnings))
 }
