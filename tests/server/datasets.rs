@@ -186,6 +186,22 @@ async fn an_uploaded_dataset_is_located_cross_validated_trained_on_and_deleted()
         done["result"]["model"],
         json!({"name": "mine", "version": 1})
     );
+    // The model learned from the upload carries its own sets and domain calibration.
+    let (image, _, _) = &fixture().held_out[0];
+    let answer = send(
+        &server.data,
+        post_multipart("/v1/models/mine/classify", &[("image", Part::File(image))]),
+    )
+    .await;
+    assert_eq!(
+        answer.status,
+        200,
+        "{}",
+        String::from_utf8_lossy(&answer.body)
+    );
+    let answer = answer.json();
+    assert!(answer["prediction_set"].is_object(), "{answer}");
+    assert!(answer["domain"]["score"].is_number(), "{answer}");
 
     // In use while a job waits for it (the single worker is busy rendering).
     let busy = submit(
