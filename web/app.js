@@ -496,6 +496,8 @@ function show(answer) {
   if (shown) {
     const query = new URLSearchParams({ ...shown, size: 192 });
     $("rendered").src = `/v1/preview?${query}`;
+    const name = answer.ward ? "estimate" : answer.label.toLowerCase().replace(/[^a-z0-9_-]/g, "-").slice(0, 64);
+    $("gltf").href = `/v1/material.gltf?${new URLSearchParams({ ...shown, name })}`;
     const what = answer.ward ? "the estimated parameters" : `class ${answer.label}'s parameters`;
     $("rendered").alt = `A sphere of ${what}, rendered`;
     $("rendered-caption").textContent =

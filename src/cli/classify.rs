@@ -38,6 +38,10 @@ pub struct ClassifyArgs {
     /// Print the JSON answer of `POST /v1/classify` instead of a summary.
     #[arg(long)]
     json: bool,
+    /// Also write the material as a glTF 2.0 asset (a sphere with it) to this file: the
+    /// estimated Ward parameters when the model estimates them, else the class's.
+    #[arg(long, value_name = "FILE.gltf")]
+    gltf: Option<PathBuf>,
     #[command(flatten)]
     limits: LimitArgs,
 }
@@ -100,6 +104,9 @@ pub fn run(args: ClassifyArgs) -> CliResult {
     let classified = inference::classify(model, input, args.limits.limits())
         .map_err(|e| error_text(&e, &args))?;
     let answer = classified.response(String::new(), started.elapsed().as_secs_f64() * 1e3);
+    if let Some(path) = &args.gltf {
+        write_gltf(path, &answer)?;
+    }
     if args.json {
         let text = serde_json::to_string_pretty(&answer)?;
         println!("{text}");
@@ -107,6 +114,38 @@ pub fn run(args: ClassifyArgs) -> CliResult {
         print!("{}", summary(&answer));
     }
     Ok(())
+}
+
+/// The answer's material as glTF: the estimate, else the predicted class's parameters.
+fn write_gltf(path: &Path, answer: &ClassifyResponse) -> CliResult {
+    let (material, about) = match (&answer.ward, &answer.class.ward) {
+        (Some(w), _) => (
+            crate::material::Material {
+                name: "estimate".into(),
+                rho_d: w.rho_d.value,
+                rho_s: w.rho_s.value,
+                alpha: w.alpha.value,
+            },
+            serde_json::json!({"source": "the estimate of reflectance classify", "estimate": w,
+                               "model": answer.model, "label": answer.label}),
+        ),
+        (None, Some(w)) => (
+            crate::material::Material {
+                name: answer.label.clone(),
+                rho_d: w.rho_d,
+                rho_s: w.rho_s,
+                alpha: w.alpha,
+            },
+            serde_json::json!({"source": "the class of reflectance classify",
+                               "model": answer.model, "label": answer.label}),
+        ),
+        (None, None) => {
+            return Err(CliError::Invalid(
+                "--gltf: this model neither estimates Ward parameters nor knows its classes' parameters".into(),
+            ));
+        }
+    };
+    super::gltf::write(path, &material, about)
 }
 
 /// A classification's failure, naming the file it is about and asking for the flags that

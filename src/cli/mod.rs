@@ -4,6 +4,7 @@ mod classify;
 mod dataset;
 mod error;
 mod features;
+mod gltf;
 mod learn;
 mod materials;
 mod merge;
@@ -50,6 +51,9 @@ enum Command {
     Predict(learn::PredictArgs),
     /// Classify one photograph with a trained model (the answer of `POST /v1/classify`).
     Classify(classify::ClassifyArgs),
+    /// Ward materials as glTF 2.0 assets (a sphere with the material): every class of a
+    /// class file, or one (ρd, ρs, α).
+    Gltf(gltf::GltfArgs),
     /// Datasets of your own photographs: `pack` makes the archive the server's
     /// `POST /admin/v1/datasets` takes.
     #[command(subcommand)]
@@ -250,6 +254,7 @@ pub fn main() -> ExitCode {
         Command::Predict(args) => learn::predict(args),
         Command::Classify(args) => classify::run(args),
         Command::Dataset(command) => dataset::run(command),
+        Command::Gltf(args) => gltf::run(args),
         Command::Report(args) => report::run(args),
         Command::Robustness(args) => robustness::run(args),
         Command::Serve(args) => serve::run(args),

@@ -3,7 +3,9 @@
 //! `REFLECTANCE_UPDATE_OPENAPI=1 cargo test --release --test server openapi` rewrites it.
 
 use super::error::Problem;
-use super::handlers::{admin, classify, datasets, health, locate, models, preview, v2, web};
+use super::handlers::{
+    admin, classify, datasets, health, locate, material, models, preview, v2, web,
+};
 use super::jobs;
 use axum::http::{HeaderValue, header};
 use axum::response::{IntoResponse, Response};
@@ -58,6 +60,7 @@ impl Modify for Extras {
         classify::classify_named,
         locate::locate,
         preview::preview,
+        material::gltf,
         models::list,
         models::get,
         health::live,

@@ -3,7 +3,9 @@
 //! catching, the per-request timeout and the body limit.
 
 use super::error::{self, ApiError, Kind, REQUEST_ID};
-use super::handlers::{admin, classify, datasets, health, locate, models, preview, v2, web};
+use super::handlers::{
+    admin, classify, datasets, health, locate, material, models, preview, v2, web,
+};
 use super::metrics;
 use super::state::SharedState;
 use axum::Router;
@@ -155,6 +157,7 @@ pub fn data_router(state: SharedState) -> Router {
         .route("/assets/{file}", get(web::asset))
         .route("/v1/locate", post(locate::locate))
         .route("/v1/preview", get(preview::preview))
+        .route("/v1/material.gltf", get(material::gltf))
         .route("/v1/models", get(models::list))
         .route("/v1/models/{name}", get(models::get))
         .route("/v1/models/{name}/classify", post(classify::classify_named))

@@ -1101,6 +1101,51 @@ async fn previews_a_material_as_a_png() {
     }
 }
 
+/// `GET /v1/material.gltf`: the glTF asset `reflectance gltf` writes, as a download.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn exports_a_material_as_gltf() {
+    let server = start(config(&models_copy("gltf")));
+    let answer = send(
+        &server.data,
+        get("/v1/material.gltf?rho_d=0.25&rho_s=0.1&alpha=0.02&name=j"),
+    )
+    .await;
+    assert_eq!(
+        answer.status,
+        200,
+        "{}",
+        String::from_utf8_lossy(&answer.body)
+    );
+    assert_eq!(answer.header("content-type"), Some("model/gltf+json"));
+    assert_eq!(
+        answer.header("content-disposition"),
+        Some("attachment; filename=\"j.gltf\"")
+    );
+    let expected = reflectance::material::gltf::sphere_asset(
+        "j",
+        0.25,
+        0.1,
+        0.02,
+        json!({"source": "GET /v1/material.gltf"}),
+    );
+    assert_eq!(answer.json(), expected);
+    let pbr = &expected["materials"][0]["pbrMetallicRoughness"];
+    assert!((pbr["roughnessFactor"].as_f64().unwrap() - 0.02f64.sqrt()).abs() < 1e-12);
+    for (query, words) in [
+        ("rho_s=0.1&alpha=0", "rho_d"),
+        ("rho_d=0.8&rho_s=0.5&alpha=0", "rho_d + rho_s"),
+        ("rho_d=0.1&rho_s=0.1&alpha=2", "alpha"),
+        ("rho_d=0.1&rho_s=0.1&alpha=0&name=../x", "invalid name"),
+        ("rho_d=0.1&rho_s=0.1&alpha=0&size=3", "size"),
+    ] {
+        let problem = send(&server.data, get(&format!("/v1/material.gltf?{query}")))
+            .await
+            .problem(422, "invalid-field");
+        let detail = problem["detail"].as_str().unwrap();
+        assert!(detail.contains(words), "{query}: {detail}");
+    }
+}
+
 /// A model file from before prediction sets and the domain check still loads and answers:
 /// without a set, with a warning that says so, and with a domain verdict that rests on the
 /// capture envelope alone.

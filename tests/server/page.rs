@@ -389,6 +389,14 @@ fn classify_and_read_the_answer(browser: &Browser) {
     assert_eq!(honest["set_shown"], true, "{honest}");
     assert_eq!(honest["chips"][0], "white_shiny", "{honest}");
     assert_eq!(honest["banner"], false, "{honest}");
+    // The download for a renderer: a glTF asset of the parameters shown.
+    browser.script(
+        "window.gltfAsset = null; \
+         fetch(document.getElementById('gltf').href).then(r => r.json()) \
+           .then(j => { window.gltfAsset = j.asset.version + ' ' + j.materials[0].name; });",
+    );
+    let asset = browser.wait_for("the glTF download", "window.gltfAsset");
+    assert_eq!(asset, "2.0 estimate", "{asset}");
     // The nearest images' captions do not run into each other.
     let overlaps = browser.script(
         "const boxes = [...document.querySelectorAll('#neighbours li')].map(li => li.getBoundingClientRect()); \

@@ -5,6 +5,7 @@ pub(crate) mod classify;
 pub(crate) mod datasets;
 pub(crate) mod health;
 pub(crate) mod locate;
+pub(crate) mod material;
 pub(crate) mod models;
 pub(crate) mod preview;
 pub(crate) mod v2;

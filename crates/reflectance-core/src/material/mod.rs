@@ -4,6 +4,7 @@
 
 pub mod design;
 mod envelope;
+pub mod gltf;
 
 pub use envelope::{CaptureEnvelope, CaptureRanges, InvalidRanges, VIEW_TAG};
 use serde::{Deserialize, Serialize};
