@@ -449,14 +449,25 @@ function showEstimate(ward) {
     return;
   }
   const format = (v) => (v < 0.01 && v > 0 ? v.toExponential(1) : v.toFixed(3));
-  for (const [name, key] of [["ρd (diffuse)", "rho_d"], ["ρs (specular)", "rho_s"], ["α (roughness; 0 is a mirror)", "alpha"]]) {
+  const parameters = [
+    ["ρd (diffuse)", "rho_d"],
+    ["ρs (specular)", "rho_s"],
+    ["α (roughness; 0 is a mirror)", "alpha"],
+    ["ρs / (ρd + ρs)", "specular_fraction"],
+  ];
+  for (const [name, key] of parameters) {
     const i = ward[key];
     const row = element("tr");
     const head = element("th", name);
     head.scope = "row";
-    row.append(head, element("td", format(i.value)), element("td", `${format(i.low)} – ${format(i.high)}`));
+    const cells = i
+      ? [element("td", format(i.value)), element("td", `${format(i.low)} – ${format(i.high)}`)]
+      : [element("td", "unknown"), element("td", "needs a white reference")];
+    row.append(head, ...cells);
     rows.append(row);
   }
+  $("estimate-note").textContent = ward.unknown || "";
+  $("estimate-note").hidden = !ward.unknown;
 }
 
 function showDomain(domain) {
@@ -488,17 +499,19 @@ function show(answer) {
     ? `Ward parameters: ρd = ${w.rho_d}, ρs = ${w.rho_s}, α = ${w.alpha}`
     : "";
   showEstimate(answer.ward);
-  // The estimate when the model makes one, else the class: rendered by the service.
-  const shown = answer.ward
+  // The estimate when the model makes a whole one (it needs a white reference), else the
+  // class: rendered by the service.
+  const whole = answer.ward && answer.ward.rho_d && answer.ward.rho_s;
+  const shown = whole
     ? { rho_d: answer.ward.rho_d.value, rho_s: answer.ward.rho_s.value, alpha: answer.ward.alpha.value }
     : w;
   $("rendered-box").hidden = !shown;
   if (shown) {
     const query = new URLSearchParams({ ...shown, size: 192 });
     $("rendered").src = `/v1/preview?${query}`;
-    const name = answer.ward ? "estimate" : answer.label.toLowerCase().replace(/[^a-z0-9_-]/g, "-").slice(0, 64);
+    const name = whole ? "estimate" : answer.label.toLowerCase().replace(/[^a-z0-9_-]/g, "-").slice(0, 64);
     $("gltf").href = `/v1/material.gltf?${new URLSearchParams({ ...shown, name })}`;
-    const what = answer.ward ? "the estimated parameters" : `class ${answer.label}'s parameters`;
+    const what = whole ? "the estimated parameters" : `class ${answer.label}'s parameters`;
     $("rendered").alt = `A sphere of ${what}, rendered`;
     $("rendered-caption").textContent =
       `How it looks: ${what} rendered by the service under a procedural sky (GET /v1/preview).`;

@@ -39,7 +39,8 @@ pub struct ClassifyArgs {
     #[arg(long)]
     json: bool,
     /// Also write the material as a glTF 2.0 asset (a sphere with it) to this file: the
-    /// estimated Ward parameters when the model estimates them, else the class's.
+    /// estimated Ward parameters when the model estimates them and a white reference is
+    /// given, else the predicted class's.
     #[arg(long, value_name = "FILE.gltf")]
     gltf: Option<PathBuf>,
     #[command(flatten)]
@@ -118,12 +119,16 @@ pub fn run(args: ClassifyArgs) -> CliResult {
 
 /// The answer's material as glTF: the estimate, else the predicted class's parameters.
 fn write_gltf(path: &Path, answer: &ClassifyResponse) -> CliResult {
-    let (material, about) = match (&answer.ward, &answer.class.ward) {
-        (Some(w), _) => (
+    let estimate = answer
+        .ward
+        .as_ref()
+        .and_then(|w| Some((w.rho_d?, w.rho_s?, w)));
+    let (material, about) = match (estimate, &answer.class.ward) {
+        (Some((rho_d, rho_s, w)), _) => (
             crate::material::Material {
                 name: "estimate".into(),
-                rho_d: w.rho_d.value,
-                rho_s: w.rho_s.value,
+                rho_d: rho_d.value,
+                rho_s: rho_s.value,
                 alpha: w.alpha.value,
             },
             serde_json::json!({"source": "the estimate of reflectance classify", "estimate": w,
@@ -141,7 +146,9 @@ fn write_gltf(path: &Path, answer: &ClassifyResponse) -> CliResult {
         ),
         (None, None) => {
             return Err(CliError::Invalid(
-                "--gltf: this model neither estimates Ward parameters nor knows its classes' parameters".into(),
+                "--gltf: no material to write: without a white reference the estimate has no \
+                 rho_d and rho_s, and this model does not know its classes' parameters"
+                    .into(),
             ));
         }
     };
@@ -215,11 +222,21 @@ fn summary(answer: &ClassifyResponse) -> String {
         let part = |name: &str, i: &crate::learn::estimate::Interval| {
             format!("{name} {:.3} [{:.3}, {:.3}]", i.value, i.low, i.high)
         };
+        let mut parts = Vec::new();
+        if let (Some(d), Some(s)) = (&w.rho_d, &w.rho_s) {
+            parts.extend([part("rho_d", d), part("rho_s", s)]);
+        }
+        parts.extend([
+            part("alpha", &w.alpha),
+            part("specular fraction", &w.specular_fraction),
+        ]);
+        let unknown = match &w.unknown {
+            Some(_) => "; rho_d and rho_s unknown without a white reference",
+            None => "",
+        };
         out.push_str(&format!(
-            "estimate (90 % intervals): {}, {}, {}\n",
-            part("rho_d", &w.rho_d),
-            part("rho_s", &w.rho_s),
-            part("alpha", &w.alpha)
+            "estimate (90 % intervals): {}{unknown}\n",
+            parts.join(", ")
         ));
     }
     for warning in &answer.warnings {

@@ -51,7 +51,7 @@ async fn classifies_held_out_renderings_correctly() {
         let doc = answer.json();
         assert_eq!(doc["label"], class.as_str(), "{doc}");
         // The fixture model estimates the Ward parameters too: values inside their intervals.
-        for parameter in ["rho_d", "rho_s", "alpha"] {
+        for parameter in ["rho_d", "rho_s", "alpha", "specular_fraction"] {
             let i = &doc["ward"][parameter];
             let [low, value, high] = ["low", "value", "high"].map(|k| i[k].as_f64().unwrap());
             assert!(
@@ -59,6 +59,33 @@ async fn classifies_held_out_renderings_correctly() {
                 "{parameter}: {i}"
             );
         }
+        assert!(doc["ward"].get("unknown").is_none(), "{doc}");
+        // Without white the total reflectance is unknown: no ρd, ρs; the fraction and α stay.
+        let (image, _, _) = &fx.held_out[0];
+        let fields = [
+            ("image", Part::File(image)),
+            ("cx", Part::Text(CX)),
+            ("cy", Part::Text(CX)),
+            ("r", Part::Text(R)),
+        ];
+        let unlit = send(&server.data, post_multipart("/v1/classify", &fields))
+            .await
+            .json();
+        let ward = &unlit["ward"];
+        assert!(
+            ward.get("rho_d").is_none() && ward.get("rho_s").is_none(),
+            "{ward}"
+        );
+        assert!(
+            ward["alpha"]["value"].is_number() && ward["specular_fraction"]["high"].is_number()
+        );
+        assert!(
+            ward["unknown"]
+                .as_str()
+                .unwrap()
+                .contains("white reference"),
+            "{ward}"
+        );
         let described = match class.as_str() {
             "matte" => ("white matte", 0.8, 0.0),
             "chrome" => ("metal: a mirror with sharp reflections", 0.0, 0.75),
@@ -641,6 +668,11 @@ async fn kserve_v2_protocol() {
         for row in w.chunks(3) {
             assert!(row[1] <= row[0] && row[0] <= row[2], "{ward}");
         }
+        let fraction = &doc["outputs"][6];
+        assert_eq!(
+            (&fraction["name"], &fraction["shape"]),
+            (&json!("specular_fraction"), &json!([3]))
+        );
     }
     let bad = |inputs: Value| post_json("/v2/models/ward6/infer", &json!({"inputs": inputs}));
     send(
@@ -1130,7 +1162,11 @@ async fn exports_a_material_as_gltf() {
     );
     assert_eq!(answer.json(), expected);
     let pbr = &expected["materials"][0]["pbrMetallicRoughness"];
-    assert!((pbr["roughnessFactor"].as_f64().unwrap() - 0.02f64.sqrt()).abs() < 1e-12);
+    let roughness = pbr["roughnessFactor"].as_f64().unwrap();
+    assert!(
+        (roughness * roughness - 0.7 * 0.02).abs() < 1e-12,
+        "{roughness}"
+    );
     for (query, words) in [
         ("rho_s=0.1&alpha=0", "rho_d"),
         ("rho_d=0.8&rho_s=0.5&alpha=0", "rho_d + rho_s"),

@@ -11,7 +11,7 @@ use crate::image::white::{Method as WhiteMethod, Rect, WhiteError};
 use crate::learn::LearnError;
 use crate::learn::conformal;
 use crate::learn::domain::Verdict;
-use crate::learn::estimate::WardEstimate;
+use crate::learn::estimate::{StatedEstimate, WardEstimate};
 use crate::model::{ClassInfo, Head, ModelError, ModelFile};
 use bytes::Bytes;
 use serde::{Deserialize, Serialize};
@@ -756,9 +756,9 @@ pub struct ClassifyResponse {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub images: Option<ImagesOut>,
     /// The Ward parameters estimated directly, with 90 % intervals, when the model has an
-    /// estimator.
+    /// estimator; ρd and ρs only with a white reference.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub ward: Option<WardEstimate>,
+    pub ward: Option<StatedEstimate>,
 }
 
 impl Classified {
@@ -876,7 +876,9 @@ impl Classified {
             },
             explain: self.explain,
             images: self.images,
-            ward: self.ward,
+            ward: self
+                .ward
+                .map(|w| w.stated(self.analysis.white.method != WhiteMethod::None)),
         }
     }
 }

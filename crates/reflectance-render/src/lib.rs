@@ -13,6 +13,7 @@ pub mod envmap;
 pub(crate) mod fastmath;
 pub(crate) mod highlights;
 pub(crate) mod irradiance;
+pub mod pbr;
 pub mod preview;
 pub(crate) mod synthetic;
 pub mod ward;

@@ -7,6 +7,8 @@
 //! `classes` (BYTES [classes]).
 
 use super::classify::{self, RawInput};
+use crate::image::white::Method as WhiteMethod;
+use crate::learn::estimate::Interval;
 use crate::server::error::{ApiError, ClassificationProblems, Kind, Problem};
 use crate::server::state::SharedState;
 use axum::Json;
@@ -371,17 +373,29 @@ pub async fn infer(
         data: vec![Value::Bool(c.decision.in_domain())],
     });
     if let Some(w) = &c.ward {
-        // Rows ρd, ρs, α; columns value, low, high.
-        let data = [w.rho_d, w.rho_s, w.alpha]
-            .iter()
-            .flat_map(|i| [i.value, i.low, i.high])
-            .map(Value::from)
-            .collect();
+        let rows = |intervals: &[Interval]| -> Vec<Value> {
+            intervals
+                .iter()
+                .flat_map(|i| [i.value, i.low, i.high])
+                .map(Value::from)
+                .collect()
+        };
+        // Rows ρd, ρs, α; columns value, low, high. Only with a white reference: without
+        // one the total reflectance is unknown.
+        if c.analysis.white.method != WhiteMethod::None {
+            body.outputs.push(InferOutput {
+                name: "ward".into(),
+                shape: vec![3, 3],
+                datatype: "FP64".into(),
+                data: rows(&[w.rho_d, w.rho_s, w.alpha]),
+            });
+        }
+        // Value, low, high.
         body.outputs.push(InferOutput {
-            name: "ward".into(),
-            shape: vec![3, 3],
+            name: "specular_fraction".into(),
+            shape: vec![3],
             datatype: "FP64".into(),
-            data,
+            data: rows(&[w.specular_fraction()]),
         });
     }
     let mut response = Json(body).into_response();

@@ -94,6 +94,57 @@ pub struct WardEstimate {
     pub alpha: Interval,
 }
 
+/// Why an answer without a white reference states no ρd and ρs.
+pub const TOTAL_UNKNOWN: &str = "no white reference: the total reflectance ρd + ρs is unknown (the \
+    photograph's exposure sets the sphere's brightness), so ρd and ρs are not stated; the \
+    specular fraction ρs / (ρd + ρs) and α do not depend on it";
+
+/// An estimate as an answer states it: ρd and ρs only when a white reference fixes the total
+/// reflectance; the specular fraction and α always.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct StatedEstimate {
+    /// Absent without a white reference (see `unknown`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rho_d: Option<Interval>,
+    /// Absent without a white reference (see `unknown`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rho_s: Option<Interval>,
+    pub alpha: Interval,
+    /// ρs / (ρd + ρs), 0 for a black surface; its interval holds every ratio the intervals
+    /// of ρd and ρs allow.
+    pub specular_fraction: Interval,
+    /// Why ρd and ρs are absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unknown: Option<String>,
+}
+
+impl WardEstimate {
+    /// The specular fraction ρs / (ρd + ρs), with the range of ratios the intervals allow.
+    pub fn specular_fraction(&self) -> Interval {
+        let ratio = |s: f64, d: f64, empty: f64| if s + d > 0.0 { s / (s + d) } else { empty };
+        let (d, s) = (&self.rho_d, &self.rho_s);
+        let low = ratio(s.low, d.high, 0.0);
+        let high = ratio(s.high, d.low, 1.0);
+        Interval {
+            value: ratio(s.value, d.value, 0.0).clamp(low, high),
+            low,
+            high,
+        }
+    }
+
+    /// What an answer states: everything with a white reference, else the fraction and α.
+    pub fn stated(&self, white_given: bool) -> StatedEstimate {
+        StatedEstimate {
+            rho_d: white_given.then_some(self.rho_d),
+            rho_s: white_given.then_some(self.rho_s),
+            alpha: self.alpha,
+            specular_fraction: self.specular_fraction(),
+            unknown: (!white_given).then(|| TOTAL_UNKNOWN.to_string()),
+        }
+    }
+}
+
 /// Conformal half-widths at [`COVERAGE`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
@@ -580,6 +631,35 @@ pub fn nearest_class(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn within(value: f64, low: f64, high: f64) -> Interval {
+        Interval { value, low, high }
+    }
+
+    #[test]
+    fn the_specular_fraction_spans_every_ratio_the_intervals_allow() {
+        let estimate = WardEstimate {
+            rho_d: within(0.3, 0.2, 0.4),
+            rho_s: within(0.1, 0.05, 0.2),
+            alpha: within(0.01, 0.005, 0.02),
+        };
+        let f = estimate.specular_fraction();
+        assert!((f.value - 0.25).abs() < 1e-12);
+        assert!((f.low - 0.05 / 0.45).abs() < 1e-12 && (f.high - 0.2 / 0.4).abs() < 1e-12);
+        let black = WardEstimate {
+            rho_d: within(0.0, 0.0, 0.1),
+            rho_s: within(0.0, 0.0, 0.1),
+            ..estimate
+        };
+        let f = black.specular_fraction();
+        assert_eq!((f.value, f.low, f.high), (0.0, 0.0, 1.0));
+        let stated = estimate.stated(false);
+        assert_eq!((stated.rho_d, stated.rho_s), (None, None));
+        assert_eq!(stated.alpha, estimate.alpha);
+        assert_eq!(stated.unknown.as_deref(), Some(TOTAL_UNKNOWN));
+        let stated = estimate.stated(true);
+        assert_eq!((stated.rho_d, stated.unknown), (Some(estimate.rho_d), None));
+    }
 
     fn material(rho_d: f64, rho_s: f64, alpha: f64) -> Material {
         Material {

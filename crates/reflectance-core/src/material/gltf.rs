@@ -2,22 +2,24 @@
 //! `KHR_materials_ior` and `KHR_materials_specular` where the plain model cannot hold the
 //! Ward parameters), and a sphere asset carrying it, self-contained (one `.gltf` file).
 //!
-//! **The mapping** (docs/design.md §8; its error, rendered under the light probes, in
-//! docs/accuracy.md). glTF's specular lobe is GGX with Schlick's Fresnel
-//! F = F0 + (F90 − F0)(1 − cos θ)⁵; Ward's is a Gaussian of slope with a constant weight ρs.
-//! Both are matched where a photograph of a sphere sees them, over the disc:
+//! **The mapping** (its error, rendered under the light probes: docs/accuracy.md). glTF's
+//! specular lobe is GGX with Schlick's Fresnel F = F0 + (F90 − F0)(1 − v·h)⁵; Ward's is a
+//! Gaussian of slope with a constant weight ρs.
 //!
-//! * roughness: GGX's α = roughness² matches Ward's (and Beckmann's) α for glossy lobes, so
-//!   `roughness = √α` (0 for the ideal mirror);
-//! * specular weight: over a sphere's disc, cos θ = √(1 − ρ²) with ρ² uniform, so the mean of
-//!   (1 − cos θ)⁵ is 1/21 and the disc's mean Fresnel weight is F0 + (F90 − F0)/21. A
-//!   dielectric (`metallic` 0) takes F90 = 1 and the F0 that makes this ρs, as
-//!   `ior = (1 + √F0)/(1 − √F0)`; below ρs = 1/21 even F0 = 0 is too much, and
-//!   `KHR_materials_specular`'s `specularFactor` = 21 ρs scales the whole lobe down;
-//! * diffuse: glTF weights a dielectric's diffuse by 1 − F, so `baseColor = ρd / (1 − ρs)`;
+//! * roughness: GGX's α = roughness². GGX and Ward's Gaussian agree at their peak for the
+//!   same α, but GGX's tails hold more of the light, so the same α looks broader under a
+//!   sun; `roughness = √(0.7 α)` ([`GGX_ALPHA_SCALE`], the scale of 0.4–1.3 that
+//!   differed least from Ward's highlights under the probes) and 0 for the ideal mirror;
+//! * a dielectric takes Ward's constant weight exactly: `KHR_materials_ior` with `ior` 0
+//!   makes the Fresnel term's F0 factor 1 (the extension's own route for specular-glossiness
+//!   materials), and `KHR_materials_specular`'s `specularFactor` = ρs then gives
+//!   F0 = F90 = ρs at every angle; glTF weights the diffuse by 1 − F, so
+//!   `baseColor = ρd / (1 − ρs)`. Without a specular part (ρs = 0), `specularFactor` 0;
 //! * a material whose diffuse part is under a tenth of its specular one is a metal
-//!   (`metallic` 1, `baseColor` = its F0, ρd dropped): every glTF viewer draws it, while a
-//!   dielectric of high `ior` needs the extension.
+//!   (`metallic` 1), which every glTF viewer draws without extensions: its Fresnel term
+//!   rises to 1 at grazing angles, so `baseColor` is the F0 whose mean over a sphere's disc
+//!   is ρs. Over the disc cos θ = √(1 − ρ²) with ρ² uniform, so the mean of (1 − cos θ)⁵ is
+//!   1/21 and F0 = (ρs − 1/21) / (1 − 1/21); ρd is dropped.
 
 use serde_json::{Value, json};
 
@@ -25,6 +27,10 @@ use serde_json::{Value, json};
 pub const DISC_FRESNEL_WEIGHT: f64 = 1.0 / 21.0;
 /// Below this ratio ρd / ρs the material is exported as a metal.
 pub const METAL_RATIO: f64 = 0.1;
+/// GGX's α over Ward's: what differs least under the light probes (docs/accuracy.md).
+pub const GGX_ALPHA_SCALE: f64 = 0.7;
+/// glTF's index of refraction when `KHR_materials_ior` is absent.
+pub const DEFAULT_IOR: f64 = 1.5;
 
 /// The glTF metallic-roughness parameters of a Ward material (grey: one value per colour
 /// channel).
@@ -33,39 +39,29 @@ pub struct Pbr {
     pub base_color: f64,
     pub metallic: f64,
     pub roughness: f64,
-    /// `KHR_materials_ior` (1.5 is glTF's default: the extension is then left out).
+    /// `KHR_materials_ior` (1.5 is glTF's default, and the extension is then left out; 0
+    /// makes the Fresnel term's F0 factor 1).
     pub ior: f64,
     /// `KHR_materials_specular`'s `specularFactor` (1: left out).
     pub specular: f64,
 }
 
-/// F0 and F90 whose disc mean is `rho_s` (F90 ≤ 1).
-fn fresnel_for(rho_s: f64) -> (f64, f64) {
+/// The metal F0 whose mean over a sphere's disc is `rho_s`.
+fn metal_f0(rho_s: f64) -> f64 {
     let w = DISC_FRESNEL_WEIGHT;
-    if rho_s >= w {
-        (((rho_s - w) / (1.0 - w)).min(1.0), 1.0)
-    } else {
-        (0.0, rho_s / w)
-    }
-}
-
-/// The index of refraction whose normal-incidence reflectance is `f0` (< 1).
-fn ior_of(f0: f64) -> f64 {
-    let s = f0.clamp(0.0, 0.99).sqrt();
-    (1.0 + s) / (1.0 - s)
+    ((rho_s - w) / (1.0 - w)).clamp(0.0, 1.0)
 }
 
 /// The mapping of (ρd, ρs, α) onto glTF's model (see the module's documentation).
 pub fn pbr_of(rho_d: f64, rho_s: f64, alpha: f64) -> Pbr {
     let (rho_d, rho_s) = (rho_d.clamp(0.0, 1.0), rho_s.clamp(0.0, 1.0));
-    let roughness = alpha.clamp(0.0, 1.0).sqrt();
-    let (f0, f90) = fresnel_for(rho_s);
+    let roughness = (GGX_ALPHA_SCALE * alpha.clamp(0.0, 1.0)).sqrt();
     if rho_s > 0.0 && rho_d < METAL_RATIO * rho_s {
         return Pbr {
-            base_color: f0,
+            base_color: metal_f0(rho_s),
             metallic: 1.0,
             roughness,
-            ior: 1.5,
+            ior: DEFAULT_IOR,
             specular: 1.0,
         };
     }
@@ -73,8 +69,8 @@ pub fn pbr_of(rho_d: f64, rho_s: f64, alpha: f64) -> Pbr {
         base_color: (rho_d / (1.0 - rho_s).max(1e-6)).min(1.0),
         metallic: 0.0,
         roughness,
-        ior: ior_of(f0),
-        specular: f90,
+        ior: if rho_s > 0.0 { 0.0 } else { DEFAULT_IOR },
+        specular: rho_s,
     }
 }
 
@@ -121,7 +117,7 @@ fn material_json(name: &str, pbr: &Pbr) -> (Value, Vec<&'static str>) {
     });
     let mut used = Vec::new();
     let mut extensions = serde_json::Map::new();
-    if pbr.metallic < 1.0 && (pbr.ior - 1.5).abs() > 1e-9 {
+    if pbr.metallic < 1.0 && pbr.ior != DEFAULT_IOR {
         extensions.insert("KHR_materials_ior".into(), json!({"ior": pbr.ior}));
         used.push("KHR_materials_ior");
     }
@@ -209,8 +205,10 @@ mod tests {
         assert!((mean - DISC_FRESNEL_WEIGHT).abs() < 1e-6, "{mean}");
     }
 
+    /// glTF's Fresnel term of the exported material at every angle: a dielectric's is ρs
+    /// (Ward's constant weight), a metal's averages ρs over the disc.
     #[test]
-    fn the_disc_mean_reflectance_is_rho_s() {
+    fn the_exported_fresnel_term_is_rho_s() {
         for (rho_d, rho_s, alpha) in [
             (0.0, 0.75, 0.0),
             (0.7, 0.25, 0.02),
@@ -219,19 +217,27 @@ mod tests {
             (0.3, 0.02, 0.1),
         ] {
             let p = pbr_of(rho_d, rho_s, alpha);
-            let (f0, f90) = match p.metallic {
-                1.0 => (p.base_color, 1.0),
-                _ => (
-                    ((p.ior - 1.0) / (p.ior + 1.0)).powi(2) * p.specular,
-                    p.specular,
-                ),
-            };
-            let mean = f0 + (f90 - f0) * DISC_FRESNEL_WEIGHT;
-            assert!((mean - rho_s).abs() < 1e-9, "{rho_d} {rho_s}: {p:?}");
-            assert!((p.roughness * p.roughness - alpha).abs() < 1e-12);
-            if p.metallic == 0.0 {
-                assert!((p.base_color * (1.0 - rho_s) - rho_d).abs() < 1e-9);
+            assert!((p.roughness * p.roughness - GGX_ALPHA_SCALE * alpha).abs() < 1e-12);
+            if p.metallic == 1.0 {
+                let mean = p.base_color + (1.0 - p.base_color) * DISC_FRESNEL_WEIGHT;
+                assert!((mean - rho_s).abs() < 1e-9, "{rho_d} {rho_s}: {p:?}");
+                continue;
             }
+            let f0_of_ior = if p.ior == 0.0 {
+                1.0
+            } else {
+                ((p.ior - 1.0) / (p.ior + 1.0)).powi(2)
+            };
+            let (f0, f90) = (f0_of_ior * p.specular, p.specular);
+            if rho_s > 0.0 {
+                assert!(
+                    (f0 - rho_s).abs() < 1e-12 && (f90 - rho_s).abs() < 1e-12,
+                    "{p:?}"
+                );
+            } else {
+                assert_eq!((f0, f90), (0.0, 0.0), "{p:?}");
+            }
+            assert!((p.base_color * (1.0 - rho_s) - rho_d).abs() < 1e-9);
         }
         assert_eq!(pbr_of(0.0, 0.75, 0.0).metallic, 1.0);
         assert_eq!(pbr_of(0.05, 0.05, 0.0).metallic, 0.0);
@@ -242,6 +248,10 @@ mod tests {
         let chrome = sphere_asset("chrome", 0.0, 0.75, 0.0, Value::Null);
         assert!(chrome.get("extensionsUsed").is_none());
         let dull = sphere_asset("black", 0.05, 0.02, 0.1, Value::Null);
+        assert_eq!(
+            dull["materials"][0]["extensions"]["KHR_materials_ior"]["ior"],
+            0.0
+        );
         assert_eq!(
             dull["extensionsUsed"],
             json!(["KHR_materials_ior", "KHR_materials_specular"])

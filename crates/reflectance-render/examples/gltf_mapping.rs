@@ -1,0 +1,228 @@
+//! How far a Ward material's glTF export is from the material itself: both rendered under
+//! the same light probes by the same estimator ([`reflectance_render::pbr`]), compared over
+//! the sphere's disc; beside them, the plain mapping a user would write by hand
+//! (baseColor ρd, roughness √α, glTF's default specular). Markdown on stdout: per material,
+//! the RMS difference relative to the Ward image's mean, the difference of the disc's mean
+//! brightness, and the RMS difference as a photograph exposed for white sees it (both
+//! images clipped at the white reference, in units of white).
+//!
+//!   cargo run --release -p reflectance-render --example gltf_mapping -- \
+//!       PROBES_DIR CLASSES.json [CLASSES.json …] [--every K] [--size N] [--samples S]
+
+use rayon::prelude::*;
+use reflectance_core::material::gltf::{Pbr, pbr_of};
+use reflectance_core::material::{Material, load_classes};
+use reflectance_render::View;
+use reflectance_render::envmap::EnvMap;
+use reflectance_render::pbr::{Brdf, Drawing, Gltf, draw};
+use std::path::PathBuf;
+
+/// The mapping a user writes by hand: no extension, glTF's default F0 of 0.04.
+fn by_hand(m: &Material) -> Pbr {
+    Pbr {
+        base_color: m.rho_d,
+        metallic: 0.0,
+        roughness: m.alpha.sqrt(),
+        ior: 1.5,
+        specular: 1.0,
+    }
+}
+
+/// Differences over the disc between a reference image and another: (RMS relative to the
+/// reference's mean, the relative difference of the means, and the RMS of both as a
+/// photograph exposed for `white` sees them: clipped at white, in units of white).
+fn compare(reference: &[Option<f64>], other: &[Option<f64>], white: f64) -> [f64; 3] {
+    let pairs: Vec<(f64, f64)> = reference
+        .iter()
+        .zip(other)
+        .filter_map(|(a, b)| Some(((*a)?, (*b)?)))
+        .collect();
+    let n = pairs.len() as f64;
+    let mean = pairs.iter().map(|p| p.0).sum::<f64>() / n;
+    let mean_other = pairs.iter().map(|p| p.1).sum::<f64>() / n;
+    let rms = (pairs.iter().map(|(a, b)| (a - b).powi(2)).sum::<f64>() / n).sqrt();
+    let clip = |v: f64| (v / white).min(1.0);
+    let seen = (pairs
+        .iter()
+        .map(|&(a, b)| (clip(a) - clip(b)).powi(2))
+        .sum::<f64>()
+        / n)
+        .sqrt();
+    [rms / mean, mean_other / mean - 1.0, seen]
+}
+
+struct Args {
+    probes: PathBuf,
+    classes: Vec<PathBuf>,
+    every: usize,
+    size: usize,
+    samples: usize,
+}
+
+fn args() -> Result<Args, String> {
+    let mut raw = std::env::args().skip(1);
+    let mut args = Args {
+        probes: PathBuf::new(),
+        classes: Vec::new(),
+        every: 1,
+        size: 64,
+        samples: 256,
+    };
+    let mut positional = Vec::new();
+    while let Some(a) = raw.next() {
+        let mut number = |name: &str| -> Result<usize, String> {
+            raw.next()
+                .and_then(|v| v.parse().ok())
+                .ok_or_else(|| format!("{name} needs a whole number"))
+        };
+        match a.as_str() {
+            "--every" => args.every = number("--every")?.max(1),
+            "--size" => args.size = number("--size")?.max(8),
+            "--samples" => args.samples = number("--samples")?.max(1),
+            _ => positional.push(PathBuf::from(a)),
+        }
+    }
+    if positional.len() < 2 {
+        return Err(
+            "usage: gltf_mapping PROBES_DIR CLASSES.json… [--every K] [--size N] [--samples S]"
+                .into(),
+        );
+    }
+    args.probes = positional.remove(0);
+    args.classes = positional;
+    Ok(args)
+}
+
+fn main() -> Result<(), String> {
+    let args = args()?;
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(&args.probes)
+        .map_err(|e| format!("{}: {e}", args.probes.display()))?
+        .filter_map(|e| Some(e.ok()?.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "hdr"))
+        .collect();
+    paths.sort();
+    let paths: Vec<PathBuf> = paths.into_iter().step_by(args.every).collect();
+    let maps: Vec<(EnvMap, EnvMap)> = paths
+        .par_iter()
+        .map(|p| {
+            let map = EnvMap::load(p).map_err(|e| format!("{}: {e}", p.display()))?;
+            let reduced = reduce(&map, 8);
+            Ok((map, reduced))
+        })
+        .collect::<Result<_, String>>()?;
+    let view = View::default();
+    println!(
+        "{} probes, {} px discs, {} lobe samples per pixel; relative RMS difference over the disc \
+         (mean over the probes) and the disc's mean brightness against Ward's\n",
+        maps.len(),
+        args.size,
+        args.samples
+    );
+    println!(
+        "| material | ρd | ρs | α | exported: RMS | brightness | as photographed | by hand: RMS | brightness | as photographed |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let mut all = Vec::new();
+    for file in &args.classes {
+        let materials = load_classes(file).map_err(|e| e.to_string())?;
+        let many = materials.len() > 20;
+        for m in &materials {
+            let drawing = Drawing {
+                size: args.size,
+                samples: args.samples,
+                lobe_alpha: m.alpha.max(0.005),
+                seed: 7,
+            };
+            let exported = Gltf(pbr_of(m.rho_d, m.rho_s, m.alpha));
+            let hand = Gltf(by_hand(m));
+            let rows: Vec<[f64; 6]> = maps
+                .par_iter()
+                .map(|(map, reduced)| {
+                    let white = white_of(reduced, &view);
+                    let ward = draw(map, reduced, m as &dyn Brdf, &view, &drawing);
+                    let [a, b, c] = compare(
+                        &ward,
+                        &draw(map, reduced, &exported, &view, &drawing),
+                        white,
+                    );
+                    let [d, e, f] =
+                        compare(&ward, &draw(map, reduced, &hand, &view, &drawing), white);
+                    [a, b, c, d, e, f]
+                })
+                .collect();
+            let row: [f64; 6] =
+                std::array::from_fn(|k| rows.iter().map(|r| r[k]).sum::<f64>() / rows.len() as f64);
+            all.push(row);
+            if !many {
+                println!(
+                    "| {} | {} | {} | {} | {:.1} % | {:+.1} % | {:.3} | {:.1} % | {:+.1} % | {:.3} |",
+                    m.name,
+                    m.rho_d,
+                    m.rho_s,
+                    m.alpha,
+                    100.0 * row[0],
+                    100.0 * row[1],
+                    row[2],
+                    100.0 * row[3],
+                    100.0 * row[4],
+                    row[5]
+                );
+            }
+        }
+        if many {
+            let summary = |k: usize, q: f64| {
+                let mut v: Vec<f64> = all.iter().map(|r| r[k].abs()).collect();
+                v.sort_by(f64::total_cmp);
+                v[((v.len() - 1) as f64 * q).round() as usize]
+            };
+            for (what, q) in [("median", 0.5), ("90th percentile", 0.9)] {
+                println!(
+                    "| {} materials of {}: {what} | | | | {:.1} % | {:.1} % | {:.3} | {:.1} % | {:.1} % | {:.3} |",
+                    materials.len(),
+                    file.display(),
+                    100.0 * summary(0, q),
+                    100.0 * summary(1, q),
+                    summary(2, q),
+                    100.0 * summary(3, q),
+                    100.0 * summary(4, q),
+                    summary(5, q)
+                );
+            }
+        }
+        all.clear();
+    }
+    Ok(())
+}
+
+/// The white reference: an ideal white Lambertian patch facing the viewer, E(v)/π.
+fn white_of(reduced: &EnvMap, view: &View) -> f64 {
+    let e = view.elevation_deg.to_radians();
+    let v = reflectance_render::Vec3::new(0.0, e.sin(), e.cos());
+    reduced.irradiance_exact(v) / std::f64::consts::PI
+}
+
+/// The map averaged over `factor` × `factor` blocks (by solid angle): what the diffuse sum
+/// runs over.
+fn reduce(map: &EnvMap, factor: usize) -> EnvMap {
+    let (width, height) = (map.width / factor, map.height / factor);
+    let mut luminance = vec![0.0; width * height];
+    for i in 0..height {
+        let weight: f64 = (i * factor..(i + 1) * factor)
+            .map(|r| map.solid_angle(r))
+            .sum();
+        for j in 0..width {
+            let power: f64 = (i * factor..(i + 1) * factor)
+                .map(|r| {
+                    let row = &map.luminance[r * map.width + j * factor..][..factor];
+                    map.solid_angle(r) * row.iter().sum::<f64>()
+                })
+                .sum();
+            luminance[i * width + j] = power / (factor as f64 * weight);
+        }
+    }
+    EnvMap {
+        width,
+        height,
+        luminance,
+    }
+}
