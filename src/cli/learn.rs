@@ -541,7 +541,7 @@ pub fn predict(args: PredictArgs) -> CliResult {
             score.map_or(String::new(), dataset::format_f64),
             failed.join(" ")
         );
-        if let Some(e) = estimator.map(|r| r.estimate(&sample.values)) {
+        if let Some(e) = inference::estimate(&model, &decision, &sample.values) {
             for i in [e.rho_d, e.rho_s, e.alpha] {
                 for v in [i.value, i.low, i.high] {
                     let _ = write!(csv, ",{}", dataset::format_f64(v));

@@ -60,6 +60,14 @@ async fn classifies_held_out_renderings_correctly() {
             );
         }
         assert!(doc["ward"].get("unknown").is_none(), "{doc}");
+        // The estimate never contradicts the class it names: its intervals hold the
+        // predicted class's parameters.
+        for parameter in ["rho_d", "rho_s", "alpha"] {
+            let i = &doc["ward"][parameter];
+            let v = doc["class"]["ward"][parameter].as_f64().unwrap();
+            let (low, high) = (i["low"].as_f64().unwrap(), i["high"].as_f64().unwrap());
+            assert!(low <= v && v <= high, "{parameter}: {v} outside {i}");
+        }
         // Without white the total reflectance is unknown: no ρd, ρs; the fraction and α stay.
         let (image, _, _) = &fx.held_out[0];
         let fields = [

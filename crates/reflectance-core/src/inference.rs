@@ -376,11 +376,7 @@ pub fn classify_decoded(
     } else {
         None
     };
-    let ward = model
-        .file
-        .estimator
-        .as_ref()
-        .map(|e| e.estimate(&analysis.values));
+    let ward = estimate(&model.file, &decision, &analysis.values);
     let predict_ms = ms(t);
     Ok(Classified {
         decision,
@@ -395,6 +391,26 @@ pub fn classify_decoded(
         predict_ms,
         model,
     })
+}
+
+/// The Ward-parameter estimate of a classification, when the model has an estimator: the
+/// regression's, with its intervals widened to hold the parameters of every class of the
+/// prediction set (of the predicted class without one). The set holds the true class as
+/// often as its coverage says, the regression's intervals a material's parameters 90 % of the
+/// time: their union holds the truth when either does, so the estimate never contradicts the
+/// classes the answer names.
+pub fn estimate(file: &ModelFile, decision: &Decision, values: &[f64]) -> Option<WardEstimate> {
+    let estimate = file.estimator.as_ref()?.estimate(values);
+    let classes = &file.head(!decision.without_white).classifier.classes;
+    let named = match &decision.set {
+        Some(set) => set.clone(),
+        None => vec![decision.class],
+    };
+    let parameters = named.iter().filter_map(|&k| {
+        let info = file.classes.iter().find(|c| c.name == classes[k])?;
+        info.ward.as_ref().map(|w| (w.rho_d, w.rho_s, w.alpha))
+    });
+    Some(estimate.holding(parameters))
 }
 
 /// The prediction set of a classification: the head's calibrated set, and, when there is no

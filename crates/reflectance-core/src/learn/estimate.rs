@@ -133,6 +133,20 @@ impl WardEstimate {
         }
     }
 
+    /// The estimate with each interval widened to hold `materials`' parameters (ρd, ρs, α).
+    pub fn holding(mut self, materials: impl IntoIterator<Item = (f64, f64, f64)>) -> WardEstimate {
+        let widen = |i: &mut Interval, v: f64| {
+            i.low = i.low.min(v);
+            i.high = i.high.max(v);
+        };
+        for (rho_d, rho_s, alpha) in materials {
+            widen(&mut self.rho_d, rho_d);
+            widen(&mut self.rho_s, rho_s);
+            widen(&mut self.alpha, alpha);
+        }
+        self
+    }
+
     /// What an answer states: everything with a white reference, else the fraction and α.
     pub fn stated(&self, white_given: bool) -> StatedEstimate {
         StatedEstimate {
@@ -653,6 +667,15 @@ mod tests {
         };
         let f = black.specular_fraction();
         assert_eq!((f.value, f.low, f.high), (0.0, 0.0, 1.0));
+        let held = estimate.holding([(0.0, 0.75, 0.0)]);
+        assert_eq!(
+            (held.rho_d.low, held.rho_s.high, held.alpha.low),
+            (0.0, 0.75, 0.0)
+        );
+        assert_eq!(
+            held.rho_d.value, estimate.rho_d.value,
+            "values stay the regression's"
+        );
         let stated = estimate.stated(false);
         assert_eq!((stated.rho_d, stated.rho_s), (None, None));
         assert_eq!(stated.alpha, estimate.alpha);
