@@ -15,6 +15,8 @@ const state = {
   drag: null, // what the pointer moves: "centre", "rim", "rect"
   models: [],
   chosen: 0, // counts photos chosen, so that a late answer for an earlier one is dropped
+  candidates: [], // the circles detection found, most confident first (POST /v1/locate)
+  candidate: 0, // which of them is shown
 };
 
 const MIN_RADIUS = 32;
@@ -148,6 +150,9 @@ async function choose(file) {
     state.height = located.height;
     state.picture = shown || (await loadDataUrl(located.preview));
     const g = located.geometry;
+    state.candidates = located.candidates || [];
+    state.candidate = 0;
+    $("next-candidate").hidden = state.candidates.length < 2;
     state.circle = g
       ? { cx: g.cx, cy: g.cy, r: g.r }
       : {
@@ -232,6 +237,18 @@ function syncInputs() {
     const { x, y, w, h } = state.rect;
     $("white-rect").value = [x, y, w, h].map((v) => Math.round(v)).join(",");
   }
+}
+
+/** The next circle detection found (the first again after the last). */
+function nextCandidate() {
+  if (state.candidates.length < 2) {
+    return;
+  }
+  state.candidate = (state.candidate + 1) % state.candidates.length;
+  const c = state.candidates[state.candidate];
+  setCircle(c.cx, c.cy, c.r);
+  const seen = c.rim_visible < 0.999 ? `, ${Math.round(100 * c.rim_visible)} % of its rim in the picture` : "";
+  status(`Circle ${state.candidate + 1} of ${state.candidates.length} (confidence ${c.confidence.toFixed(2)}${seen}). Check it, then Classify.`);
 }
 
 function setCircle(cx, cy, r) {
@@ -576,6 +593,7 @@ function wire() {
     });
   }
   $("classify").addEventListener("click", classify);
+  $("next-candidate").addEventListener("click", nextCandidate);
   window.addEventListener("resize", () => state.picture && draw());
   loadModels();
 }

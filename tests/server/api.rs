@@ -897,6 +897,52 @@ fn data_url_png(url: &Value) -> image::DynamicImage {
     image::load_from_memory_with_format(&png, image::ImageFormat::Png).unwrap()
 }
 
+/// Two spheres in one photograph: the more confident is chosen, the other is offered next.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn locate_offers_the_other_circles_it_found() {
+    let server = start(config(&models_copy("candidates")));
+    let (w, h) = (480u32, 220u32);
+    let spheres = [(120.0, 110.0, 80.0), (360.0, 110.0, 60.0)];
+    let samples: Vec<u8> = (0..w * h)
+        .map(|i| {
+            let (x, y) = (f64::from(i % w), f64::from(i / w));
+            spheres
+                .iter()
+                .find_map(|&(cx, cy, r)| {
+                    let d2 = ((x - cx).powi(2) + (y - cy).powi(2)) / (r * r);
+                    (d2 <= 1.0)
+                        .then(|| (60.0 + 150.0 * (1.0 - d2).sqrt() + 20.0 * (x / 7.0).sin()) as u8)
+                })
+                .unwrap_or(20)
+        })
+        .collect();
+    let png = common::png8(w, h, 1, &samples);
+    let doc = send(
+        &server.data,
+        post_multipart("/v1/locate", &[("image", Part::File(&png))]),
+    )
+    .await
+    .json();
+    let candidates = doc["candidates"].as_array().unwrap();
+    assert!((2..=3).contains(&candidates.len()), "{doc}");
+    assert_eq!(candidates[0]["cx"], doc["geometry"]["cx"], "{doc}");
+    for (cx, _, r) in spheres {
+        let found = candidates.iter().any(|c| {
+            (c["cx"].as_f64().unwrap() - cx).abs() < 3.0
+                && (c["r"].as_f64().unwrap() - r).abs() < 3.0
+        });
+        assert!(found, "the sphere at x = {cx} is a candidate: {doc}");
+    }
+    let confidences: Vec<f64> = candidates
+        .iter()
+        .map(|c| c["confidence"].as_f64().unwrap())
+        .collect();
+    assert!(
+        confidences.windows(2).all(|p| p[0] >= p[1]),
+        "{confidences:?}"
+    );
+}
+
 /// What the page asks of the service: the circle before classifying, a white card inside
 /// the photograph, the pictures of the features' input, thumbnails of the neighbours.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -916,6 +962,9 @@ async fn locates_reads_a_white_card_in_the_photo_and_draws_what_the_features_see
     assert_eq!(g["method"], "auto", "{doc}");
     assert!((g["cx"].as_f64().unwrap() - 47.5).abs() < 1.0, "{doc}");
     assert!((g["r"].as_f64().unwrap() - 43.64).abs() < 1.0, "{doc}");
+    let first = &doc["candidates"][0];
+    assert_eq!((&first["cx"], &first["r"]), (&g["cx"], &g["r"]), "{doc}");
+    assert_eq!(first["rim_visible"], 1.0, "{doc}");
     assert!(doc.get("preview").is_none());
     let doc = located(vec![
         ("image", Part::File(image)),

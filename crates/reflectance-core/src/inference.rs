@@ -455,6 +455,10 @@ pub struct LocateResponse {
     /// The detected sphere (or the image's alpha channel's); absent when none was found or
     /// its annulus would not fit the image (a warning says why).
     pub geometry: Option<GeometryOut>,
+    /// Up to 3 circles detection found that fit the image, most confident first (the chosen
+    /// `geometry` among them when there is one): what to offer when the first is not the
+    /// sphere. Empty for an image with an alpha channel.
+    pub candidates: Vec<CandidateOut>,
     pub warnings: Vec<String>,
     /// With `include=preview`: the image as a grey PNG data URL (longest side at most
     /// 1024 px, brightest 1 % clipped), for formats a browser cannot show (HDR, PFM, EXR,
@@ -462,6 +466,19 @@ pub struct LocateResponse {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub preview: Option<String>,
 }
+
+/// A circle detection found, and how much of it the image shows.
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct CandidateOut {
+    #[serde(flatten)]
+    pub geometry: GeometryOut,
+    /// The fraction of the circle's circumference inside the image (1: the whole rim).
+    pub rim_visible: f64,
+}
+
+/// Candidates a locate answer offers.
+pub const CANDIDATES: usize = 3;
 
 /// Longest side of a located image's preview, in pixels.
 pub const PREVIEW_SIDE: usize = 1024;
@@ -475,7 +492,17 @@ pub fn locate(
 ) -> Result<LocateResponse, InferenceError> {
     let image = decode_part("", bytes, options)?;
     let mut warnings = image.warnings.clone();
-    let geometry = match analysis::locate(&image, &Locate::Auto, &model.extractor) {
+    let (chosen, ranked) = analysis::locate_ranked(&image, &model.extractor);
+    let (width, height) = (image.width(), image.height());
+    let candidates = ranked
+        .iter()
+        .take(CANDIDATES)
+        .map(|g| CandidateOut {
+            geometry: GeometryOut::from(g),
+            rim_visible: geometry::visible_rim(&g.circle(), width, height),
+        })
+        .collect();
+    let geometry = match chosen {
         Ok((g, more)) => {
             warnings.extend(more);
             Some(GeometryOut::from(&g))
@@ -490,6 +517,7 @@ pub fn locate(
         width: image.width(),
         height: image.height(),
         geometry,
+        candidates,
         warnings,
         preview: preview.then(|| {
             display::data_url(&display::preview_png(image.luminance.view(), PREVIEW_SIDE))

@@ -84,6 +84,29 @@ pub fn locate(
     locate_for(image, how, &extractor.config().unwrap)
 }
 
+/// [`locate`] without a circle, and the other circles detection weighed that fit the image
+/// (most confident first, the chosen one among them; none for an image with an alpha
+/// channel, which says where the sphere is).
+pub fn locate_ranked(
+    image: &LinearImage,
+    extractor: &Extractor,
+) -> (
+    Result<(Geometry, Vec<String>), GeometryError>,
+    Vec<Geometry>,
+) {
+    if image.alpha_mask.is_some() {
+        return (locate(image, &Locate::Auto, extractor), Vec::new());
+    }
+    let unwrap = &extractor.config().unwrap;
+    let (width, height) = (image.width(), image.height());
+    let fits =
+        |g: &Geometry| geometry::validate(&g.circle(), width, height, unwrap.outer, unwrap.r0);
+    let (chosen, ranked) = geometry::detect_ranked(image.luminance.view());
+    let chosen = chosen.and_then(|g| Ok((g, fits(&g)?)));
+    let alternatives = ranked.into_iter().filter(|g| fits(g).is_ok()).collect();
+    (chosen, alternatives)
+}
+
 /// Find the sphere and check it fits the image and the annulus `unwrap` samples.
 pub(crate) fn locate_for(
     image: &LinearImage,

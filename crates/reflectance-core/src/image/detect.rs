@@ -38,9 +38,36 @@ pub struct Found {
 #[derive(Clone, Debug, PartialEq)]
 pub struct NotFound(pub String);
 
-/// Find the sphere in `luminance` (linear); `hint` is a circle found otherwise (e.g. by
-/// segmenting a clean background), examined with the candidates.
-pub fn find_sphere(luminance: ArrayView2<f64>, hint: Option<Circle>) -> Result<Found, NotFound> {
+/// The first of the ranked circles when it is confident enough, else why not.
+pub fn chosen(ranked: &[Found]) -> Result<Found, NotFound> {
+    match ranked.first() {
+        Some(found) if found.confidence >= MIN_CONFIDENCE => Ok(*found),
+        Some(found) => Err(NotFound(format!(
+            "the roundest edge found (centre {:.0}, {:.0}, radius {:.0}) has a clear rim along \
+             only {:.0} % of its circumference",
+            found.circle.cx,
+            found.circle.cy,
+            found.circle.r,
+            100.0 * found.confidence
+        ))),
+        None => Err(NotFound("no round edge stands out".into())),
+    }
+}
+
+/// Two circles that find the same sphere: centres within a fifth of the radius, radii within
+/// a fifth of each other.
+fn same_sphere(a: &Circle, b: &Circle) -> bool {
+    let r = a.r.max(b.r);
+    (a.cx - b.cx).hypot(a.cy - b.cy) < 0.2 * r && (a.r - b.r).abs() < 0.2 * r
+}
+
+/// Every distinct circle the search finds in `luminance` (linear), refined, most confident
+/// first ([`chosen`] takes the first when it is confident enough); `hint` is a circle found
+/// otherwise (e.g. by segmenting a clean background), examined with the candidates.
+pub fn find_spheres(
+    luminance: ArrayView2<f64>,
+    hint: Option<Circle>,
+) -> Result<Vec<Found>, NotFound> {
     let (h, w) = luminance.dim();
     if h < 2 * MIN_RADIUS as usize || w < 2 * MIN_RADIUS as usize {
         return Err(NotFound(format!(
@@ -69,26 +96,18 @@ pub fn find_sphere(luminance: ArrayView2<f64>, hint: Option<Circle>) -> Result<F
             candidates.push((rough, 2.5 / scale));
         }
     }
-    let mut best: Option<Found> = None;
-    for (rough, slack) in candidates {
-        if let Some(found) = refine(luminance, rough, slack)
-            && best.is_none_or(|b| found.confidence > b.confidence)
-        {
-            best = Some(found);
+    let mut found: Vec<Found> = candidates
+        .into_iter()
+        .filter_map(|(rough, slack)| refine(luminance, rough, slack))
+        .collect();
+    found.sort_by(|a, b| b.confidence.total_cmp(&a.confidence));
+    let mut distinct: Vec<Found> = Vec::new();
+    for f in found {
+        if !distinct.iter().any(|d| same_sphere(&d.circle, &f.circle)) {
+            distinct.push(f);
         }
     }
-    match best {
-        Some(found) if found.confidence >= MIN_CONFIDENCE => Ok(found),
-        Some(found) => Err(NotFound(format!(
-            "the roundest edge found (centre {:.0}, {:.0}, radius {:.0}) has a clear rim along \
-             only {:.0} % of its circumference",
-            found.circle.cx,
-            found.circle.cy,
-            found.circle.r,
-            100.0 * found.confidence
-        ))),
-        None => Err(NotFound("no round edge stands out".into())),
-    }
+    Ok(distinct)
 }
 
 /// A gamma-encoded copy at most [`WORK_SIZE`] across, smoothed (σ = 1 px), and its scale.

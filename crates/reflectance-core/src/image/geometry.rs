@@ -238,10 +238,49 @@ fn rms_residual(points: &[(f64, f64)], c: &Circle) -> f64 {
 /// circle a clean background gives ([`detect_clean`]) as one more candidate. The
 /// confidence is the fraction of the rim with a clear edge on the circle.
 pub fn detect(luminance: ArrayView2<f64>) -> Result<Geometry, GeometryError> {
+    detect_ranked(luminance).0
+}
+
+/// Alternatives below this confidence are not offered.
+pub const ALTERNATIVE_CONFIDENCE: f64 = 0.3;
+
+/// [`detect`]'s answer, and the distinct circles it weighed, most confident first, those
+/// with a clear rim along at least [`ALTERNATIVE_CONFIDENCE`] of their circumference: what a
+/// person may pick when the first is not the sphere.
+pub fn detect_ranked(
+    luminance: ArrayView2<f64>,
+) -> (Result<Geometry, GeometryError>, Vec<Geometry>) {
+    use crate::image::detect::{self, NotFound};
     let clean = detect_clean(luminance).ok().map(|g| g.circle());
-    crate::image::detect::find_sphere(luminance, clean)
+    let ranked = match detect::find_spheres(luminance, clean) {
+        Ok(ranked) => ranked,
+        Err(NotFound(reason)) => return (Err(GeometryError::DetectionFailed { reason }), vec![]),
+    };
+    let chosen = detect::chosen(&ranked)
         .map(|found| Geometry::new(found.circle, Method::Auto, Some(found.confidence)))
-        .map_err(|crate::image::detect::NotFound(reason)| GeometryError::DetectionFailed { reason })
+        .map_err(|NotFound(reason)| GeometryError::DetectionFailed { reason });
+    let alternatives = ranked
+        .iter()
+        .filter(|f| f.confidence >= ALTERNATIVE_CONFIDENCE)
+        .map(|f| Geometry::new(f.circle, Method::Auto, Some(f.confidence)))
+        .collect();
+    (chosen, alternatives)
+}
+
+/// The fraction of a circle's circumference inside a `width` × `height` image.
+pub fn visible_rim(circle: &Circle, width: usize, height: usize) -> f64 {
+    const STEPS: usize = 360;
+    let inside = (0..STEPS)
+        .filter(|&k| {
+            let t = 2.0 * std::f64::consts::PI * k as f64 / STEPS as f64;
+            let (x, y) = (
+                circle.cx + circle.r * t.cos(),
+                circle.cy + circle.r * t.sin(),
+            );
+            (-0.5..=width as f64 - 0.5).contains(&x) && (-0.5..=height as f64 - 0.5).contains(&y)
+        })
+        .count();
+    inside as f64 / STEPS as f64
 }
 
 /// Find a sphere on a clean background.
