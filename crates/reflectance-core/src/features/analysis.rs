@@ -76,24 +76,17 @@ pub fn mask_from_image(mask: &LinearImage) -> Array2<bool> {
 }
 
 /// Find the sphere and check it fits the image and the extractor's annulus.
-pub fn locate(
-    image: &LinearImage,
-    how: &Locate,
-    extractor: &Extractor,
-) -> Result<(Geometry, Vec<String>), GeometryError> {
+pub fn locate(image: &LinearImage, how: &Locate, extractor: &Extractor) -> Located {
     locate_for(image, how, &extractor.config().unwrap)
 }
+
+/// Where the sphere is, with the warnings about it, or why it cannot be used.
+pub type Located = Result<(Geometry, Vec<String>), GeometryError>;
 
 /// [`locate`] without a circle, and the other circles detection weighed that fit the image
 /// (most confident first, the chosen one among them; none for an image with an alpha
 /// channel, which says where the sphere is).
-pub fn locate_ranked(
-    image: &LinearImage,
-    extractor: &Extractor,
-) -> (
-    Result<(Geometry, Vec<String>), GeometryError>,
-    Vec<Geometry>,
-) {
+pub fn locate_ranked(image: &LinearImage, extractor: &Extractor) -> (Located, Vec<Geometry>) {
     if image.alpha_mask.is_some() {
         return (locate(image, &Locate::Auto, extractor), Vec::new());
     }
@@ -108,11 +101,7 @@ pub fn locate_ranked(
 }
 
 /// Find the sphere and check it fits the image and the annulus `unwrap` samples.
-pub(crate) fn locate_for(
-    image: &LinearImage,
-    how: &Locate,
-    unwrap: &UnwrapConfig,
-) -> Result<(Geometry, Vec<String>), GeometryError> {
+pub(crate) fn locate_for(image: &LinearImage, how: &Locate, unwrap: &UnwrapConfig) -> Located {
     let (width, height) = (image.width(), image.height());
     let geometry = match how {
         Locate::Circle(c) => {
