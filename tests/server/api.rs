@@ -605,6 +605,25 @@ async fn kserve_v2_protocol() {
         model["outputs"][1],
         json!({"name": "probabilities", "datatype": "FP64", "shape": [3]})
     );
+    // The fixture model estimates the Ward parameters: its outputs say so.
+    let names: Vec<&str> = model["outputs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|o| o["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "label",
+            "probabilities",
+            "classes",
+            "prediction_set",
+            "in_domain",
+            "ward",
+            "specular_fraction"
+        ]
+    );
     assert_eq!(
         send(data, get("/v2/models/ward6/ready")).await.json(),
         json!({"name": "ward6", "ready": true})

@@ -166,6 +166,18 @@ pub async fn model_metadata(
         datatype: datatype.into(),
         shape,
     };
+    let mut outputs = vec![
+        t("label", "BYTES", vec![1]),
+        t("probabilities", "FP64", vec![k]),
+        t("classes", "BYTES", vec![k]),
+        t("prediction_set", "BYTES", vec![-1]),
+        t("in_domain", "BOOL", vec![1]),
+    ];
+    if model.file.estimator.is_some() {
+        // `ward` only when a white reference is given.
+        outputs.push(t("ward", "FP64", vec![3, 3]));
+        outputs.push(t("specular_fraction", "FP64", vec![3]));
+    }
     Ok(Json(ModelMetadata {
         name: name.clone(),
         versions: vec![model.version().to_string()],
@@ -179,13 +191,7 @@ pub async fn model_metadata(
             t("encoding", "BYTES", vec![1]),
             t("coverage", "FP64", vec![1]),
         ],
-        outputs: vec![
-            t("label", "BYTES", vec![1]),
-            t("probabilities", "FP64", vec![k]),
-            t("classes", "BYTES", vec![k]),
-            t("prediction_set", "BYTES", vec![-1]),
-            t("in_domain", "BOOL", vec![1]),
-        ],
+        outputs,
     }))
 }
 
