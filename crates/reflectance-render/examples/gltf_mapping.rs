@@ -106,7 +106,7 @@ fn main() -> Result<(), String> {
         .par_iter()
         .map(|p| {
             let map = EnvMap::load(p).map_err(|e| format!("{}: {e}", p.display()))?;
-            let reduced = reduce(&map, 8);
+            let reduced = map.block_averaged(8);
             Ok((map, reduced))
         })
         .collect::<Result<_, String>>()?;
@@ -138,7 +138,7 @@ fn main() -> Result<(), String> {
             let rows: Vec<[f64; 6]> = maps
                 .par_iter()
                 .map(|(map, reduced)| {
-                    let white = white_of(reduced, &view);
+                    let white = reflectance_render::white(reduced, &view);
                     let ward = draw(map, reduced, m as &dyn Brdf, &view, &drawing);
                     let [a, b, c] = compare(
                         &ward,
@@ -192,37 +192,4 @@ fn main() -> Result<(), String> {
         all.clear();
     }
     Ok(())
-}
-
-/// The white reference: an ideal white Lambertian patch facing the viewer, E(v)/π.
-fn white_of(reduced: &EnvMap, view: &View) -> f64 {
-    let e = view.elevation_deg.to_radians();
-    let v = reflectance_render::Vec3::new(0.0, e.sin(), e.cos());
-    reduced.irradiance_exact(v) / std::f64::consts::PI
-}
-
-/// The map averaged over `factor` × `factor` blocks (by solid angle): what the diffuse sum
-/// runs over.
-fn reduce(map: &EnvMap, factor: usize) -> EnvMap {
-    let (width, height) = (map.width / factor, map.height / factor);
-    let mut luminance = vec![0.0; width * height];
-    for i in 0..height {
-        let weight: f64 = (i * factor..(i + 1) * factor)
-            .map(|r| map.solid_angle(r))
-            .sum();
-        for j in 0..width {
-            let power: f64 = (i * factor..(i + 1) * factor)
-                .map(|r| {
-                    let row = &map.luminance[r * map.width + j * factor..][..factor];
-                    map.solid_angle(r) * row.iter().sum::<f64>()
-                })
-                .sum();
-            luminance[i * width + j] = power / (factor as f64 * weight);
-        }
-    }
-    EnvMap {
-        width,
-        height,
-        luminance,
-    }
 }

@@ -150,6 +150,13 @@ impl EnvMap {
     /// bilinearly. Light probes come at different resolutions, and a mirror under a blurred
     /// map must not be new to a classifier.
     pub fn reduced(&self, factor: usize) -> EnvMap {
+        let small = self.block_averaged(factor);
+        EnvMap::from_fn(self.width, self.height, |d| small.lookup(d))
+    }
+
+    /// The map `factor` times coarser: blocks of `factor` × `factor` pixels averaged by solid
+    /// angle (partial blocks at the edges averaged over what they hold).
+    pub fn block_averaged(&self, factor: usize) -> EnvMap {
         let factor = factor.max(1);
         let (width, height) = (self.width.div_ceil(factor), self.height.div_ceil(factor));
         let mut small = EnvMap {
@@ -172,7 +179,7 @@ impl EnvMap {
                 small.luminance[i * width + j] = power / (cols.len() as f64 * weight);
             }
         }
-        EnvMap::from_fn(self.width, self.height, |d| small.lookup(d))
+        small
     }
 
     /// The map with its columns rolled right by `k` (a rotation about +Y by 2πk/W).

@@ -6,7 +6,7 @@
 
 use crate::envmap::EnvMap;
 use crate::ward::{Material, WardBrdf};
-use crate::{Vec3, View};
+use crate::{Camera, Vec3, View};
 use reflectance_core::material::gltf::Pbr;
 use reflectance_core::util::rng::Rng;
 use std::f64::consts::PI;
@@ -148,11 +148,7 @@ pub fn draw(
     view: &View,
     drawing: &Drawing,
 ) -> Vec<Option<f64>> {
-    let e = view.elevation_deg.to_radians();
-    let v = Vec3::new(0.0, e.sin(), e.cos());
-    let y = Vec3::new(0.0, 1.0, 0.0);
-    let up = (y - v * v.dot(y)).normalized();
-    let right = Vec3::new(1.0, 0.0, 0.0);
+    let Camera { v, up, right, .. } = Camera::new(view);
     let texels: Vec<(Vec3, f64)> = (0..reduced.height)
         .flat_map(|i| {
             (0..reduced.width).map(move |j| {
