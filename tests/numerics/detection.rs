@@ -1,16 +1,19 @@
-//! Automatic sphere detection on photograph-like composites: rendered spheres pasted into
-//! table tops (light, mid, dark, a gradient, wood-like texture) and into real scenes (crops
-//! of the shared light probes, which are photographs), with objects around, contact
-//! shadows, camera noise, lens blur and JPEG at quality 75–95. Found means within 1 px of
-//! the centre and 1 % of the radius.
+//! Automatic sphere detection on photograph-like composites, per category of photograph:
+//! rendered spheres of every kind (matte, glossy, mirror; light and dark) pasted onto table
+//! tops and into real scenes (crops of the shared light probes, which are photographs);
+//! small spheres in phone-sized pictures; large ones; spheres cut by the frame; crops the
+//! ball fills; several balls among flat round things; and a mirror ball in front of the
+//! very scene it reflects. Objects around, contact shadows, camera noise, lens blur and
+//! JPEG at quality 70–95. Found means the chosen circle is within 2 % of a sphere's radius,
+//! in centre and in radius.
 //!
-//! `REFLECTANCE_COMPOSITES=N cargo test --release --test numerics detection -- --nocapture` measures
-//! on N composites (default 36) and prints the rates per background;
-//! `REFLECTANCE_COMPOSITE_DUMP=DIR` writes the missed ones there.
+//! `REFLECTANCE_COMPOSITES=N cargo test --release --test numerics detection -- --nocapture`
+//! measures on N composites (default 32, cycling through the categories) and prints the
+//! rates per category; `REFLECTANCE_COMPOSITE_DUMP=DIR` writes the missed ones there.
 
 use ndarray::Array2;
 use reflectance::image::blur::gaussian_blur;
-use reflectance::image::decode::{DecodeOptions, decode};
+use reflectance::image::decode::{DecodeOptions, Limits, decode};
 use reflectance::image::display::linear_to_srgb;
 use reflectance::image::geometry::{self, Circle, GeometryError};
 use reflectance::render::capture;
@@ -30,15 +33,27 @@ fn probe(name: &str) -> EnvMap {
         .unwrap_or_else(|e| panic!("{}: {e} (../shared is required)", path.display()))
 }
 
+/// Spheres are rendered under these probes; a low-contrast composite puts one in front of
+/// its own probe.
+const SPHERE_PROBES: [&str; 2] = ["polyhaven_noon_grass.hdr", "polyhaven_studio_small_03.hdr"];
+/// Scenes behind the spheres otherwise.
+const SCENE_PROBES: [&str; 3] = [
+    "polyhaven_courtyard.hdr",
+    "polyhaven_vestibule.hdr",
+    "polyhaven_dresden_square.hdr",
+];
+
 /// A rendered sphere: luminance (outside the disc filled with the rim's values, so that it
-/// can be enlarged without a dark seam), its circle and white.
+/// can be enlarged without a dark seam), its circle, white, and the probe it was lit by.
 struct Sphere {
     luminance: Array2<f64>,
     circle: Circle,
     white: f64,
+    probe: usize,
+    mirror: bool,
 }
 
-fn spheres() -> Vec<Sphere> {
+fn spheres(probes: &[EnvMap]) -> Vec<Sphere> {
     let classes = [
         ("black", 0.1, 0.0, 0.0),
         ("white", 0.9, 0.0, 0.0),
@@ -48,8 +63,8 @@ fn spheres() -> Vec<Sphere> {
     ];
     let size = 220;
     let mut out = Vec::new();
-    for name in ["polyhaven_noon_grass.hdr", "polyhaven_studio_small_03.hdr"] {
-        let lighting = Lighting::new(probe(name));
+    for (probe, map) in probes.iter().enumerate() {
+        let lighting = Lighting::new(map.clone());
         let view = View::default();
         let white = lighting.white(&view);
         for (class, rho_d, rho_s, alpha) in classes {
@@ -86,32 +101,50 @@ fn spheres() -> Vec<Sphere> {
                 luminance,
                 circle,
                 white,
+                probe,
+                mirror: alpha == 0.0 && rho_s > 0.5,
             });
         }
     }
     out
 }
 
+/// What kind of photograph a composite imitates.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Background {
-    Light,
-    Mid,
-    Dark,
-    Gradient,
-    Wood,
+enum Category {
+    /// r 60–300 px on a light, mid or dark table top, a gradient or wood grain.
+    TableTop,
+    /// r 60–300 px in front of a real scene, or a scene over a table.
     Scene,
-    SceneAndTable,
+    /// r 40–80 px in a picture 1500–4000 px wide (up to 12 MP).
+    Small,
+    /// r 400–2000 px: phone-sized pictures (up to 30 MP).
+    Large,
+    /// 10–45 % of the rim outside the frame.
+    CutByFrame,
+    /// A crop the ball fills: 90–100 % of the frame's shorter side, sometimes cut by it.
+    FillsFrame,
+    /// Two or three balls with flat discs and rings of similar size around them.
+    Crowd,
+    /// A mirror or glossy ball in front of the scene it reflects, softly focused.
+    LowContrast,
 }
 
-const BACKGROUNDS: [Background; 7] = [
-    Background::Light,
-    Background::Mid,
-    Background::Dark,
-    Background::Gradient,
-    Background::Wood,
-    Background::Scene,
-    Background::SceneAndTable,
+const CATEGORIES: [Category; 8] = [
+    Category::TableTop,
+    Category::Scene,
+    Category::Small,
+    Category::Large,
+    Category::CutByFrame,
+    Category::FillsFrame,
+    Category::Crowd,
+    Category::LowContrast,
 ];
+
+/// `lo..hi`, log-uniform.
+fn log_uniform(rng: &mut Rng, lo: f64, hi: f64) -> f64 {
+    (lo.ln() + rng.next_f64() * (hi.ln() - lo.ln())).exp()
+}
 
 /// A crop of a real probe around its horizon, `w × h`, with its median at `level`.
 fn scene(map: &EnvMap, w: usize, h: usize, level: f64, rng: &mut Rng) -> Array2<f64> {
@@ -124,26 +157,44 @@ fn scene(map: &EnvMap, w: usize, h: usize, level: f64, rng: &mut Rng) -> Array2<
         let (i, j) = ((my as usize).min(map.height - 1), (mx as usize) % map.width);
         map.luminance[i * map.width + j]
     });
-    let mut sorted: Vec<f64> = crop.iter().copied().collect();
-    sorted.sort_by(f64::total_cmp);
-    let median = sorted[sorted.len() / 2].max(1e-9);
+    let median = median(crop.iter().copied().collect()).max(1e-9);
     crop.mapv(|v| v / median * level)
 }
 
-fn table(kind: Background, w: usize, h: usize, rng: &mut Rng) -> Array2<f64> {
+fn median(mut values: Vec<f64>) -> f64 {
+    let mid = values.len() / 2;
+    *values.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Table {
+    Light,
+    Mid,
+    Dark,
+    Gradient,
+    Wood,
+}
+
+fn table(kind: Table, w: usize, h: usize, rng: &mut Rng) -> Array2<f64> {
     let level = match kind {
-        Background::Light => 0.75,
-        Background::Mid => 0.35,
-        Background::Dark => 0.06,
+        Table::Light => 0.75,
+        Table::Mid => 0.35,
+        Table::Dark => 0.06,
         _ => 0.2 + 0.4 * rng.next_f64(),
     };
-    let (fx, fy, phase) = (0.05 + 0.1 * rng.next_f64(), 0.01, 7.0 * rng.next_f64());
+    // Grain about 60 px apart in an 800 px picture, as many across a larger one.
+    let grain_scale = 800.0 / w.max(h) as f64;
+    let (fx, fy, phase) = (
+        (0.05 + 0.1 * rng.next_f64()) * grain_scale,
+        0.01 * grain_scale,
+        7.0 * rng.next_f64(),
+    );
     Array2::from_shape_fn((h, w), |(y, x)| {
         let (u, v) = (x as f64 / w as f64, y as f64 / h as f64);
         let light_falloff = 1.0 - 0.25 * (u - 0.5).powi(2) - 0.15 * v;
         match kind {
-            Background::Gradient => level * (0.3 + 1.4 * u) * light_falloff,
-            Background::Wood => {
+            Table::Gradient => level * (0.3 + 1.4 * u) * light_falloff,
+            Table::Wood => {
                 let grain = (fx * x as f64 + 4.0 * (fy * y as f64 + phase).sin()).sin();
                 level * (1.0 + 0.25 * grain) * light_falloff
             }
@@ -152,21 +203,89 @@ fn table(kind: Background, w: usize, h: usize, rng: &mut Rng) -> Array2<f64> {
     })
 }
 
-/// Objects around the sphere: boxes and elongated ellipses with sharp edges, away from it.
-fn clutter(image: &mut Array2<f64>, avoid: &Circle, rng: &mut Rng) {
+/// The fraction of the pixel at (x, y) inside the circle (4 × 4 samples near the rim).
+fn coverage(x: usize, y: usize, c: &Circle) -> f64 {
+    let d = (x as f64 - c.cx).hypot(y as f64 - c.cy);
+    if d <= c.r - 1.0 {
+        return 1.0;
+    }
+    if d >= c.r + 1.0 {
+        return 0.0;
+    }
+    let offsets = [-0.375, -0.125, 0.125, 0.375];
+    let inside = offsets
+        .iter()
+        .flat_map(|dy| offsets.iter().map(move |dx| (dx, dy)))
+        .filter(|(dx, dy)| (x as f64 + **dx - c.cx).hypot(y as f64 + **dy - c.cy) <= c.r)
+        .count();
+    inside as f64 / 16.0
+}
+
+/// Blend `value(x, y)` into `image` over the pixels `c` covers.
+fn paint(image: &mut Array2<f64>, c: &Circle, value: impl Fn(usize, usize) -> f64) {
     let (h, w) = image.dim();
+    let span = |centre: f64, n: usize| {
+        let lo = (centre - c.r - 2.0).floor().max(0.0) as usize;
+        let hi = ((centre + c.r + 2.0).ceil().max(0.0) as usize).min(n);
+        lo..hi
+    };
+    for y in span(c.cy, h) {
+        for x in span(c.cx, w) {
+            let k = coverage(x, y, c);
+            if k > 0.0 {
+                let v = &mut image[[y, x]];
+                *v = k * value(x, y) + (1.0 - k) * *v;
+            }
+        }
+    }
+}
+
+/// Paste `sphere`, enlarged or reduced to `at`, in units of white.
+fn paste(image: &mut Array2<f64>, sphere: &Sphere, at: &Circle) {
+    let factor = at.r / sphere.circle.r;
+    let scaled = capture::scale(sphere.luminance.view(), factor);
+    let (ox, oy) = (
+        at.cx - ((sphere.circle.cx + 0.5) * factor - 0.5),
+        at.cy - ((sphere.circle.cy + 0.5) * factor - 0.5),
+    );
+    paint(image, at, |x, y| {
+        let (sx, sy) = ((x as f64 - ox).round(), (y as f64 - oy).round());
+        scaled
+            .get([sy.max(0.0) as usize, sx.max(0.0) as usize])
+            .copied()
+            .unwrap_or(0.0)
+            / sphere.white
+    });
+}
+
+/// Objects around the spheres: boxes and elongated ellipses with sharp edges, away from them,
+/// sized for the picture.
+fn clutter(image: &mut Array2<f64>, avoid: &[Circle], rng: &mut Rng) {
+    let (h, w) = image.dim();
+    let size = w.max(h) as f64 / 800.0;
     for _ in 0..(2 + rng.below(4)) {
         let (cx, cy) = (rng.next_f64() * w as f64, rng.next_f64() * h as f64);
         // Elongated (a ≥ 1.5 b): nothing else in the picture is a circle.
-        let b = 10.0 + 60.0 * rng.next_f64();
+        let b = (10.0 + 60.0 * rng.next_f64()) * size;
         let a = b * (1.5 + 1.5 * rng.next_f64());
-        if (cx - avoid.cx).hypot(cy - avoid.cy) < avoid.r + a.max(b) + 10.0 {
+        if avoid
+            .iter()
+            .any(|c| (cx - c.cx).hypot(cy - c.cy) < c.r + a.max(b) + 10.0)
+        {
             continue;
         }
         let level = 0.05 + 1.2 * rng.next_f64();
         let ellipse = rng.below(2) == 0;
-        for y in 0..h {
-            for x in 0..w {
+        let (y0, y1) = (
+            (cy - a).max(0.0) as usize,
+            ((cy + a).max(0.0) as usize).min(h),
+        );
+        let (x0, x1) = (
+            (cx - a).max(0.0) as usize,
+            ((cx + a).max(0.0) as usize).min(w),
+        );
+        for y in y0..y1 {
+            for x in x0..x1 {
                 let (dx, dy) = ((x as f64 - cx) / a, (y as f64 - cy) / b);
                 let inside = if ellipse {
                     dx * dx + dy * dy <= 1.0
@@ -181,84 +300,240 @@ fn clutter(image: &mut Array2<f64>, avoid: &Circle, rng: &mut Rng) {
     }
 }
 
-/// A composite (JPEG bytes) and where its sphere truly is.
-fn composite(
-    sphere: &Sphere,
-    kind: Background,
-    maps: &[EnvMap],
-    rng: &mut Rng,
-) -> (Vec<u8>, Circle, u8) {
-    let radius = (60f64.ln() + rng.next_f64() * (300f64.ln() - 60f64.ln())).exp();
-    let margin = 0.25 * radius + 4.0;
-    let w = (2.0 * radius + 2.0 * margin + rng.next_f64() * 500.0).ceil() as usize;
-    let h = (2.0 * radius + 2.0 * margin + rng.next_f64() * 300.0).ceil() as usize;
-    let truth = Circle {
-        cx: margin + radius + rng.next_f64() * (w as f64 - 2.0 * (margin + radius)),
-        cy: margin + radius + rng.next_f64() * (h as f64 - 2.0 * (margin + radius)),
-        r: radius,
-    };
-    let map = &maps[rng.below(maps.len() as u64) as usize];
-    let mut background = match kind {
-        Background::Scene => scene(map, w, h, 0.3, rng),
-        Background::SceneAndTable => {
-            let horizon = (truth.cy + 0.3 * radius) as usize;
-            let top = scene(map, w, h, 0.3, rng);
-            let bottom = table(Background::Wood, w, h, rng);
-            Array2::from_shape_fn((h, w), |(y, x)| {
-                if y < horizon {
-                    top[[y, x]]
-                } else {
-                    bottom[[y, x]]
-                }
-            })
-        }
-        table_kind => table(table_kind, w, h, rng),
-    };
-    clutter(&mut background, &truth, rng);
-    if kind != Background::Scene {
-        // A soft contact shadow under the sphere.
-        for ((y, x), v) in background.indexed_iter_mut() {
+/// A soft contact shadow under a sphere standing on a table.
+fn contact_shadow(image: &mut Array2<f64>, c: &Circle) {
+    let (h, w) = image.dim();
+    let rows = (c.cy.max(0.0) as usize).min(h)..((c.cy + 1.6 * c.r).max(0.0) as usize).min(h);
+    let cols = ((c.cx - 2.0 * c.r).max(0.0) as usize).min(w)..((c.cx + 2.0 * c.r) as usize).min(w);
+    for y in rows {
+        for x in cols.clone() {
             let (dx, dy) = (
-                (x as f64 - truth.cx) / (0.9 * radius),
-                (y as f64 - truth.cy - 0.85 * radius) / (0.25 * radius),
+                (x as f64 - c.cx) / (0.9 * c.r),
+                (y as f64 - c.cy - 0.85 * c.r) / (0.25 * c.r),
             );
-            *v *= 1.0 - 0.6 * (-(dx * dx + dy * dy)).exp();
+            image[[y, x]] *= 1.0 - 0.6 * (-(dx * dx + dy * dy)).exp();
         }
     }
-    // The sphere, enlarged or reduced to the radius, in units of white.
-    let factor = radius / sphere.circle.r;
-    let scaled = capture::scale(sphere.luminance.view(), factor);
-    let (ox, oy) = (
-        truth.cx - ((sphere.circle.cx + 0.5) * factor - 0.5),
-        truth.cy - ((sphere.circle.cy + 0.5) * factor - 0.5),
-    );
-    let scene = Array2::from_shape_fn((h, w), |(y, x)| {
-        let offsets = [-0.375, -0.125, 0.125, 0.375];
-        let covered = offsets
-            .iter()
-            .flat_map(|dy| offsets.iter().map(move |dx| (dx, dy)))
-            .filter(|(dx, dy)| {
-                (x as f64 + **dx - truth.cx).hypot(y as f64 + **dy - truth.cy) <= radius
-            })
-            .count() as f64
-            / 16.0;
-        let back = background[[y, x]];
-        if covered == 0.0 {
-            return back;
+}
+
+/// A picture in units of white, where its spheres are, and the lens blur to apply.
+struct Staged {
+    scene: Array2<f64>,
+    spheres: Vec<Circle>,
+    blur: f64,
+}
+
+/// A background of `w × h`: a table top or a scene (over a table below `horizon`).
+fn background(
+    w: usize,
+    h: usize,
+    horizon: Option<f64>,
+    maps: &[EnvMap],
+    rng: &mut Rng,
+) -> Array2<f64> {
+    let map = &maps[rng.below(maps.len() as u64) as usize];
+    match horizon {
+        None => {
+            let kinds = [
+                Table::Light,
+                Table::Mid,
+                Table::Dark,
+                Table::Gradient,
+                Table::Wood,
+            ];
+            table(kinds[rng.below(kinds.len() as u64) as usize], w, h, rng)
         }
-        let (sx, sy) = ((x as f64 - ox).round(), (y as f64 - oy).round());
-        let inside = scaled
-            .get([sy.max(0.0) as usize, sx.max(0.0) as usize])
-            .copied()
-            .unwrap_or(0.0)
-            / sphere.white;
-        covered * inside + (1.0 - covered) * back
-    });
-    // The camera: exposure, lens blur, noise, clipping, 8-bit sRGB JPEG.
+        Some(horizon) => {
+            let mut top = scene(map, w, h, 0.3, rng);
+            if horizon < h as f64 {
+                let bottom = table(Table::Wood, w, h, rng);
+                let from = horizon.max(0.0) as usize;
+                top.slice_mut(ndarray::s![from.., ..])
+                    .assign(&bottom.slice(ndarray::s![from.., ..]));
+            }
+            top
+        }
+    }
+}
+
+/// A single sphere of radius `r` somewhere in a `w × h` picture, at least `margin` inside.
+fn placed(w: usize, h: usize, r: f64, margin: f64, rng: &mut Rng) -> Circle {
+    let free = |n: usize| (n as f64 - 2.0 * (margin + r)).max(0.0);
+    Circle {
+        cx: margin + r + rng.next_f64() * free(w),
+        cy: margin + r + rng.next_f64() * free(h),
+        r,
+    }
+}
+
+/// One sphere on a table top or in a scene: the classic composite.
+fn single(
+    sphere: &Sphere,
+    (w, h): (usize, usize),
+    at: Circle,
+    in_scene: bool,
+    maps: &[EnvMap],
+    rng: &mut Rng,
+) -> Staged {
+    let horizon = (in_scene && rng.below(2) == 0)
+        .then_some(at.cy + 0.3 * at.r)
+        .or(in_scene.then_some(f64::INFINITY));
+    let mut scene = background(w, h, horizon, maps, rng);
+    clutter(&mut scene, &[at], rng);
+    if horizon != Some(f64::INFINITY) {
+        contact_shadow(&mut scene, &at);
+    }
+    paste(&mut scene, sphere, &at);
+    Staged {
+        scene,
+        spheres: vec![at],
+        blur: 0.1 + 0.9 * rng.next_f64(),
+    }
+}
+
+fn stage(
+    category: Category,
+    spheres: &[Sphere],
+    sphere_maps: &[EnvMap],
+    maps: &[EnvMap],
+    rng: &mut Rng,
+) -> Staged {
+    let sphere = &spheres[rng.below(spheres.len() as u64) as usize];
+    match category {
+        Category::TableTop | Category::Scene => {
+            let r = log_uniform(rng, 60.0, 300.0);
+            let margin = 0.25 * r + 4.0;
+            let w = (2.0 * (r + margin) + rng.next_f64() * 500.0).ceil() as usize;
+            let h = (2.0 * (r + margin) + rng.next_f64() * 300.0).ceil() as usize;
+            let at = placed(w, h, r, margin, rng);
+            single(sphere, (w, h), at, category == Category::Scene, maps, rng)
+        }
+        Category::Small => {
+            let r = log_uniform(rng, 40.0, 80.0);
+            let w = (1500.0 + 2500.0 * rng.next_f64()) as usize;
+            let h = w * 3 / 4;
+            let at = placed(w, h, r, 0.25 * r + 4.0, rng);
+            single(sphere, (w, h), at, rng.below(2) == 0, maps, rng)
+        }
+        Category::Large => {
+            let r = log_uniform(rng, 400.0, 2000.0);
+            let w = ((2.3 + 0.9 * rng.next_f64()) * r) as usize;
+            let h = ((w * 3 / 4) as f64).max(2.3 * r) as usize;
+            let at = placed(w, h, r, 0.1 * r, rng);
+            single(sphere, (w, h), at, rng.below(2) == 0, maps, rng)
+        }
+        Category::CutByFrame => {
+            let r = log_uniform(rng, 60.0, 300.0);
+            let w = (2.0 * r + 200.0 + rng.next_f64() * 500.0).ceil() as usize;
+            let h = (2.0 * r + 200.0 + rng.next_f64() * 300.0).ceil() as usize;
+            // Beyond one or two edges by 0.1–0.45 r: up to ~30 % of the rim unseen.
+            let past = |rng: &mut Rng| r - (0.1 + 0.35 * rng.next_f64()) * r;
+            let mut at = placed(w, h, r, 4.0, rng);
+            match rng.below(4) {
+                0 => at.cx = past(rng) - 0.5,
+                1 => at.cy = h as f64 - 0.5 - past(rng),
+                2 => {
+                    at.cx = w as f64 - 0.5 - past(rng);
+                    at.cy = past(rng) - 0.5;
+                }
+                _ => at.cy = past(rng) - 0.5,
+            }
+            single(sphere, (w, h), at, rng.below(2) == 0, maps, rng)
+        }
+        Category::FillsFrame => {
+            let r = log_uniform(rng, 100.0, 1000.0);
+            let h = (2.0 * r / (0.9 + 0.12 * rng.next_f64())).round() as usize;
+            let w = (h as f64 * (1.0 + 0.4 * rng.next_f64())).round() as usize;
+            let at = Circle {
+                cx: 0.5 * (w as f64 - 1.0) + 0.05 * r * (rng.next_f64() - 0.5),
+                cy: 0.5 * (h as f64 - 1.0) + 0.05 * r * (rng.next_f64() - 0.5),
+                r,
+            };
+            single(sphere, (w, h), at, rng.below(2) == 0, maps, rng)
+        }
+        Category::Crowd => crowd(spheres, maps, rng),
+        Category::LowContrast => {
+            let own: Vec<&Sphere> = spheres.iter().filter(|s| s.mirror).collect();
+            let sphere = own[rng.below(own.len() as u64) as usize];
+            let r = log_uniform(rng, 60.0, 300.0);
+            let w = (2.0 * r + 100.0 + rng.next_f64() * 500.0).ceil() as usize;
+            let h = (2.0 * r + 100.0 + rng.next_f64() * 300.0).ceil() as usize;
+            let at = placed(w, h, r, 0.2 * r, rng);
+            // The scene it reflects, at the brightness of its reflection.
+            let inside = median(sphere.luminance.iter().copied().collect()) / sphere.white;
+            let mut scene = scene(&sphere_maps[sphere.probe], w, h, inside, rng);
+            paste(&mut scene, sphere, &at);
+            Staged {
+                scene,
+                spheres: vec![at],
+                blur: 0.5 + 2.0 * rng.next_f64(),
+            }
+        }
+    }
+}
+
+/// Two or three balls and two to four flat discs and rings of similar size, apart.
+fn crowd(spheres: &[Sphere], maps: &[EnvMap], rng: &mut Rng) -> Staged {
+    let (w, h) = (
+        (900.0 + 700.0 * rng.next_f64()) as usize,
+        (700.0 + 400.0 * rng.next_f64()) as usize,
+    );
+    let mut scene = background(
+        w,
+        h,
+        (rng.below(2) == 0).then_some(f64::INFINITY),
+        maps,
+        rng,
+    );
+    let mut placed_circles: Vec<Circle> = Vec::new();
+    let (balls, flats) = (2 + rng.below(2) as usize, 2 + rng.below(3) as usize);
+    let mut tries = 0;
+    while placed_circles.len() < balls + flats && tries < 200 {
+        tries += 1;
+        let r = log_uniform(rng, 60.0, 160.0);
+        let at = placed(w, h, r, 0.2 * r + 4.0, rng);
+        if placed_circles
+            .iter()
+            .any(|c| (c.cx - at.cx).hypot(c.cy - at.cy) < c.r + at.r + 20.0)
+        {
+            continue;
+        }
+        placed_circles.push(at);
+    }
+    let (ball_circles, flat_circles) = placed_circles.split_at(balls.min(placed_circles.len()));
+    for at in flat_circles {
+        let level = 0.05 + 1.0 * rng.next_f64();
+        if rng.below(2) == 0 {
+            paint(&mut scene, at, |_, _| level);
+        } else {
+            // A ring (a plate's rim, a clock's bezel) around the background.
+            let inner = Circle {
+                r: at.r * (0.75 + 0.15 * rng.next_f64()),
+                ..*at
+            };
+            let inside = scene.clone();
+            paint(&mut scene, at, |_, _| level);
+            paint(&mut scene, &inner, |x, y| inside[[y, x]]);
+        }
+    }
+    for at in ball_circles {
+        let sphere = &spheres[rng.below(spheres.len() as u64) as usize];
+        paste(&mut scene, sphere, at);
+    }
+    Staged {
+        scene,
+        spheres: ball_circles.to_vec(),
+        blur: 0.1 + 0.9 * rng.next_f64(),
+    }
+}
+
+/// The camera: exposure, lens blur, noise, clipping, 8-bit sRGB JPEG at quality 70–95.
+fn photograph(staged: &Staged, rng: &mut Rng) -> (Vec<u8>, u8) {
+    let (h, w) = staged.scene.dim();
     let exposure = 0.3 + 0.4 * rng.next_f64();
-    let blurred = gaussian_blur(scene.view(), 0.1 + 0.9 * rng.next_f64());
+    let blurred = gaussian_blur(staged.scene.view(), staged.blur);
     let noise = 0.02 * rng.next_f64();
-    let quality = 75 + rng.below(21) as u8;
+    let quality = 70 + rng.below(26) as u8;
     let mut rgb = Vec::with_capacity(w * h * 3);
     for &v in blurred.iter() {
         let x = v * exposure;
@@ -277,7 +552,13 @@ fn composite(
         image::ExtendedColorType::Rgb8,
     )
     .unwrap();
-    (jpeg, truth, quality)
+    (jpeg, quality)
+}
+
+/// Within 2 % of the sphere's radius, in centre and in radius.
+fn matches(found: &geometry::Geometry, truth: &Circle) -> bool {
+    (found.cx - truth.cx).hypot(found.cy - truth.cy) <= 0.02 * truth.r
+        && (found.r - truth.r).abs() <= 0.02 * truth.r
 }
 
 #[test]
@@ -289,56 +570,66 @@ fn spheres_are_found_in_photograph_like_composites() {
     let count: usize = std::env::var("REFLECTANCE_COMPOSITES")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(36);
-    let spheres = spheres();
-    let maps: Vec<EnvMap> = [
-        "polyhaven_courtyard.hdr",
-        "polyhaven_vestibule.hdr",
-        "polyhaven_dresden_square.hdr",
-    ]
-    .iter()
-    .map(|n| probe(n))
-    .collect();
-    let mut rng = Rng::new(2026);
-    let mut per_kind = vec![(0usize, 0usize); BACKGROUNDS.len()];
+        .unwrap_or(32);
+    let sphere_maps: Vec<EnvMap> = SPHERE_PROBES.iter().map(|n| probe(n)).collect();
+    let maps: Vec<EnvMap> = SCENE_PROBES.iter().map(|n| probe(n)).collect();
+    let spheres = spheres(&sphere_maps);
+    let options = DecodeOptions {
+        encoding: None,
+        limits: Limits {
+            max_pixels: 60_000_000,
+            ..Limits::default()
+        },
+    };
+    let mut per_category = vec![(0usize, 0usize); CATEGORIES.len()];
     let mut misses = Vec::new();
     for i in 0..count {
-        let kind_index = i % BACKGROUNDS.len();
-        let kind = BACKGROUNDS[kind_index];
-        let sphere = &spheres[rng.below(spheres.len() as u64) as usize];
-        let (jpeg, truth, quality) = composite(sphere, kind, &maps, &mut rng);
-        let image = decode(&jpeg, &DecodeOptions::default()).unwrap();
+        let index = i % CATEGORIES.len();
+        let category = CATEGORIES[index];
+        let mut rng = Rng::fork(2026, i as u64);
+        let staged = stage(category, &spheres, &sphere_maps, &maps, &mut rng);
+        let (jpeg, quality) = photograph(&staged, &mut rng);
+        drop(staged.scene);
+        let image = decode(&jpeg, &options).unwrap();
         let found = geometry::detect(image.luminance.view());
-        let good = found.as_ref().is_ok_and(|g| {
-            (g.cx - truth.cx).hypot(g.cy - truth.cy) <= 1.0
-                && (g.r - truth.r).abs() <= 0.01 * truth.r
-        });
-        per_kind[kind_index].1 += 1;
+        let good = found
+            .as_ref()
+            .is_ok_and(|g| staged.spheres.iter().any(|truth| matches(g, truth)));
+        per_category[index].1 += 1;
         if good {
-            per_kind[kind_index].0 += 1;
+            per_category[index].0 += 1;
         } else {
+            let (h, w) = image.luminance.dim();
             misses.push(format!(
-                "#{i} {kind:?} q{quality} truth {truth:?}: {found:?}"
+                "#{i} {category:?} {w}×{h} q{quality} truth {:?}: {found:?}",
+                staged.spheres
             ));
             if let Some(dir) = std::env::var_os("REFLECTANCE_COMPOSITE_DUMP") {
                 let _ = std::fs::write(PathBuf::from(dir).join(format!("miss{i}.jpg")), &jpeg);
             }
         }
     }
-    let total: usize = per_kind.iter().map(|k| k.0).sum();
-    for (kind, (ok, n)) in BACKGROUNDS.iter().zip(&per_kind) {
-        eprintln!("{kind:?}: {ok}/{n}");
+    let total: usize = per_category.iter().map(|k| k.0).sum();
+    eprintln!("| category | found within 2 % of r |\n|---|---|");
+    for (category, (ok, n)) in CATEGORIES.iter().zip(&per_category) {
+        eprintln!("| {category:?} | {ok} / {n} |");
     }
     eprintln!("found {total}/{count}");
     for miss in &misses {
         eprintln!("miss {miss}");
     }
-    // At least 98 % found.
-    assert!(
-        misses.len() * 50 <= count,
-        "{} misses of {count}: {misses:#?}",
-        misses.len()
-    );
+    // The rates measured on 160 (docs/accuracy.md), less a margin for the few each category
+    // gets in a short run: cut by the frame and low contrast are not yet at the others' level.
+    for (category, (ok, n)) in CATEGORIES.iter().zip(&per_category) {
+        let floor = match category {
+            Category::CutByFrame | Category::LowContrast => 0.5,
+            _ => 0.9,
+        };
+        assert!(
+            *ok as f64 >= floor * *n as f64,
+            "{category:?}: {ok} of {n} found: {misses:#?}"
+        );
+    }
 }
 
 #[test]

@@ -26,22 +26,28 @@ const CANDIDATES: usize = 16;
 const RADII_PER_CENTRE: usize = 3;
 /// A detection below this confidence is refused.
 pub const MIN_CONFIDENCE: f64 = 0.5;
+/// A circle with less of its rim inside the frame is not judged.
+pub const MIN_VISIBLE: f64 = 0.5;
 
-/// A circle found, and the fraction of its rim with a clear edge on it.
+/// A circle found, the fraction of its visible rim with a clear edge on it, and whether it
+/// looks like a ball rather than a flat round thing.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Found {
     pub circle: Circle,
     pub confidence: f64,
+    pub ball_like: bool,
 }
 
 /// Why no sphere was found: a sentence for the user.
 #[derive(Clone, Debug, PartialEq)]
 pub struct NotFound(pub String);
 
-/// The first of the ranked circles when it is confident enough, else why not.
+/// The first of the ranked circles that is confident enough, else why not.
 pub fn chosen(ranked: &[Found]) -> Result<Found, NotFound> {
+    if let Some(found) = ranked.iter().find(|f| f.confidence >= MIN_CONFIDENCE) {
+        return Ok(*found);
+    }
     match ranked.first() {
-        Some(found) if found.confidence >= MIN_CONFIDENCE => Ok(*found),
         Some(found) => Err(NotFound(format!(
             "the roundest edge found (centre {:.0}, {:.0}, radius {:.0}) has a clear rim along \
              only {:.0} % of its circumference",
@@ -63,10 +69,11 @@ fn same_sphere(a: &Circle, b: &Circle) -> bool {
 
 /// Every distinct circle the search finds in `luminance` (linear), refined, most confident
 /// first ([`chosen`] takes the first when it is confident enough); `hint` is a circle found
-/// otherwise (e.g. by segmenting a clean background), examined with the candidates.
+/// otherwise (e.g. by segmenting a clean background) and its uncertainty (px), examined
+/// with the candidates.
 pub fn find_spheres(
     luminance: ArrayView2<f64>,
-    hint: Option<Circle>,
+    hint: Option<(Circle, f64)>,
 ) -> Result<Vec<Found>, NotFound> {
     let (h, w) = luminance.dim();
     if h < 2 * MIN_RADIUS as usize || w < 2 * MIN_RADIUS as usize {
@@ -81,11 +88,12 @@ pub fn find_spheres(
     }
     let min_r = (MIN_RADIUS * scale).max(6.0);
     let (wh, ww) = work.dim();
-    let max_r = 0.5 * wh.min(ww) as f64;
+    // A ball that fills the frame may be cut by it.
+    let max_r = 0.6 * wh.min(ww) as f64;
     if max_r <= min_r {
         return Err(NotFound("the image is too small to hold a sphere".into()));
     }
-    let mut candidates: Vec<(Circle, f64)> = hint.map(|c| (c, 2.0)).into_iter().collect();
+    let mut candidates: Vec<(Circle, f64)> = hint.into_iter().collect();
     for (cx, cy, r_bin) in vote(&edges, (wh, ww), min_r, max_r) {
         for r in radii(&edges, cx, cy, r_bin / RADIUS_RATIO, r_bin * RADIUS_RATIO) {
             let rough = Circle {
@@ -107,7 +115,68 @@ pub fn find_spheres(
             distinct.push(f);
         }
     }
+    judge_ball_likeness(&mut distinct, work.view(), &edges, scale);
+    distinct.sort_by(|a, b| {
+        (b.ball_like, b.confidence)
+            .partial_cmp(&(a.ball_like, a.confidence))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
     Ok(distinct)
+}
+
+/// Mark the circles that are not balls: a flat inside, or a concentric circle.
+fn judge_ball_likeness(found: &mut [Found], work: ArrayView2<f64>, edges: &[Edge], scale: f64) {
+    for f in found.iter_mut() {
+        f.ball_like = !ringed(edges, &f.circle, scale) && !flat_inside(work, &f.circle, scale);
+    }
+}
+
+/// A second circle, inside or around `circle` at its centre (0.5–1.6 r), with an edge along
+/// more than this share of it, makes a ring: a plate's rim, a bezel, a washer.
+const RING_COVERAGE: u32 = 54;
+
+/// Whether the working copy's edges draw a second circle concentric with `circle`.
+fn ringed(edges: &[Edge], circle: &Circle, scale: f64) -> bool {
+    let (cx, cy, r) = (
+        (circle.cx + 0.5) * scale - 0.5,
+        (circle.cy + 0.5) * scale - 0.5,
+        circle.r * scale,
+    );
+    let coverage = rim_coverage(edges, cx, cy, 0.5 * r, 1.6 * r);
+    let own = (0.07 * r).max(2.0);
+    ((0.5 * r).floor() as usize..=(1.6 * r).ceil() as usize)
+        .filter(|&d| (d as f64 - r).abs() > own)
+        .any(|d| coverage(d) >= RING_COVERAGE)
+}
+
+/// Spread (10th to 90th percentile) below which the inside of a disc, gamma-encoded in
+/// units of the picture's 99th percentile and smoothed, is flat: a ball's shading and
+/// reflections spread wider, even a black one's.
+const FLAT_SPREAD: f64 = 0.04;
+
+/// Whether the inside of `circle` (full-resolution coordinates) is flat on the working copy.
+fn flat_inside(work: ArrayView2<f64>, circle: &Circle, scale: f64) -> bool {
+    let (h, w) = work.dim();
+    let (cx, cy, r) = (
+        (circle.cx + 0.5) * scale - 0.5,
+        (circle.cy + 0.5) * scale - 0.5,
+        0.8 * circle.r * scale,
+    );
+    let rows = (cy - r).max(0.0) as usize..((cy + r).ceil().max(0.0) as usize).min(h);
+    let cols = (cx - r).max(0.0) as usize..((cx + r).ceil().max(0.0) as usize).min(w);
+    let mut inside: Vec<f64> = Vec::new();
+    for y in rows {
+        for x in cols.clone() {
+            if (x as f64 - cx).hypot(y as f64 - cy) <= r {
+                inside.push(work[[y, x]]);
+            }
+        }
+    }
+    if inside.len() < 16 {
+        return false;
+    }
+    let high = quantile(inside.clone(), 0.9);
+    high - quantile(inside, 0.1) < FLAT_SPREAD
 }
 
 /// A gamma-encoded copy at most [`WORK_SIZE`] across, smoothed (σ = 1 px), and its scale.
@@ -212,31 +281,41 @@ fn vote(edges: &[Edge], (h, w): (usize, usize), min_r: f64, max_r: f64) -> Vec<(
         (h as f64 / CELL).ceil() as usize,
         (w as f64 / CELL).ceil() as usize,
     );
-    let mut votes = vec![Array2::<f32>::zeros((ch, cw)); bins];
+    let mut votes = vec![Array2::<f64>::zeros((ch, cw)); bins];
     let mut directions = vec![Array2::<u16>::zeros((ch, cw)); bins];
+    // Radii one working pixel apart, and the bin of each.
+    let steps: Vec<(f64, usize)> = (0..)
+        .map(|k| min_r + k as f64)
+        .take_while(|&r| r <= max_r)
+        .map(|r| {
+            (
+                r,
+                (((r / min_r).ln() / RADIUS_RATIO.ln()) as usize).min(bins - 1),
+            )
+        })
+        .collect();
     for e in edges {
         for side in [-1.0, 1.0] {
             // The direction from the centre to the edge point.
             let angle = (-side * e.uy).atan2(-side * e.ux) + std::f64::consts::PI;
             let sector = ((angle / std::f64::consts::TAU * SECTORS) as u16).min(SECTORS as u16 - 1);
-            let mut r = min_r;
-            while r <= max_r {
-                let (x, y) = (e.x + side * r * e.ux, e.y + side * r * e.uy);
-                if x < 0.0 || y < 0.0 || x >= w as f64 || y >= h as f64 {
+            let (dx, dy) = (side * e.ux / CELL, side * e.uy / CELL);
+            let (x0, y0) = (e.x / CELL, e.y / CELL);
+            for &(r, bin) in &steps {
+                let (x, y) = (x0 + r * dx, y0 + r * dy);
+                if x < 0.0 || y < 0.0 || x >= cw as f64 || y >= ch as f64 {
                     break;
                 }
-                let bin = (((r / min_r).ln() / RADIUS_RATIO.ln()) as usize).min(bins - 1);
-                let cell = [(y / CELL) as usize, (x / CELL) as usize];
+                let cell = [y as usize, x as usize];
                 votes[bin][cell] += 1.0;
                 directions[bin][cell] |= 1 << sector;
-                r += 1.0;
             }
         }
     }
     let mut found: Vec<(f64, f64, f64, f64)> = Vec::new();
     for (bin, (map, seen)) in votes.iter().zip(&directions).enumerate() {
         let r = min_r * RADIUS_RATIO.powf(bin as f64 + 0.5);
-        let smooth = crate::image::blur::gaussian_blur(map.mapv(f64::from).view(), 1.0);
+        let smooth = crate::image::blur::gaussian_blur(map.view(), 1.0);
         let circumference = std::f64::consts::TAU * r;
         for (y, x) in peaks(&smooth, CANDIDATES, (0.5 * r / CELL).max(2.0)) {
             let (y, x) = (y as usize, x as usize);
@@ -260,17 +339,25 @@ fn vote(edges: &[Edge], (h, w): (usize, usize), min_r: f64, max_r: f64) -> Vec<(
 /// The `n` strongest local maxima of a vote map, at least `spacing` apart, as (y, x).
 fn peaks(acc: &Array2<f64>, n: usize, spacing: f64) -> Vec<(f64, f64)> {
     let (h, w) = acc.dim();
+    let acc = acc.as_standard_layout();
+    let Some(cells) = acc.as_slice() else {
+        return Vec::new();
+    };
     let mut maxima: Vec<(f64, usize, usize)> = Vec::new();
     for y in 1..h.saturating_sub(1) {
-        for x in 1..w.saturating_sub(1) {
-            let v = acc[[y, x]];
-            if v <= 0.0 {
-                continue;
-            }
-            let is_max = (0..3).all(|dy| {
-                (0..3).all(|dx| (dy == 1 && dx == 1) || acc[[y + dy - 1, x + dx - 1]] <= v)
-            });
-            if is_max {
+        let (above, row, below) = (
+            &cells[(y - 1) * w..y * w],
+            &cells[y * w..(y + 1) * w],
+            &cells[(y + 1) * w..(y + 2) * w],
+        );
+        for x in 1..w - 1 {
+            let v = row[x];
+            if v > 0.0
+                && row[x - 1] <= v
+                && row[x + 1] <= v
+                && above[x - 1..=x + 1].iter().all(|&n| n <= v)
+                && below[x - 1..=x + 1].iter().all(|&n| n <= v)
+            {
                 maxima.push((v, y, x));
             }
         }
@@ -292,11 +379,10 @@ fn peaks(acc: &Array2<f64>, n: usize, spacing: f64) -> Vec<(f64, f64)> {
     chosen
 }
 
-/// The radii around (cx, cy) at which the largest fractions of the circumference have an
-/// edge point pointing at the centre: the best [`RADII_PER_CENTRE`] local maxima.
-fn radii(edges: &[Edge], cx: f64, cy: f64, min_r: f64, max_r: f64) -> Vec<f64> {
+/// Per whole radius from 0 to `max_r`, how many of 90 sectors around (cx, cy) have an edge
+/// point within a pixel of it pointing at the centre.
+fn rim_coverage(edges: &[Edge], cx: f64, cy: f64, min_r: f64, max_r: f64) -> impl Fn(usize) -> u32 {
     let bins = max_r.ceil() as usize + 2;
-    // Per radius bin, which of 90 angular sectors have an aligned edge.
     let mut sectors = vec![0u128; bins];
     for e in edges {
         let (dx, dy) = (e.x - cx, e.y - cy);
@@ -313,10 +399,16 @@ fn radii(edges: &[Edge], cx: f64, cy: f64, min_r: f64, max_r: f64) -> Vec<f64> {
             .min(89);
         sectors[d.round() as usize] |= 1u128 << sector;
     }
-    let coverage = |r: usize| {
-        let merged = sectors[r.saturating_sub(1)] | sectors[r] | sectors[(r + 1).min(bins - 1)];
-        merged.count_ones()
-    };
+    move |r: usize| {
+        let at = |r: usize| sectors.get(r).copied().unwrap_or(0);
+        (at(r.saturating_sub(1)) | at(r) | at(r + 1)).count_ones()
+    }
+}
+
+/// The radii around (cx, cy) at which the largest fractions of the circumference have an
+/// edge point pointing at the centre: the best [`RADII_PER_CENTRE`] local maxima.
+fn radii(edges: &[Edge], cx: f64, cy: f64, min_r: f64, max_r: f64) -> Vec<f64> {
+    let coverage = rim_coverage(edges, cx, cy, min_r, max_r);
     let profile: Vec<(u32, usize)> = (min_r.ceil() as usize..=max_r.floor() as usize)
         .map(|r| (coverage(r), r))
         .collect();
@@ -439,7 +531,10 @@ fn rim_points(image: ArrayView2<f64>, circle: &Circle, window: f64) -> Vec<(f64,
             0.0
         };
         let at = rho(i as f64 + offset + RIM_BASE as f64 / 2.0);
-        out.push((circle.cx + at * ux, circle.cy + at * uy, peak));
+        let (x, y) = (circle.cx + at * ux, circle.cy + at * uy);
+        if radial(image, x, y, ux, uy) {
+            out.push((x, y, peak));
+        }
     }
     // A clear edge: at least a third of the median ray's.
     let mut contrasts: Vec<f64> = out.iter().map(|p| p.2).collect();
@@ -452,6 +547,18 @@ fn rim_points(image: ArrayView2<f64>, circle: &Circle, window: f64) -> Vec<(f64,
     out.retain(|p| p.2 > floor);
     out
 }
+
+/// Whether the luminance at (x, y) changes mostly along the direction (ux, uy): a rim's
+/// edge runs along the circle; a texture's edges (wood grain, a tiled floor) run every way.
+fn radial(image: ArrayView2<f64>, x: f64, y: f64, ux: f64, uy: f64) -> bool {
+    let gx = sample(image, x + 1.5, y) - sample(image, x - 1.5, y);
+    let gy = sample(image, x, y + 1.5) - sample(image, x, y - 1.5);
+    let magnitude = gx.hypot(gy);
+    magnitude > 0.0 && (gx * ux + gy * uy).abs() >= MIN_RADIAL_ALIGNMENT * magnitude
+}
+
+/// The cosine of the largest angle between a rim's gradient and the ray through it (about 40°).
+const MIN_RADIAL_ALIGNMENT: f64 = 0.75;
 
 /// Fit a circle to rim points (x, y, contrast): a geometric least-squares fit weighted by
 /// contrast, with Tukey's biweight on the distances to the circle so that points off the
@@ -520,7 +627,11 @@ fn refine(luminance: ArrayView2<f64>, rough: Circle, slack: f64) -> Option<Found
     if circle.r < MIN_RADIUS {
         return None;
     }
-    // Confidence: rays with a clear edge on the final circle.
+    // Confidence: rays with a clear edge on the final circle, of those inside the frame.
+    let visible = visible_rays(&circle, luminance.dim());
+    if visible < (MIN_VISIBLE * RAYS as f64).ceil() as usize {
+        return None;
+    }
     let points = rim_points(luminance, &circle, 0.015 * circle.r + 2.0);
     let tolerance = (0.01 * circle.r).max(1.0);
     let on = points
@@ -529,6 +640,21 @@ fn refine(luminance: ArrayView2<f64>, rough: Circle, slack: f64) -> Option<Found
         .count();
     Some(Found {
         circle,
-        confidence: on as f64 / RAYS as f64,
+        confidence: (on as f64 / visible as f64).min(1.0),
+        ball_like: true,
     })
+}
+
+/// How many of the [`RAYS`] cross the rim at least a pixel inside the frame.
+fn visible_rays(circle: &Circle, (h, w): (usize, usize)) -> usize {
+    (0..RAYS)
+        .filter(|&k| {
+            let theta = std::f64::consts::TAU * k as f64 / RAYS as f64;
+            let (x, y) = (
+                circle.cx + circle.r * theta.cos(),
+                circle.cy + circle.r * theta.sin(),
+            );
+            x >= 0.5 && y >= 0.5 && x <= w as f64 - 1.5 && y <= h as f64 - 1.5
+        })
+        .count()
 }

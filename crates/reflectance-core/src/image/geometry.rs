@@ -251,8 +251,7 @@ pub fn detect_ranked(
     luminance: ArrayView2<f64>,
 ) -> (Result<Geometry, GeometryError>, Vec<Geometry>) {
     use crate::image::detect::{self, NotFound};
-    let clean = detect_clean(luminance).ok().map(|g| g.circle());
-    let ranked = match detect::find_spheres(luminance, clean) {
+    let ranked = match detect::find_spheres(luminance, clean_hint(luminance)) {
         Ok(ranked) => ranked,
         Err(NotFound(reason)) => return (Err(GeometryError::DetectionFailed { reason }), vec![]),
     };
@@ -265,6 +264,28 @@ pub fn detect_ranked(
         .map(|f| Geometry::new(f.circle, Method::Auto, Some(f.confidence)))
         .collect();
     (chosen, alternatives)
+}
+
+/// Clean-background detection runs on a copy at most this many pixels across.
+const CLEAN_SIZE: usize = 1024;
+
+/// The circle [`detect_clean`] finds on a copy at most [`CLEAN_SIZE`] across, in the
+/// image's coordinates, and its uncertainty (px).
+fn clean_hint(luminance: ArrayView2<f64>) -> Option<(Circle, f64)> {
+    let (h, w) = luminance.dim();
+    let factor = (CLEAN_SIZE as f64 / h.max(w) as f64).min(1.0);
+    if factor == 1.0 {
+        return detect_clean(luminance).ok().map(|g| (g.circle(), 2.0));
+    }
+    let small = super::resample::downsample(luminance, factor);
+    let found = detect_clean(small.view()).ok()?;
+    let full = |v: f64| (v + 0.5) / factor - 0.5;
+    let circle = Circle {
+        cx: full(found.cx),
+        cy: full(found.cy),
+        r: found.r / factor,
+    };
+    Some((circle, 2.0 / factor))
 }
 
 /// The fraction of a circle's circumference inside a `width` × `height` image.
@@ -590,5 +611,72 @@ mod tests {
             detect(flat.view()),
             Err(GeometryError::DetectionFailed { .. })
         ));
+    }
+    /// A Lambertian-looking ball (brighter towards the top left) of `c` painted over `image`.
+    fn shaded_ball(image: &mut Array2<f64>, c: &Circle) {
+        for ((y, x), v) in image.indexed_iter_mut() {
+            let (dx, dy) = ((x as f64 - c.cx) / c.r, (y as f64 - c.cy) / c.r);
+            let d2 = dx * dx + dy * dy;
+            if d2 <= 1.0 {
+                let nz = (1.0 - d2).sqrt();
+                *v = 0.05 + 0.6 * (0.5 * (-dx - dy) + 0.7 * nz).max(0.0);
+            }
+        }
+    }
+
+    fn paint_disc(image: &mut Array2<f64>, c: &Circle, level: f64) {
+        for ((y, x), v) in image.indexed_iter_mut() {
+            if (x as f64 - c.cx).hypot(y as f64 - c.cy) <= c.r {
+                *v = level;
+            }
+        }
+    }
+
+    fn near(g: &Geometry, c: &Circle) -> bool {
+        (g.cx - c.cx).hypot(g.cy - c.cy) <= 0.02 * c.r && (g.r - c.r).abs() <= 0.02 * c.r
+    }
+
+    #[test]
+    fn a_ball_cut_by_the_frame_is_judged_on_the_arc_that_shows() {
+        // Nearly a third of the rim beyond the right-hand edge.
+        let ball = Circle {
+            cx: 330.0,
+            cy: 150.0,
+            r: 90.0,
+        };
+        let mut image = Array2::from_elem((300, 380), 0.4);
+        shaded_ball(&mut image, &ball);
+        let g = detect(image.view()).unwrap();
+        assert!(near(&g, &ball), "{g:?}");
+        assert!(g.confidence.unwrap() >= 0.9, "{g:?}");
+        let seen = visible_rim(&g.circle(), 380, 300);
+        assert!((0.6..0.8).contains(&seen), "{seen}");
+    }
+
+    #[test]
+    fn balls_come_before_flat_discs_and_rings() {
+        let ball = Circle {
+            cx: 420.0,
+            cy: 150.0,
+            r: 70.0,
+        };
+        let plate = Circle {
+            cx: 130.0,
+            cy: 150.0,
+            r: 80.0,
+        };
+        for ring in [false, true] {
+            let mut image = Array2::from_elem((300, 560), 0.3);
+            paint_disc(&mut image, &plate, 0.8);
+            if ring {
+                paint_disc(&mut image, &Circle { r: 64.0, ..plate }, 0.3);
+            }
+            shaded_ball(&mut image, &ball);
+            let (chosen, ranked) = detect_ranked(image.view());
+            let chosen = chosen.unwrap();
+            assert!(near(&chosen, &ball), "ring {ring}: {chosen:?}");
+            // The plate is still offered, after the ball.
+            assert!(ranked.iter().skip(1).any(|g| near(g, &plate)), "{ranked:?}");
+        }
     }
 }
