@@ -3,18 +3,28 @@
 //! 1. **Candidates** (on a copy at most [`WORK_SIZE`] px across, gamma-encoded so that
 //!    edges in the shadows count as much as in the light, lightly smoothed against noise
 //!    and JPEG blocks): Sobel gradients, thinned to their ridges; every edge point votes for
-//!    the centres along its gradient line, on both sides and at every radius (a sphere can
-//!    be brighter than its background on one side and darker on the other); the strongest
-//!    peaks of the vote map are candidate centres, and each takes the radius at which the
-//!    most of its circumference has an edge pointing at it.
+//!    the centres along its gradient line, on both sides and at every radius up to 0.6 of
+//!    the shorter side (a sphere can be brighter than its background on one side and darker
+//!    on the other; it can fill the frame); the strongest peaks of the vote map are
+//!    candidate centres, and each takes the radius at which the most of its circumference
+//!    has an edge pointing at it. The circle a clean background gives
+//!    ([`detect_clean`], on the same copy) is one more.
 //! 2. **Sub-pixel fit** (on the full-resolution linear image): along 360 rays through the
 //!    candidate's rim, the position of the steepest luminance change, interpolated between
-//!    samples; a circle fitted to those positions with outliers (highlights and shadows
-//!    near the rim, gaps in the contrast) down-weighted; twice, with a narrower window.
-//! 3. **Confidence**: the fraction of the rim along which a clear edge lies on the fitted
-//!    circle. The best candidate is taken when it is confident enough.
+//!    samples, kept where the luminance there changes across the rim rather than along it;
+//!    a circle fitted to those positions with outliers (highlights and shadows near the
+//!    rim, gaps in the contrast) down-weighted; twice, with a narrower window.
+//! 3. **Confidence**: the fraction of the rim inside the frame along which a clear edge lies
+//!    on the fitted circle (a ball cut by the frame's edge is judged on the arc that shows
+//!    when at least three quarters of it show; beyond, what is outside counts as missing).
+//! 4. **Ranking**: balls before flat round things, then by confidence. A disc whose inside is
+//!    flat (a plate, a coin, a sticker: no shading) or that has a second circle around or
+//!    inside it at the same centre and a flat band between (a ring, a bezel, a plate's rim)
+//!    is not a ball. The first candidate with confidence ≥ 0.5 is taken, or a ball ranked
+//!    first at ≥ 0.4 whose runner-up is at most three quarters as confident.
 
 use crate::image::circle::{Circle, MIN_RADIUS};
+use crate::image::geometry::detect_clean;
 use ndarray::{Array2, ArrayView2};
 
 /// The candidate search runs on a copy at most this many pixels across.
@@ -28,6 +38,9 @@ const RADII_PER_CENTRE: usize = 3;
 pub const MIN_CONFIDENCE: f64 = 0.5;
 /// A circle with less of its rim inside the frame is not judged.
 pub const MIN_VISIBLE: f64 = 0.5;
+/// A ball may have this much of its rim inside the frame and be judged as if it were whole;
+/// below, what is outside counts as missing (half an arc is too weak a hint on its own).
+const UNCUT: f64 = 0.75;
 
 /// A circle found, the fraction of its visible rim with a clear edge on it, and whether it
 /// looks like a ball rather than a flat round thing.
@@ -47,6 +60,11 @@ pub fn chosen(ranked: &[Found]) -> Result<Found, NotFound> {
     if let Some(found) = ranked.iter().find(|f| f.confidence >= MIN_CONFIDENCE) {
         return Ok(*found);
     }
+    if let [first, rest @ ..] = ranked
+        && stands_alone(first, rest)
+    {
+        return Ok(*first);
+    }
     match ranked.first() {
         Some(found) => Err(NotFound(format!(
             "the roundest edge found (centre {:.0}, {:.0}, radius {:.0}) has a clear rim along \
@@ -60,6 +78,21 @@ pub fn chosen(ranked: &[Found]) -> Result<Found, NotFound> {
     }
 }
 
+/// A ball whose rim shows only in part (a mirror ball reflecting what surrounds it, a
+/// point-lit ball in the dark) is taken from this confidence when no other circle comes near.
+pub const MIN_CONFIDENCE_ALONE: f64 = 0.4;
+/// ... near: the runner-up's confidence is at most this fraction of the first's.
+const RUNNER_UP_SHARE: f64 = 0.75;
+
+/// Whether `first` (ranked first) is a ball, confident enough, with no rival among `rest`.
+fn stands_alone(first: &Found, rest: &[Found]) -> bool {
+    first.ball_like
+        && first.confidence >= MIN_CONFIDENCE_ALONE
+        && rest
+            .iter()
+            .all(|other| other.confidence <= RUNNER_UP_SHARE * first.confidence)
+}
+
 /// Two circles that find the same sphere: centres within a fifth of the radius, radii within
 /// a fifth of each other.
 fn same_sphere(a: &Circle, b: &Circle) -> bool {
@@ -67,21 +100,27 @@ fn same_sphere(a: &Circle, b: &Circle) -> bool {
     (a.cx - b.cx).hypot(a.cy - b.cy) < 0.2 * r && (a.r - b.r).abs() < 0.2 * r
 }
 
-/// Every distinct circle the search finds in `luminance` (linear), refined, most confident
-/// first ([`chosen`] takes the first when it is confident enough); `hint` is a circle found
-/// otherwise (e.g. by segmenting a clean background) and its uncertainty (px), examined
-/// with the candidates.
-pub fn find_spheres(
-    luminance: ArrayView2<f64>,
-    hint: Option<(Circle, f64)>,
-) -> Result<Vec<Found>, NotFound> {
+/// Every distinct circle the search finds in `luminance` (linear), refined, ranked (balls
+/// first, then by confidence; [`chosen`] says which is taken). The circle a clean
+/// background gives ([`detect_clean`] on the reduced copy) is examined with the candidates.
+pub fn find_spheres(luminance: ArrayView2<f64>) -> Result<Vec<Found>, NotFound> {
     let (h, w) = luminance.dim();
     if h < 2 * MIN_RADIUS as usize || w < 2 * MIN_RADIUS as usize {
         return Err(NotFound(format!(
             "the image ({w}×{h}) is too small to hold a sphere"
         )));
     }
-    let (work, scale) = working_copy(luminance);
+    let (small, scale) = reduced(luminance);
+    let clean = detect_clean(small.view()).ok().map(|g| {
+        let full = |v: f64| (v + 0.5) / scale - 0.5;
+        let circle = Circle {
+            cx: full(g.cx),
+            cy: full(g.cy),
+            r: g.r / scale,
+        };
+        (circle, 2.0 / scale)
+    });
+    let work = working_copy(small.view());
     let edges = edge_points(work.view());
     if edges.len() < 32 {
         return Err(NotFound("the image has almost no edges".into()));
@@ -93,7 +132,7 @@ pub fn find_spheres(
     if max_r <= min_r {
         return Err(NotFound("the image is too small to hold a sphere".into()));
     }
-    let mut candidates: Vec<(Circle, f64)> = hint.into_iter().collect();
+    let mut candidates: Vec<(Circle, f64)> = clean.into_iter().collect();
     for (cx, cy, r_bin) in vote(&edges, (wh, ww), min_r, max_r) {
         for r in radii(&edges, cx, cy, r_bin / RADIUS_RATIO, r_bin * RADIUS_RATIO) {
             let rough = Circle {
@@ -124,77 +163,88 @@ pub fn find_spheres(
     Ok(distinct)
 }
 
-/// Mark the circles that are not balls: a flat inside, or a concentric circle.
+/// Mark the circles that are not balls: a flat inside, or a concentric circle with a flat
+/// band between them.
 fn judge_ball_likeness(found: &mut [Found], work: ArrayView2<f64>, edges: &[Edge], scale: f64) {
     for f in found.iter_mut() {
-        f.ball_like = !ringed(edges, &f.circle, scale) && !flat_inside(work, &f.circle, scale);
+        let c = &f.circle;
+        let on_work = Circle {
+            cx: (c.cx + 0.5) * scale - 0.5,
+            cy: (c.cy + 0.5) * scale - 0.5,
+            r: c.r * scale,
+        };
+        f.ball_like = !flat_band(work, &on_work, 0.0, 0.8) && !ringed(work, edges, &on_work);
     }
 }
 
-/// A second circle, inside or around `circle` at its centre (0.5–1.6 r), with an edge along
-/// more than this share of it, makes a ring: a plate's rim, a bezel, a washer.
+/// A second circle, inside or around a circle at its centre (0.5–1.6 r), with an edge along
+/// more than this share of it, and a flat band between the two, makes a ring: a plate's rim,
+/// a bezel, a washer. (A mirror ball's reflections can be concentric circles too, but what
+/// lies between them is a reflection, not flat.)
 const RING_COVERAGE: u32 = 54;
 
-/// Whether the working copy's edges draw a second circle concentric with `circle`.
-fn ringed(edges: &[Edge], circle: &Circle, scale: f64) -> bool {
-    let (cx, cy, r) = (
-        (circle.cx + 0.5) * scale - 0.5,
-        (circle.cy + 0.5) * scale - 0.5,
-        circle.r * scale,
-    );
+/// Whether the working copy's edges draw a ring with `circle` (working coordinates).
+fn ringed(work: ArrayView2<f64>, edges: &[Edge], circle: &Circle) -> bool {
+    let Circle { cx, cy, r } = *circle;
     let coverage = rim_coverage(edges, cx, cy, 0.5 * r, 1.6 * r);
     let own = (0.07 * r).max(2.0);
     ((0.5 * r).floor() as usize..=(1.6 * r).ceil() as usize)
-        .filter(|&d| (d as f64 - r).abs() > own)
-        .any(|d| coverage(d) >= RING_COVERAGE)
+        .filter(|&d| (d as f64 - r).abs() > own && coverage(d) >= RING_COVERAGE)
+        .any(|d| {
+            let ratio = d as f64 / r;
+            // The band between the circles, a little inside both edges.
+            let (inner, outer) = (ratio.min(1.0), ratio.max(1.0));
+            let margin = 0.25 * (outer - inner);
+            flat_band(work, circle, inner + margin, outer - margin)
+        })
 }
 
-/// Spread (10th to 90th percentile) below which the inside of a disc, gamma-encoded in
-/// units of the picture's 99th percentile and smoothed, is flat: a ball's shading and
-/// reflections spread wider, even a black one's.
+/// Spread (10th to 90th percentile) below which a region, gamma-encoded in units of the
+/// picture's 99th percentile and smoothed, is flat: a ball's shading and reflections spread
+/// wider, even a black one's.
 const FLAT_SPREAD: f64 = 0.04;
 
-/// Whether the inside of `circle` (full-resolution coordinates) is flat on the working copy.
-fn flat_inside(work: ArrayView2<f64>, circle: &Circle, scale: f64) -> bool {
+/// Whether the band from `inner` to `outer` radii of `circle` (working coordinates) is flat.
+fn flat_band(work: ArrayView2<f64>, circle: &Circle, inner: f64, outer: f64) -> bool {
     let (h, w) = work.dim();
-    let (cx, cy, r) = (
-        (circle.cx + 0.5) * scale - 0.5,
-        (circle.cy + 0.5) * scale - 0.5,
-        0.8 * circle.r * scale,
-    );
-    let rows = (cy - r).max(0.0) as usize..((cy + r).ceil().max(0.0) as usize).min(h);
-    let cols = (cx - r).max(0.0) as usize..((cx + r).ceil().max(0.0) as usize).min(w);
-    let mut inside: Vec<f64> = Vec::new();
+    let Circle { cx, cy, r } = *circle;
+    let (near, far) = (inner * r, outer * r);
+    let rows = (cy - far).max(0.0) as usize..((cy + far).ceil().max(0.0) as usize).min(h);
+    let cols = (cx - far).max(0.0) as usize..((cx + far).ceil().max(0.0) as usize).min(w);
+    let mut band: Vec<f64> = Vec::new();
     for y in rows {
         for x in cols.clone() {
-            if (x as f64 - cx).hypot(y as f64 - cy) <= r {
-                inside.push(work[[y, x]]);
+            let d = (x as f64 - cx).hypot(y as f64 - cy);
+            if (near..=far).contains(&d) {
+                band.push(work[[y, x]]);
             }
         }
     }
-    if inside.len() < 16 {
+    if band.len() < 16 {
         return false;
     }
-    let high = quantile(inside.clone(), 0.9);
-    high - quantile(inside, 0.1) < FLAT_SPREAD
+    let high = quantile(band.clone(), 0.9);
+    high - quantile(band, 0.1) < FLAT_SPREAD
 }
 
-/// A gamma-encoded copy at most [`WORK_SIZE`] across, smoothed (σ = 1 px), and its scale.
-fn working_copy(luminance: ArrayView2<f64>) -> (Array2<f64>, f64) {
+/// A copy at most [`WORK_SIZE`] across, and its scale.
+fn reduced(luminance: ArrayView2<f64>) -> (Array2<f64>, f64) {
     let (h, w) = luminance.dim();
     let scale = (WORK_SIZE as f64 / h.max(w) as f64).min(1.0);
-    let small = if scale < 1.0 {
-        crate::image::resample::downsample(luminance, scale)
+    if scale < 1.0 {
+        (crate::image::resample::downsample(luminance, scale), scale)
     } else {
-        luminance.to_owned()
-    };
+        (luminance.to_owned(), 1.0)
+    }
+}
+
+/// `small` gamma-encoded (so that edges in the shadows count as much as in the light) in
+/// units of its 99th percentile, and smoothed (σ = 1 px).
+fn working_copy(small: ArrayView2<f64>) -> Array2<f64> {
     let p99 = quantile(small.iter().copied().collect(), 0.99);
     let norm = if p99 > 0.0 { 1.0 / p99 } else { 1.0 };
     let encoded = small.mapv(|v| (v * norm).clamp(0.0, 4.0).powf(1.0 / 2.2));
-    (
-        crate::image::blur::gaussian_blur(encoded.view(), 1.0),
-        scale,
-    )
+    crate::image::blur::gaussian_blur(encoded.view(), 1.0)
 }
 
 /// The `q` quantile of non-empty `values`.
@@ -325,15 +375,35 @@ fn vote(edges: &[Edge], (h, w): (usize, usize), min_r: f64, max_r: f64) -> Vec<(
                     around |= seen[[yy, xx]];
                 }
             }
-            let share = f64::from(around.count_ones()) / SECTORS;
-            let score = smooth[[y, x]] / circumference * share * share;
             let centre = |c: usize| (c as f64 + 0.5) * CELL - 0.5;
-            found.push((score, centre(x), centre(y), r));
+            let (cx, cy) = (centre(x), centre(y));
+            // Judged on the part of the circle inside the picture.
+            let visible = visible_sectors(cx, cy, r, (h, w));
+            if visible.count_ones() < SECTORS as u32 / 2 {
+                continue;
+            }
+            let inside = (f64::from(visible.count_ones()) / SECTORS).max(UNCUT);
+            let share = f64::from((around & visible).count_ones()) / (inside * SECTORS);
+            let score = smooth[[y, x]] / (circumference * inside) * share * share;
+            found.push((score, cx, cy, r));
         }
     }
     found.sort_by(|a, b| b.0.total_cmp(&a.0));
     found.truncate(CANDIDATES);
     found.into_iter().map(|(_, x, y, r)| (x, y, r)).collect()
+}
+
+/// The direction sectors (as [`vote`] numbers them) in which the circle's rim lies inside a
+/// `w × h` picture.
+fn visible_sectors(cx: f64, cy: f64, r: f64, (h, w): (usize, usize)) -> u16 {
+    (0..SECTORS as u16)
+        .filter(|&sector| {
+            let theta =
+                (f64::from(sector) + 0.5) / SECTORS * std::f64::consts::TAU - std::f64::consts::PI;
+            let (x, y) = (cx + r * theta.cos(), cy + r * theta.sin());
+            x >= 0.0 && y >= 0.0 && x <= w as f64 - 1.0 && y <= h as f64 - 1.0
+        })
+        .fold(0, |mask, sector| mask | 1 << sector)
 }
 
 /// The `n` strongest local maxima of a vote map, at least `spacing` apart, as (y, x).
@@ -640,7 +710,7 @@ fn refine(luminance: ArrayView2<f64>, rough: Circle, slack: f64) -> Option<Found
         .count();
     Some(Found {
         circle,
-        confidence: (on as f64 / visible as f64).min(1.0),
+        confidence: (on as f64 / (visible as f64).max(UNCUT * RAYS as f64)).min(1.0),
         ball_like: true,
     })
 }

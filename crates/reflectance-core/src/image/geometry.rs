@@ -251,7 +251,7 @@ pub fn detect_ranked(
     luminance: ArrayView2<f64>,
 ) -> (Result<Geometry, GeometryError>, Vec<Geometry>) {
     use crate::image::detect::{self, NotFound};
-    let ranked = match detect::find_spheres(luminance, clean_hint(luminance)) {
+    let ranked = match detect::find_spheres(luminance) {
         Ok(ranked) => ranked,
         Err(NotFound(reason)) => return (Err(GeometryError::DetectionFailed { reason }), vec![]),
     };
@@ -264,28 +264,6 @@ pub fn detect_ranked(
         .map(|f| Geometry::new(f.circle, Method::Auto, Some(f.confidence)))
         .collect();
     (chosen, alternatives)
-}
-
-/// Clean-background detection runs on a copy at most this many pixels across.
-const CLEAN_SIZE: usize = 1024;
-
-/// The circle [`detect_clean`] finds on a copy at most [`CLEAN_SIZE`] across, in the
-/// image's coordinates, and its uncertainty (px).
-fn clean_hint(luminance: ArrayView2<f64>) -> Option<(Circle, f64)> {
-    let (h, w) = luminance.dim();
-    let factor = (CLEAN_SIZE as f64 / h.max(w) as f64).min(1.0);
-    if factor == 1.0 {
-        return detect_clean(luminance).ok().map(|g| (g.circle(), 2.0));
-    }
-    let small = super::resample::downsample(luminance, factor);
-    let found = detect_clean(small.view()).ok()?;
-    let full = |v: f64| (v + 0.5) / factor - 0.5;
-    let circle = Circle {
-        cx: full(found.cx),
-        cy: full(found.cy),
-        r: found.r / factor,
-    };
-    Some((circle, 2.0 / factor))
 }
 
 /// The fraction of a circle's circumference inside a `width` × `height` image.
@@ -638,19 +616,24 @@ mod tests {
 
     #[test]
     fn a_ball_cut_by_the_frame_is_judged_on_the_arc_that_shows() {
-        // Nearly a third of the rim beyond the right-hand edge.
-        let ball = Circle {
-            cx: 330.0,
-            cy: 150.0,
-            r: 90.0,
-        };
-        let mut image = Array2::from_elem((300, 380), 0.4);
-        shaded_ball(&mut image, &ball);
-        let g = detect(image.view()).unwrap();
-        assert!(near(&g, &ball), "{g:?}");
-        assert!(g.confidence.unwrap() >= 0.9, "{g:?}");
-        let seen = visible_rim(&g.circle(), 380, 300);
-        assert!((0.6..0.8).contains(&seen), "{seen}");
+        // A fifth of the rim beyond the right-hand edge: judged on the rest, as if whole;
+        // nearly a third: found, what is outside beyond a quarter counted as missing.
+        for (cx, seen_range, confidence_range) in
+            [(307.0, 0.75..0.85, 0.8..1.01), (330.0, 0.6..0.75, 0.5..0.9)]
+        {
+            let ball = Circle {
+                cx,
+                cy: 150.0,
+                r: 90.0,
+            };
+            let mut image = Array2::from_elem((300, 380), 0.4);
+            shaded_ball(&mut image, &ball);
+            let g = detect(image.view()).unwrap();
+            assert!(near(&g, &ball), "{g:?}");
+            assert!(confidence_range.contains(&g.confidence.unwrap()), "{g:?}");
+            let seen = visible_rim(&g.circle(), 380, 300);
+            assert!(seen_range.contains(&seen), "{seen}");
+        }
     }
 
     #[test]
