@@ -7,8 +7,8 @@
 //!    the shorter side (a sphere can be brighter than its background on one side and darker
 //!    on the other; it can fill the frame); the strongest peaks of the vote map are
 //!    candidate centres, and each takes the radius at which the most of its circumference
-//!    has an edge pointing at it. The circle a clean background gives
-//!    ([`detect_clean`], on the same copy) is one more.
+//!    has an edge pointing at it. The circle a clean background gives (the caller's
+//!    segmentation, on the same copy) is one more.
 //! 2. **Sub-pixel fit** (on the full-resolution linear image): along 360 rays through the
 //!    candidate's rim, the position of the steepest luminance change, interpolated between
 //!    samples, kept where the luminance there changes across the rim rather than along it;
@@ -24,7 +24,6 @@
 //!    first at ≥ 0.4 whose runner-up is at most three quarters as confident.
 
 use crate::image::circle::{Circle, MIN_RADIUS};
-use crate::image::geometry::detect_clean;
 use ndarray::{Array2, ArrayView2};
 
 /// The candidate search runs on a copy at most this many pixels across.
@@ -101,9 +100,12 @@ fn same_sphere(a: &Circle, b: &Circle) -> bool {
 }
 
 /// Every distinct circle the search finds in `luminance` (linear), refined, ranked (balls
-/// first, then by confidence; [`chosen`] says which is taken). The circle a clean
-/// background gives ([`detect_clean`] on the reduced copy) is examined with the candidates.
-pub fn find_spheres(luminance: ArrayView2<f64>) -> Result<Vec<Found>, NotFound> {
+/// first, then by confidence; [`chosen`] says which is taken). The circle `clean` finds on
+/// the reduced copy (a segmentation of a clean background) is examined with the candidates.
+pub fn find_spheres(
+    luminance: ArrayView2<f64>,
+    clean: impl Fn(ArrayView2<f64>) -> Option<Circle>,
+) -> Result<Vec<Found>, NotFound> {
     let (h, w) = luminance.dim();
     if h < 2 * MIN_RADIUS as usize || w < 2 * MIN_RADIUS as usize {
         return Err(NotFound(format!(
@@ -111,12 +113,12 @@ pub fn find_spheres(luminance: ArrayView2<f64>) -> Result<Vec<Found>, NotFound> 
         )));
     }
     let (small, scale) = reduced(luminance);
-    let clean = detect_clean(small.view()).ok().map(|g| {
+    let clean = clean(small.view()).map(|c| {
         let full = |v: f64| (v + 0.5) / scale - 0.5;
         let circle = Circle {
-            cx: full(g.cx),
-            cy: full(g.cy),
-            r: g.r / scale,
+            cx: full(c.cx),
+            cy: full(c.cy),
+            r: c.r / scale,
         };
         (circle, 2.0 / scale)
     });

@@ -251,7 +251,9 @@ pub fn detect_ranked(
     luminance: ArrayView2<f64>,
 ) -> (Result<Geometry, GeometryError>, Vec<Geometry>) {
     use crate::image::detect::{self, NotFound};
-    let ranked = match detect::find_spheres(luminance) {
+    let ranked = match detect::find_spheres(luminance, |small| {
+        detect_clean(small).ok().map(|g| g.circle())
+    }) {
         Ok(ranked) => ranked,
         Err(NotFound(reason)) => return (Err(GeometryError::DetectionFailed { reason }), vec![]),
     };

@@ -40,7 +40,8 @@ impl Default for Limits {
         Limits {
             max_width: 20_000,
             max_height: 20_000,
-            max_pixels: 40_000_000,
+            // A 48 MP phone photograph (8000 × 6000) and a 50 MP one (8160 × 6120).
+            max_pixels: 50_000_000,
         }
     }
 }
