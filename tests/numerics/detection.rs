@@ -8,7 +8,7 @@
 //! in centre and in radius.
 //!
 //! `REFLECTANCE_COMPOSITES=N cargo test --release --test numerics detection -- --nocapture`
-//! measures on N composites (default 32, cycling through the categories) and prints the
+//! measures on N composites (default 36, cycling through the categories) and prints the
 //! rates per category; `REFLECTANCE_COMPOSITE_DUMP=DIR` writes the missed ones there.
 
 use ndarray::Array2;
@@ -128,9 +128,12 @@ enum Category {
     Crowd,
     /// A mirror or glossy ball in front of the scene it reflects, softly focused.
     LowContrast,
+    /// r 60–250 px away from the middle of a wide-angle picture (65° across, 1600–3000 px):
+    /// an ellipse up to 1.2 times longer away from the centre than across.
+    OffAxis,
 }
 
-const CATEGORIES: [Category; 8] = [
+const CATEGORIES: [Category; 9] = [
     Category::TableTop,
     Category::Scene,
     Category::Small,
@@ -139,6 +142,7 @@ const CATEGORIES: [Category; 8] = [
     Category::FillsFrame,
     Category::Crowd,
     Category::LowContrast,
+    Category::OffAxis,
 ];
 
 /// `lo..hi`, log-uniform.
@@ -203,9 +207,42 @@ fn table(kind: Table, w: usize, h: usize, rng: &mut Rng) -> Array2<f64> {
     })
 }
 
-/// The fraction of the pixel at (x, y) inside the circle (4 × 4 samples near the rim).
-fn coverage(x: usize, y: usize, c: &Circle) -> f64 {
-    let d = (x as f64 - c.cx).hypot(y as f64 - c.cy);
+/// How a lens draws a ball seen off its axis: stretched by `factor` (1 / cos of the angle
+/// off the axis) along the unit direction (`ux`, `uy`) away from the picture's centre.
+#[derive(Clone, Copy, Debug)]
+struct Stretch {
+    factor: f64,
+    ux: f64,
+    uy: f64,
+}
+
+const ON_AXIS: Stretch = Stretch {
+    factor: 1.0,
+    ux: 1.0,
+    uy: 0.0,
+};
+
+impl Stretch {
+    /// The offset from the centre, in the unstretched disc, of the point (x, y) of the picture.
+    fn in_disc(&self, c: &Circle, x: f64, y: f64) -> (f64, f64) {
+        let (dx, dy) = (x - c.cx, y - c.cy);
+        let along = (dx * self.ux + dy * self.uy) / self.factor;
+        let across = -dx * self.uy + dy * self.ux;
+        (
+            along * self.ux - across * self.uy,
+            along * self.uy + across * self.ux,
+        )
+    }
+}
+
+/// The fraction of the pixel at (x, y) inside the (stretched) circle (4 × 4 samples near the
+/// rim).
+fn coverage(x: usize, y: usize, c: &Circle, stretch: &Stretch) -> f64 {
+    let distance = |x: f64, y: f64| {
+        let (dx, dy) = stretch.in_disc(c, x, y);
+        dx.hypot(dy)
+    };
+    let d = distance(x as f64, y as f64);
     if d <= c.r - 1.0 {
         return 1.0;
     }
@@ -216,22 +253,28 @@ fn coverage(x: usize, y: usize, c: &Circle) -> f64 {
     let inside = offsets
         .iter()
         .flat_map(|dy| offsets.iter().map(move |dx| (dx, dy)))
-        .filter(|(dx, dy)| (x as f64 + **dx - c.cx).hypot(y as f64 + **dy - c.cy) <= c.r)
+        .filter(|(dx, dy)| distance(x as f64 + **dx, y as f64 + **dy) <= c.r)
         .count();
     inside as f64 / 16.0
 }
 
-/// Blend `value(x, y)` into `image` over the pixels `c` covers.
-fn paint(image: &mut Array2<f64>, c: &Circle, value: impl Fn(usize, usize) -> f64) {
+/// Blend `value(x, y)` into `image` over the pixels `c`, stretched, covers.
+fn paint(
+    image: &mut Array2<f64>,
+    c: &Circle,
+    stretch: &Stretch,
+    value: impl Fn(usize, usize) -> f64,
+) {
     let (h, w) = image.dim();
+    let reach = c.r * stretch.factor + 2.0;
     let span = |centre: f64, n: usize| {
-        let lo = (centre - c.r - 2.0).floor().max(0.0) as usize;
-        let hi = ((centre + c.r + 2.0).ceil().max(0.0) as usize).min(n);
+        let lo = (centre - reach).floor().max(0.0) as usize;
+        let hi = ((centre + reach).ceil().max(0.0) as usize).min(n);
         lo..hi
     };
     for y in span(c.cy, h) {
         for x in span(c.cx, w) {
-            let k = coverage(x, y, c);
+            let k = coverage(x, y, c, stretch);
             if k > 0.0 {
                 let v = &mut image[[y, x]];
                 *v = k * value(x, y) + (1.0 - k) * *v;
@@ -240,16 +283,17 @@ fn paint(image: &mut Array2<f64>, c: &Circle, value: impl Fn(usize, usize) -> f6
     }
 }
 
-/// Paste `sphere`, enlarged or reduced to `at`, in units of white.
-fn paste(image: &mut Array2<f64>, sphere: &Sphere, at: &Circle) {
+/// Paste `sphere`, enlarged or reduced to `at` and stretched, in units of white.
+fn paste(image: &mut Array2<f64>, sphere: &Sphere, at: &Circle, stretch: &Stretch) {
     let factor = at.r / sphere.circle.r;
     let scaled = capture::scale(sphere.luminance.view(), factor);
-    let (ox, oy) = (
-        at.cx - ((sphere.circle.cx + 0.5) * factor - 0.5),
-        at.cy - ((sphere.circle.cy + 0.5) * factor - 0.5),
+    let (sx0, sy0) = (
+        (sphere.circle.cx + 0.5) * factor - 0.5,
+        (sphere.circle.cy + 0.5) * factor - 0.5,
     );
-    paint(image, at, |x, y| {
-        let (sx, sy) = ((x as f64 - ox).round(), (y as f64 - oy).round());
+    paint(image, at, stretch, |x, y| {
+        let (dx, dy) = stretch.in_disc(at, x as f64, y as f64);
+        let (sx, sy) = ((sx0 + dx).round(), (sy0 + dy).round());
         scaled
             .get([sy.max(0.0) as usize, sx.max(0.0) as usize])
             .copied()
@@ -316,10 +360,11 @@ fn contact_shadow(image: &mut Array2<f64>, c: &Circle) {
     }
 }
 
-/// A picture in units of white, where its spheres are, and the lens blur to apply.
+/// A picture in units of white, where its spheres are (and how stretched), and the lens
+/// blur to apply.
 struct Staged {
     scene: Array2<f64>,
-    spheres: Vec<Circle>,
+    spheres: Vec<(Circle, Stretch)>,
     blur: f64,
 }
 
@@ -370,7 +415,7 @@ fn placed(w: usize, h: usize, r: f64, margin: f64, rng: &mut Rng) -> Circle {
 fn single(
     sphere: &Sphere,
     (w, h): (usize, usize),
-    at: Circle,
+    (at, stretch): (Circle, Stretch),
     in_scene: bool,
     maps: &[EnvMap],
     rng: &mut Rng,
@@ -383,10 +428,10 @@ fn single(
     if horizon != Some(f64::INFINITY) {
         contact_shadow(&mut scene, &at);
     }
-    paste(&mut scene, sphere, &at);
+    paste(&mut scene, sphere, &at, &stretch);
     Staged {
         scene,
-        spheres: vec![at],
+        spheres: vec![(at, stretch)],
         blur: 0.1 + 0.9 * rng.next_f64(),
     }
 }
@@ -406,21 +451,28 @@ fn stage(
             let w = (2.0 * (r + margin) + rng.next_f64() * 500.0).ceil() as usize;
             let h = (2.0 * (r + margin) + rng.next_f64() * 300.0).ceil() as usize;
             let at = placed(w, h, r, margin, rng);
-            single(sphere, (w, h), at, category == Category::Scene, maps, rng)
+            single(
+                sphere,
+                (w, h),
+                (at, ON_AXIS),
+                category == Category::Scene,
+                maps,
+                rng,
+            )
         }
         Category::Small => {
             let r = log_uniform(rng, 40.0, 80.0);
             let w = (1500.0 + 2500.0 * rng.next_f64()) as usize;
             let h = w * 3 / 4;
             let at = placed(w, h, r, 0.25 * r + 4.0, rng);
-            single(sphere, (w, h), at, rng.below(2) == 0, maps, rng)
+            single(sphere, (w, h), (at, ON_AXIS), rng.below(2) == 0, maps, rng)
         }
         Category::Large => {
             let r = log_uniform(rng, 400.0, 2000.0);
             let w = ((2.3 + 0.9 * rng.next_f64()) * r) as usize;
             let h = ((w * 3 / 4) as f64).max(2.3 * r) as usize;
             let at = placed(w, h, r, 0.1 * r, rng);
-            single(sphere, (w, h), at, rng.below(2) == 0, maps, rng)
+            single(sphere, (w, h), (at, ON_AXIS), rng.below(2) == 0, maps, rng)
         }
         Category::CutByFrame => {
             let r = log_uniform(rng, 60.0, 300.0);
@@ -438,7 +490,7 @@ fn stage(
                 }
                 _ => at.cy = past(rng) - 0.5,
             }
-            single(sphere, (w, h), at, rng.below(2) == 0, maps, rng)
+            single(sphere, (w, h), (at, ON_AXIS), rng.below(2) == 0, maps, rng)
         }
         Category::FillsFrame => {
             let r = log_uniform(rng, 100.0, 1000.0);
@@ -449,9 +501,25 @@ fn stage(
                 cy: 0.5 * (h as f64 - 1.0) + 0.05 * r * (rng.next_f64() - 0.5),
                 r,
             };
-            single(sphere, (w, h), at, rng.below(2) == 0, maps, rng)
+            single(sphere, (w, h), (at, ON_AXIS), rng.below(2) == 0, maps, rng)
         }
         Category::Crowd => crowd(spheres, maps, rng),
+        Category::OffAxis => {
+            let w = (1600.0 + 1400.0 * rng.next_f64()) as usize;
+            let h = w * 3 / 4;
+            let focal = 0.5 * w as f64 / (32.5f64).to_radians().tan();
+            let r = log_uniform(rng, 60.0, 250.0);
+            let at = placed(w, h, r * 1.25, 4.0, rng);
+            let at = Circle { r, ..at };
+            let (dx, dy) = (at.cx - 0.5 * w as f64, at.cy - 0.5 * h as f64);
+            let off = dx.hypot(dy).max(1e-9);
+            let stretch = Stretch {
+                factor: 1.0 / (off / focal).atan().cos(),
+                ux: dx / off,
+                uy: dy / off,
+            };
+            single(sphere, (w, h), (at, stretch), rng.below(2) == 0, maps, rng)
+        }
         Category::LowContrast => {
             let own: Vec<&Sphere> = spheres.iter().filter(|s| s.mirror).collect();
             let sphere = own[rng.below(own.len() as u64) as usize];
@@ -462,10 +530,10 @@ fn stage(
             // The scene it reflects, at the brightness of its reflection.
             let inside = median(sphere.luminance.iter().copied().collect()) / sphere.white;
             let mut scene = scene(&sphere_maps[sphere.probe], w, h, inside, rng);
-            paste(&mut scene, sphere, &at);
+            paste(&mut scene, sphere, &at, &ON_AXIS);
             Staged {
                 scene,
-                spheres: vec![at],
+                spheres: vec![(at, ON_AXIS)],
                 blur: 0.5 + 2.0 * rng.next_f64(),
             }
         }
@@ -504,7 +572,7 @@ fn crowd(spheres: &[Sphere], maps: &[EnvMap], rng: &mut Rng) -> Staged {
     for at in flat_circles {
         let level = 0.05 + 1.0 * rng.next_f64();
         if rng.below(2) == 0 {
-            paint(&mut scene, at, |_, _| level);
+            paint(&mut scene, at, &ON_AXIS, |_, _| level);
         } else {
             // A ring (a plate's rim, a clock's bezel) around the background.
             let inner = Circle {
@@ -512,17 +580,17 @@ fn crowd(spheres: &[Sphere], maps: &[EnvMap], rng: &mut Rng) -> Staged {
                 ..*at
             };
             let inside = scene.clone();
-            paint(&mut scene, at, |_, _| level);
-            paint(&mut scene, &inner, |x, y| inside[[y, x]]);
+            paint(&mut scene, at, &ON_AXIS, |_, _| level);
+            paint(&mut scene, &inner, &ON_AXIS, |x, y| inside[[y, x]]);
         }
     }
     for at in ball_circles {
         let sphere = &spheres[rng.below(spheres.len() as u64) as usize];
-        paste(&mut scene, sphere, at);
+        paste(&mut scene, sphere, at, &ON_AXIS);
     }
     Staged {
         scene,
-        spheres: ball_circles.to_vec(),
+        spheres: ball_circles.iter().map(|c| (*c, ON_AXIS)).collect(),
         blur: 0.1 + 0.9 * rng.next_f64(),
     }
 }
@@ -555,10 +623,12 @@ fn photograph(staged: &Staged, rng: &mut Rng) -> (Vec<u8>, u8) {
     (jpeg, quality)
 }
 
-/// Within 2 % of the sphere's radius, in centre and in radius.
-fn matches(found: &geometry::Geometry, truth: &Circle) -> bool {
+/// Within 2 % of the sphere's radius, in centre and in radius (of a stretched one: between
+/// its shortest and longest radius).
+fn matches(found: &geometry::Geometry, (truth, stretch): &(Circle, Stretch)) -> bool {
     (found.cx - truth.cx).hypot(found.cy - truth.cy) <= 0.02 * truth.r
-        && (found.r - truth.r).abs() <= 0.02 * truth.r
+        && found.r >= 0.98 * truth.r
+        && found.r <= 1.02 * truth.r * stretch.factor
 }
 
 #[test]
@@ -570,7 +640,7 @@ fn spheres_are_found_in_photograph_like_composites() {
     let count: usize = std::env::var("REFLECTANCE_COMPOSITES")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(32);
+        .unwrap_or(36);
     let sphere_maps: Vec<EnvMap> = SPHERE_PROBES.iter().map(|n| probe(n)).collect();
     let maps: Vec<EnvMap> = SCENE_PROBES.iter().map(|n| probe(n)).collect();
     let spheres = spheres(&sphere_maps);
@@ -618,12 +688,17 @@ fn spheres_are_found_in_photograph_like_composites() {
     for miss in &misses {
         eprintln!("miss {miss}");
     }
-    // The rates measured on 160 (docs/accuracy.md), less a margin for the few each category
-    // gets in a short run: cut by the frame and low contrast are not yet at the others' level.
+    // The rates measured on 180 (docs/accuracy.md, 90 % in all), less a margin for the few
+    // each category gets in a short run: cut by the frame, low contrast and off the lens's
+    // axis are not yet at the others' level.
+    assert!(
+        total as f64 >= 0.85 * count as f64,
+        "{total} of {count}: {misses:#?}"
+    );
     for (category, (ok, n)) in CATEGORIES.iter().zip(&per_category) {
         let floor = match category {
-            Category::CutByFrame | Category::LowContrast => 0.5,
-            _ => 0.9,
+            Category::CutByFrame | Category::LowContrast | Category::OffAxis => 0.5,
+            _ => 0.75,
         };
         assert!(
             *ok as f64 >= floor * *n as f64,

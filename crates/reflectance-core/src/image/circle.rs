@@ -1,5 +1,5 @@
 //! A sphere's outline in the image: the circle, the smallest radius extraction accepts, and
-//! the small linear solve that circle fits share.
+//! the small linear solve that circle and outline fits share.
 
 use serde::{Deserialize, Serialize};
 
@@ -13,15 +13,15 @@ pub struct Circle {
 }
 
 /// Gaussian elimination with partial pivoting; None when singular.
-pub(crate) fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
-    for col in 0..3 {
-        let pivot = (col..3).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+pub(crate) fn solve<const N: usize>(mut a: [[f64; N]; N], mut b: [f64; N]) -> Option<[f64; N]> {
+    for col in 0..N {
+        let pivot = (col..N).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
         if a[pivot][col].abs() < 1e-12 {
             return None;
         }
         a.swap(col, pivot);
         b.swap(col, pivot);
-        for row in col + 1..3 {
+        for row in col + 1..N {
             let factor = a[row][col] / a[col][col];
             let pivot_row = a[col];
             for (target, &p) in a[row].iter_mut().zip(&pivot_row).skip(col) {
@@ -30,9 +30,9 @@ pub(crate) fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> 
             b[row] -= factor * b[col];
         }
     }
-    let mut x = [0.0; 3];
-    for row in (0..3).rev() {
-        let tail: f64 = (row + 1..3).map(|k| a[row][k] * x[k]).sum();
+    let mut x = [0.0; N];
+    for row in (0..N).rev() {
+        let tail: f64 = (row + 1..N).map(|k| a[row][k] * x[k]).sum();
         x[row] = (b[row] - tail) / a[row][row];
     }
     Some(x)

@@ -13,7 +13,10 @@
 //!    candidate's rim, the position of the steepest luminance change, interpolated between
 //!    samples, kept where the luminance there changes across the rim rather than along it;
 //!    a circle fitted to those positions with outliers (highlights and shadows near the
-//!    rim, gaps in the contrast) down-weighted; twice, with a narrower window.
+//!    rim, gaps in the contrast) down-weighted; twice, with a narrower window. The most
+//!    confident are fitted again as a lens draws a ball off its axis (an outline longer away
+//!    from the picture's centre, by what the widest lens allows there), kept when that puts a
+//!    clear edge under more of the rim; the circle reported is its centre and shortest radius.
 //! 3. **Confidence**: the fraction of the rim inside the frame along which a clear edge lies
 //!    on the fitted circle (a ball cut by the frame's edge is judged on the arc that shows
 //!    when at least three quarters of it show; beyond, what is outside counts as missing).
@@ -145,17 +148,18 @@ pub fn find_spheres(
             candidates.push((rough, 2.5 / scale));
         }
     }
-    let mut found: Vec<Found> = candidates
+    let found: Vec<Found> = candidates
         .into_iter()
         .filter_map(|(rough, slack)| refine(luminance, rough, slack))
         .collect();
-    found.sort_by(|a, b| b.confidence.total_cmp(&a.confidence));
-    let mut distinct: Vec<Found> = Vec::new();
-    for f in found {
-        if !distinct.iter().any(|d| same_sphere(&d.circle, &f.circle)) {
-            distinct.push(f);
+    let mut distinct = distinct_circles(found);
+    // A sphere off the lens's axis, among the most confident: as the lens draws it.
+    for f in distinct.iter_mut().take(ELONGATE_FIRST) {
+        if let Some(better) = elongated(luminance, f) {
+            *f = better;
         }
     }
+    let mut distinct = distinct_circles(distinct);
     judge_ball_likeness(&mut distinct, work.view(), &edges, scale);
     distinct.sort_by(|a, b| {
         (b.ball_like, b.confidence)
@@ -163,6 +167,18 @@ pub fn find_spheres(
             .unwrap_or(std::cmp::Ordering::Equal)
     });
     Ok(distinct)
+}
+
+/// The most confident of each group of circles that find the same sphere, most confident first.
+fn distinct_circles(mut found: Vec<Found>) -> Vec<Found> {
+    found.sort_by(|a, b| b.confidence.total_cmp(&a.confidence));
+    let mut distinct: Vec<Found> = Vec::new();
+    for f in found {
+        if !distinct.iter().any(|d| same_sphere(&d.circle, &f.circle)) {
+            distinct.push(f);
+        }
+    }
+    distinct
 }
 
 /// Mark the circles that are not balls: a flat inside, or a concentric circle with a flat
@@ -333,8 +349,9 @@ fn vote(edges: &[Edge], (h, w): (usize, usize), min_r: f64, max_r: f64) -> Vec<(
         (h as f64 / CELL).ceil() as usize,
         (w as f64 / CELL).ceil() as usize,
     );
-    let mut votes = vec![Array2::<f64>::zeros((ch, cw)); bins];
-    let mut directions = vec![Array2::<u16>::zeros((ch, cw)); bins];
+    // Per bin, row-major over the cells.
+    let mut votes = vec![vec![0f32; ch * cw]; bins];
+    let mut directions = vec![vec![0u16; ch * cw]; bins];
     // Radii one working pixel apart, and the bin of each.
     let steps: Vec<(f64, usize)> = (0..)
         .map(|k| min_r + k as f64)
@@ -358,7 +375,7 @@ fn vote(edges: &[Edge], (h, w): (usize, usize), min_r: f64, max_r: f64) -> Vec<(
                 if x < 0.0 || y < 0.0 || x >= cw as f64 || y >= ch as f64 {
                     break;
                 }
-                let cell = [y as usize, x as usize];
+                let cell = y as usize * cw + x as usize;
                 votes[bin][cell] += 1.0;
                 directions[bin][cell] |= 1 << sector;
             }
@@ -367,6 +384,7 @@ fn vote(edges: &[Edge], (h, w): (usize, usize), min_r: f64, max_r: f64) -> Vec<(
     let mut found: Vec<(f64, f64, f64, f64)> = Vec::new();
     for (bin, (map, seen)) in votes.iter().zip(&directions).enumerate() {
         let r = min_r * RADIUS_RATIO.powf(bin as f64 + 0.5);
+        let map = Array2::from_shape_fn((ch, cw), |(y, x)| f64::from(map[y * cw + x]));
         let smooth = crate::image::blur::gaussian_blur(map.view(), 1.0);
         let circumference = std::f64::consts::TAU * r;
         for (y, x) in peaks(&smooth, CANDIDATES, (0.5 * r / CELL).max(2.0)) {
@@ -374,7 +392,7 @@ fn vote(edges: &[Edge], (h, w): (usize, usize), min_r: f64, max_r: f64) -> Vec<(
             let mut around = 0u16;
             for yy in y.saturating_sub(1)..(y + 2).min(ch) {
                 for xx in x.saturating_sub(1)..(x + 2).min(cw) {
-                    around |= seen[[yy, xx]];
+                    around |= seen[yy * cw + xx];
                 }
             }
             let centre = |c: usize| (c as f64 + 0.5) * CELL - 0.5;
@@ -571,12 +589,13 @@ pub(crate) fn rim_slopes(
 /// `window` px of the rim: (x, y, contrast) per ray that has a clear edge. Slopes are taken
 /// over one pixel every quarter pixel, and the steepest is interpolated between samples:
 /// for a step blurred by any symmetric lens, the step itself.
-fn rim_points(image: ArrayView2<f64>, circle: &Circle, window: f64) -> Vec<(f64, f64, f64)> {
+fn rim_points(image: ArrayView2<f64>, outline: &Outline, window: f64) -> Vec<(f64, f64, f64)> {
     let steps = (2.0 * window / RIM_STEP).ceil() as usize + 1;
     let mut out = Vec::with_capacity(RAYS);
     for k in 0..RAYS {
         let theta = std::f64::consts::TAU * k as f64 / RAYS as f64;
         let (ux, uy) = (theta.cos(), theta.sin());
+        let circle = &outline.circle_at(theta);
         let rho = |s: f64| circle.r - window + s * RIM_STEP;
         let Some(RimSlopes {
             slope,
@@ -670,7 +689,7 @@ fn robust_fit(points: &[(f64, f64, f64)], start: &Circle) -> Option<Circle> {
         if used < RAYS / 8 {
             return None;
         }
-        let [dcx, dcy, dr] = crate::image::circle::solve3(a, b)?;
+        let [dcx, dcy, dr] = crate::image::circle::solve(a, b)?;
         c = Circle {
             cx: c.cx + dcx,
             cy: c.cy + dcy,
@@ -686,6 +705,150 @@ fn robust_fit(points: &[(f64, f64, f64)], start: &Circle) -> Option<Circle> {
     Some(c)
 }
 
+/// A sphere's outline as a lens draws it: a circle, or, seen off the lens's axis, a slightly
+/// elongated one. Radius `r0 + a cos 2θ + b sin 2θ` around (cx, cy): an ellipse to first order
+/// in its elongation.
+#[derive(Clone, Copy, Debug)]
+struct Outline {
+    cx: f64,
+    cy: f64,
+    r0: f64,
+    a: f64,
+    b: f64,
+}
+
+/// An outline longer than this (over r0) one way than the other is not a sphere's (a lens
+/// 65° across draws a ball in its corner about 1.25 times longer).
+const MAX_ELONGATION: f64 = 0.12;
+
+impl Outline {
+    fn of(c: &Circle) -> Self {
+        Outline {
+            cx: c.cx,
+            cy: c.cy,
+            r0: c.r,
+            a: 0.0,
+            b: 0.0,
+        }
+    }
+
+    fn radius_at(&self, theta: f64) -> f64 {
+        self.r0 + self.a * (2.0 * theta).cos() + self.b * (2.0 * theta).sin()
+    }
+
+    /// The circle through the outline's point at `theta`, around its centre.
+    fn circle_at(&self, theta: f64) -> Circle {
+        Circle {
+            cx: self.cx,
+            cy: self.cy,
+            r: self.radius_at(theta),
+        }
+    }
+
+    fn elongation(&self) -> f64 {
+        self.a.hypot(self.b)
+    }
+
+    /// The circle that stands for it: its centre and its shortest radius, so that the annulus
+    /// sampled stays on the sphere.
+    fn circle(&self) -> Circle {
+        Circle {
+            cx: self.cx,
+            cy: self.cy,
+            r: self.r0 - self.elongation(),
+        }
+    }
+}
+
+/// Fit an outline to rim points (x, y, contrast) from `start`: the distances from the centre
+/// against their angle, least squares weighted by contrast with Tukey's biweight, narrowing.
+fn fit_outline(points: &[(f64, f64, f64)], start: &Outline) -> Option<Outline> {
+    if points.len() < RAYS / 8 {
+        return None;
+    }
+    let mut o = *start;
+    for round in 0..10 {
+        let share = match round {
+            0 | 1 => 0.08,
+            2 | 3 => 0.03,
+            _ => 0.015,
+        };
+        let tolerance = (share * o.r0).max(1.0);
+        // The distance from the centre is the radius at θ plus the centre's error along θ.
+        let mut a = [[0.0f64; 5]; 5];
+        let mut b = [0.0f64; 5];
+        let mut used = 0usize;
+        for &(x, y, contrast) in points {
+            let (dx, dy) = (x - o.cx, y - o.cy);
+            let theta = dy.atan2(dx);
+            let e = dx.hypot(dy) - o.radius_at(theta);
+            let u = e / (2.0 * tolerance);
+            if u.abs() >= 1.0 {
+                continue;
+            }
+            let w = contrast * (1.0 - u * u).powi(2);
+            let j = [
+                1.0,
+                (2.0 * theta).cos(),
+                (2.0 * theta).sin(),
+                theta.cos(),
+                theta.sin(),
+            ];
+            for p in 0..5 {
+                for q in 0..5 {
+                    a[p][q] += w * j[p] * j[q];
+                }
+                b[p] += w * j[p] * e;
+            }
+            used += 1;
+        }
+        if used < RAYS / 8 {
+            return None;
+        }
+        let [dr, da, db, dcx, dcy] = crate::image::circle::solve(a, b)?;
+        o = Outline {
+            cx: o.cx + dcx,
+            cy: o.cy + dcy,
+            r0: o.r0 + dr,
+            a: o.a + da,
+            b: o.b + db,
+        };
+        if !(o.r0.is_finite() && o.r0 > 0.0) || o.elongation() > MAX_ELONGATION * o.r0 {
+            return None;
+        }
+        if dcx.abs() + dcy.abs() + dr.abs() + da.abs() + db.abs() < 1e-3 && round >= 4 {
+            break;
+        }
+    }
+    Some(o)
+}
+
+/// The fraction of the rim with a clear edge on `outline`, of the rays that cross it inside
+/// the frame (or of [`UNCUT`] of them); None when less than [`MIN_VISIBLE`] is inside.
+fn rim_confidence(luminance: ArrayView2<f64>, outline: &Outline) -> Option<f64> {
+    let circle = outline.circle();
+    let visible = visible_rays(&circle, luminance.dim());
+    if visible < (MIN_VISIBLE * RAYS as f64).ceil() as usize {
+        return None;
+    }
+    let points = rim_points(luminance, outline, 0.015 * outline.r0 + 2.0);
+    let tolerance = (0.01 * outline.r0).max(1.0);
+    let on = points
+        .iter()
+        .filter(|p| {
+            let (dx, dy) = (p.0 - outline.cx, p.1 - outline.cy);
+            (dx.hypot(dy) - outline.radius_at(dy.atan2(dx))).abs() <= tolerance
+        })
+        .count();
+    Some((on as f64 / (visible as f64).max(UNCUT * RAYS as f64)).min(1.0))
+}
+
+/// The most confident candidates tried as elongated outlines.
+const ELONGATE_FIRST: usize = 4;
+/// A candidate is tried as an elongated outline when its confidence as a circle is in this
+/// range: below, it is no sphere; above, the circle already follows its rim.
+const TRY_ELONGATED: std::ops::Range<f64> = 0.25..0.9;
+
 /// Refine a rough circle on the full image; `slack` is the rough circle's uncertainty (px).
 fn refine(luminance: ArrayView2<f64>, rough: Circle, slack: f64) -> Option<Found> {
     if rough.r < MIN_RADIUS * 0.9 {
@@ -693,28 +856,60 @@ fn refine(luminance: ArrayView2<f64>, rough: Circle, slack: f64) -> Option<Found
     }
     let mut circle = rough;
     for window in [slack + 0.04 * rough.r + 2.0, 0.015 * rough.r + 2.0] {
-        let points = rim_points(luminance, &circle, window);
+        let points = rim_points(luminance, &Outline::of(&circle), window);
         circle = robust_fit(&points, &circle)?;
     }
     if circle.r < MIN_RADIUS {
         return None;
     }
-    // Confidence: rays with a clear edge on the final circle, of those inside the frame.
-    let visible = visible_rays(&circle, luminance.dim());
-    if visible < (MIN_VISIBLE * RAYS as f64).ceil() as usize {
-        return None;
-    }
-    let points = rim_points(luminance, &circle, 0.015 * circle.r + 2.0);
-    let tolerance = (0.01 * circle.r).max(1.0);
-    let on = points
-        .iter()
-        .filter(|p| ((p.0 - circle.cx).hypot(p.1 - circle.cy) - circle.r).abs() <= tolerance)
-        .count();
+    let confidence = rim_confidence(luminance, &Outline::of(&circle))?;
     Some(Found {
         circle,
-        confidence: (on as f64 / (visible as f64).max(UNCUT * RAYS as f64)).min(1.0),
+        confidence,
         ball_like: true,
     })
+}
+
+/// `found` as an elongated outline, when that puts a clear edge under more of its rim.
+fn elongated(luminance: ArrayView2<f64>, found: &Found) -> Option<Found> {
+    if !TRY_ELONGATED.contains(&found.confidence) {
+        return None;
+    }
+    let outline = elongate(luminance, &found.circle)?;
+    let confidence = rim_confidence(luminance, &outline)?;
+    let circle = outline.circle();
+    (confidence > found.confidence + 0.05 && circle.r >= MIN_RADIUS).then_some(Found {
+        circle,
+        confidence,
+        ball_like: true,
+    })
+}
+
+/// The elongated outline around a fitted circle: a wide search for the rim, then a narrow one.
+/// Only what a lens can draw is kept: longer away from the picture's centre, and by no more
+/// than the widest lens would at that distance from it.
+fn elongate(luminance: ArrayView2<f64>, circle: &Circle) -> Option<Outline> {
+    let (h, w) = luminance.dim();
+    let from_centre = |c: (f64, f64)| (c.0 - 0.5 * (w as f64 - 1.0), c.1 - 0.5 * (h as f64 - 1.0));
+    let (dx, dy) = from_centre((circle.cx, circle.cy));
+    // The widest lenses in use see about 84° across the diagonal: focal length ≥ 0.55 of it.
+    let stretch = (dx.hypot(dy) / (0.55 * (w as f64).hypot(h as f64))).hypot(1.0);
+    let most = ((stretch - 1.0) / (stretch + 1.0)).min(MAX_ELONGATION);
+    if most < 0.005 {
+        return None;
+    }
+    let mut outline = Outline::of(circle);
+    for window in [(most + 0.02) * circle.r + 2.0, 0.03 * circle.r + 2.0] {
+        let points = rim_points(luminance, &outline, window);
+        outline = fit_outline(&points, &outline)?;
+    }
+    let (dx, dy) = from_centre((outline.cx, outline.cy));
+    let long_axis = 0.5 * outline.b.atan2(outline.a);
+    // The angle between the two directions, as lines (modulo half a turn).
+    let apart = (long_axis - dy.atan2(dx)).rem_euclid(std::f64::consts::PI);
+    let aligned = apart.min(std::f64::consts::PI - apart) <= 20f64.to_radians();
+    let elongation = outline.elongation() / outline.r0;
+    (elongation > 0.005 && elongation <= most + 0.01 && aligned).then_some(outline)
 }
 
 /// How many of the [`RAYS`] cross the rim at least a pixel inside the frame.

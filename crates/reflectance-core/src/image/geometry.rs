@@ -2,7 +2,7 @@
 //! detection on a clean (dark or uniform) background. Pixel centres are at integer
 //! coordinates, so an image spans [−0.5, width − 0.5] × [−0.5, height − 0.5].
 
-use super::circle::solve3;
+use super::circle::solve;
 pub use super::circle::{Circle, MIN_RADIUS};
 use ndarray::{Array2, ArrayView2};
 use serde::{Deserialize, Serialize};
@@ -217,7 +217,7 @@ pub(crate) fn fit_circle(points: &[(f64, f64)]) -> Option<Circle> {
             b[i] += row[i] * z;
         }
     }
-    let [d, e, f] = solve3(a, b)?;
+    let [d, e, f] = solve(a, b)?;
     let r2 = d * d / 4.0 + e * e / 4.0 - f;
     (r2 > 0.0).then(|| Circle {
         cx: mx - d / 2.0,
@@ -663,5 +663,40 @@ mod tests {
             // The plate is still offered, after the ball.
             assert!(ranked.iter().skip(1).any(|g| near(g, &plate)), "{ranked:?}");
         }
+    }
+    #[test]
+    fn a_ball_off_the_lens_axis_is_found_by_its_centre() {
+        // Drawn 1.12 times longer away from the picture's centre, as a wide lens draws a ball
+        // near its corner: the centre, and the shortest radius.
+        let (w, h) = (1200usize, 900usize);
+        let ball = Circle {
+            cx: 1010.0,
+            cy: 730.0,
+            r: 80.0,
+        };
+        let (dx, dy) = (ball.cx - 599.5, ball.cy - 449.5);
+        let (ux, uy) = (dx / dx.hypot(dy), dy / dx.hypot(dy));
+        let stretch = 1.12;
+        let image = Array2::from_shape_fn((h, w), |(y, x)| {
+            let (px, py) = (x as f64 - ball.cx, y as f64 - ball.cy);
+            let along = (px * ux + py * uy) / stretch;
+            let across = -px * uy + py * ux;
+            let (dx, dy) = (
+                (along * ux - across * uy) / ball.r,
+                (along * uy + across * ux) / ball.r,
+            );
+            let d2 = dx * dx + dy * dy;
+            if d2 > 1.0 {
+                return 0.4 + 0.05 * ((x / 40 + y / 40) % 2) as f64;
+            }
+            0.05 + 0.6 * (0.5 * (-dx - dy) + 0.7 * (1.0 - d2).sqrt()).max(0.0)
+        });
+        let g = detect(image.view()).unwrap();
+        assert!(
+            (g.cx - ball.cx).hypot(g.cy - ball.cy) <= 0.02 * ball.r,
+            "{g:?}"
+        );
+        assert!((0.98 * ball.r..=1.02 * ball.r).contains(&g.r), "{g:?}");
+        assert!(g.confidence.unwrap() >= 0.6, "{g:?}");
     }
 }
