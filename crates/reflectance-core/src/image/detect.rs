@@ -651,6 +651,41 @@ fn radial(image: ArrayView2<f64>, x: f64, y: f64, ux: f64, uy: f64) -> bool {
 /// The cosine of the largest angle between a rim's gradient and the ray through it (about 40°).
 const MIN_RADIAL_ALIGNMENT: f64 = 0.75;
 
+/// One Gauss-Newton step of a robust fit to rim points (x, y, contrast): `residual` gives a
+/// point's distance residual and its derivatives by the parameters (None to pass the point
+/// by); points count by their contrast and Tukey's biweight at `tolerance` px. None when
+/// fewer than an eighth of the rays count, or the equations are singular.
+fn biweight_step<const N: usize>(
+    points: &[(f64, f64, f64)],
+    tolerance: f64,
+    residual: impl Fn(f64, f64) -> Option<([f64; N], f64)>,
+) -> Option<[f64; N]> {
+    let mut a = [[0.0f64; N]; N];
+    let mut b = [0.0f64; N];
+    let mut used = 0usize;
+    for &(x, y, contrast) in points {
+        let Some((j, e)) = residual(x, y) else {
+            continue;
+        };
+        let u = e / (2.0 * tolerance);
+        if u.abs() >= 1.0 {
+            continue;
+        }
+        let w = contrast * (1.0 - u * u).powi(2);
+        for p in 0..N {
+            for q in 0..N {
+                a[p][q] += w * j[p] * j[q];
+            }
+            b[p] += w * j[p] * e;
+        }
+        used += 1;
+    }
+    if used < RAYS / 8 {
+        return None;
+    }
+    crate::image::circle::solve(a, b)
+}
+
 /// Fit a circle to rim points (x, y, contrast): a geometric least-squares fit weighted by
 /// contrast, with Tukey's biweight on the distances to the circle so that points off the
 /// rim (highlights, shadows, clutter) stop counting; from `start`.
@@ -661,35 +696,11 @@ fn robust_fit(points: &[(f64, f64, f64)], start: &Circle) -> Option<Circle> {
     let mut c = *start;
     for round in 0..8 {
         let tolerance = if round < 2 { 3.0 } else { 1.5 } * (0.01 * c.r).max(1.0);
-        // Normal equations of the linearized distances, in (cx, cy, r).
-        let mut a = [[0.0f64; 3]; 3];
-        let mut b = [0.0f64; 3];
-        let mut used = 0usize;
-        for &(x, y, contrast) in points {
+        let [dcx, dcy, dr] = biweight_step(points, tolerance, |x, y| {
             let (dx, dy) = (x - c.cx, y - c.cy);
             let d = dx.hypot(dy);
-            if d <= 0.0 {
-                continue;
-            }
-            let e = d - c.r;
-            let u = e / (2.0 * tolerance);
-            if u.abs() >= 1.0 {
-                continue;
-            }
-            let w = contrast * (1.0 - u * u).powi(2);
-            let j = [-dx / d, -dy / d, -1.0];
-            for p in 0..3 {
-                for q in 0..3 {
-                    a[p][q] += w * j[p] * j[q];
-                }
-                b[p] -= w * j[p] * e;
-            }
-            used += 1;
-        }
-        if used < RAYS / 8 {
-            return None;
-        }
-        let [dcx, dcy, dr] = crate::image::circle::solve(a, b)?;
+            (d > 0.0).then(|| ([dx / d, dy / d, 1.0], d - c.r))
+        })?;
         c = Circle {
             cx: c.cx + dcx,
             cy: c.cy + dcy,
@@ -775,37 +786,18 @@ fn fit_outline(points: &[(f64, f64, f64)], start: &Outline) -> Option<Outline> {
         };
         let tolerance = (share * o.r0).max(1.0);
         // The distance from the centre is the radius at θ plus the centre's error along θ.
-        let mut a = [[0.0f64; 5]; 5];
-        let mut b = [0.0f64; 5];
-        let mut used = 0usize;
-        for &(x, y, contrast) in points {
+        let [dr, da, db, dcx, dcy] = biweight_step(points, tolerance, |x, y| {
             let (dx, dy) = (x - o.cx, y - o.cy);
             let theta = dy.atan2(dx);
-            let e = dx.hypot(dy) - o.radius_at(theta);
-            let u = e / (2.0 * tolerance);
-            if u.abs() >= 1.0 {
-                continue;
-            }
-            let w = contrast * (1.0 - u * u).powi(2);
-            let j = [
+            let gradient = [
                 1.0,
                 (2.0 * theta).cos(),
                 (2.0 * theta).sin(),
                 theta.cos(),
                 theta.sin(),
             ];
-            for p in 0..5 {
-                for q in 0..5 {
-                    a[p][q] += w * j[p] * j[q];
-                }
-                b[p] += w * j[p] * e;
-            }
-            used += 1;
-        }
-        if used < RAYS / 8 {
-            return None;
-        }
-        let [dr, da, db, dcx, dcy] = crate::image::circle::solve(a, b)?;
+            Some((gradient, dx.hypot(dy) - o.radius_at(theta)))
+        })?;
         o = Outline {
             cx: o.cx + dcx,
             cy: o.cy + dcy,

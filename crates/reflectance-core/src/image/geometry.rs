@@ -592,14 +592,18 @@ mod tests {
             Err(GeometryError::DetectionFailed { .. })
         ));
     }
-    /// A Lambertian-looking ball (brighter towards the top left) of `c` painted over `image`.
+    /// A Lambertian-looking ball's luminance (brighter towards the top left) at (dx, dy) in
+    /// units of its radius from its centre; None outside it.
+    fn shade(dx: f64, dy: f64) -> Option<f64> {
+        let d2 = dx * dx + dy * dy;
+        (d2 <= 1.0).then(|| 0.05 + 0.6 * (0.5 * (-dx - dy) + 0.7 * (1.0 - d2).sqrt()).max(0.0))
+    }
+
+    /// The ball of `c` painted over `image`.
     fn shaded_ball(image: &mut Array2<f64>, c: &Circle) {
         for ((y, x), v) in image.indexed_iter_mut() {
-            let (dx, dy) = ((x as f64 - c.cx) / c.r, (y as f64 - c.cy) / c.r);
-            let d2 = dx * dx + dy * dy;
-            if d2 <= 1.0 {
-                let nz = (1.0 - d2).sqrt();
-                *v = 0.05 + 0.6 * (0.5 * (-dx - dy) + 0.7 * nz).max(0.0);
+            if let Some(value) = shade((x as f64 - c.cx) / c.r, (y as f64 - c.cy) / c.r) {
+                *v = value;
             }
         }
     }
@@ -681,15 +685,11 @@ mod tests {
             let (px, py) = (x as f64 - ball.cx, y as f64 - ball.cy);
             let along = (px * ux + py * uy) / stretch;
             let across = -px * uy + py * ux;
-            let (dx, dy) = (
+            shade(
                 (along * ux - across * uy) / ball.r,
                 (along * uy + across * ux) / ball.r,
-            );
-            let d2 = dx * dx + dy * dy;
-            if d2 > 1.0 {
-                return 0.4 + 0.05 * ((x / 40 + y / 40) % 2) as f64;
-            }
-            0.05 + 0.6 * (0.5 * (-dx - dy) + 0.7 * (1.0 - d2).sqrt()).max(0.0)
+            )
+            .unwrap_or(0.4 + 0.05 * ((x / 40 + y / 40) % 2) as f64)
         });
         let g = detect(image.view()).unwrap();
         assert!(
