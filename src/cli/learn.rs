@@ -5,7 +5,6 @@ use crate::dataset::{self, FeatureTable, Manifest};
 use crate::features::{CaptureMeasurements, Extensions, Extractor, FeatureConfig};
 use crate::inference;
 use crate::learn::estimate;
-use crate::learn::regress::RidgeSpec;
 use crate::learn::{CvReport, DEFAULT_C, Dataset, FeatureSet, SpecText, TrainSpec};
 use crate::material::load_classes;
 use crate::model::registry::{self, Registry};
@@ -145,6 +144,10 @@ pub struct EstimateArgs {
 /// The regression behind the Ward-parameter estimate.
 #[derive(Args, Debug)]
 pub struct RidgeArgs {
+    /// The Ward-parameter regression: gradient-boosted trees, or the kernel ridge of the
+    /// --ridge-* options (the first estimators').
+    #[arg(long, value_enum, default_value_t = Regressor::Boost)]
+    regressor: Regressor,
     /// Random Fourier features of the Ward-parameter regression.
     #[arg(long, default_value_t = estimate::DEFAULT_RIDGE_FEATURES)]
     ridge_features: usize,
@@ -156,18 +159,33 @@ pub struct RidgeArgs {
     ridge_gamma: Option<f64>,
 }
 
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum Regressor {
+    Boost,
+    Ridge,
+}
+
 impl RidgeArgs {
-    /// The regression of `features` over the table's columns `names` (γ: --ridge-gamma, else
-    /// `gamma` (--gamma, as before --ridge-gamma existed), else 1 / number of inputs).
+    fn method(&self) -> estimate::Method {
+        match self.regressor {
+            Regressor::Boost => estimate::Method::Boost,
+            Regressor::Ridge => estimate::Method::Ridge,
+        }
+    }
+
+    /// The regression of `features` over the table's columns `names` (a ridge's γ:
+    /// --ridge-gamma, else `gamma` (--gamma, as before --ridge-gamma existed), else 1 / number
+    /// of inputs).
     fn spec(
         &self,
         features: &FeatureSet,
         names: &[String],
         gamma: Option<f64>,
         seed: u64,
-    ) -> CliResult<RidgeSpec> {
+    ) -> CliResult<estimate::RegressionSpec> {
         let size = (self.ridge_features, self.ridge_lambda);
-        Ok(estimate::ridge_spec(
+        Ok(estimate::regression_spec(
+            self.method(),
             features,
             names,
             size,
@@ -221,7 +239,9 @@ fn cv_estimate(args: &CvArgs, table: &FeatureTable, label: &str) -> CliResult {
         .estimate
         .ridge
         .spec(&features, &ds.names, args.spec.gamma, args.spec.seed)?;
-    let fit = estimate::fit(&ds, "", &materials, &features, &spec)?;
+    let bar = progress::bar(0, "estimate");
+    let fit = estimate::fit_observed(&ds, "", &materials, &features, &spec, &bar)?;
+    bar.finish();
     let report = fit.report;
     if let Some(out) = &args.estimate.out {
         let title = format!("{} on {label}", args.spec.features);
@@ -394,6 +414,7 @@ impl EstimatorArgs {
             label: table.display().to_string(),
             materials: load_classes(classes)?,
             features,
+            method: self.ridge.method(),
             size: (self.ridge.ridge_features, self.ridge.ridge_lambda),
             gamma: self.ridge.ridge_gamma.or(gamma),
         }))

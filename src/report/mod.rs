@@ -264,7 +264,7 @@ pub fn run(
         chance: datasets.iter().map(|d| 1.0 / d.classes as f64).collect(),
         datasets,
         cells,
-        estimate: estimate_of(data, out, seed, options)?,
+        estimate: estimate_of(data, out, options)?,
     };
     let json = serde_json::to_vec_pretty(&report).map_err(|e| ReportError::Plot(e.to_string()))?;
     write(&out.join("report.json"), &json)?;
@@ -273,12 +273,11 @@ pub fn run(
 }
 
 /// The Ward-parameter estimate on `data/materials`, cross-validated over its illuminations as
-/// the shipped estimators are fitted (their features, λ and γ), written into `out`
+/// the shipped estimators are fitted (their features and boosted trees), written into `out`
 /// (`estimate.md`, `.json`, `.png`); `None` without that data set.
 fn estimate_of(
     data: &Path,
     out: &Path,
-    seed: u64,
     options: &DecodeOptions,
 ) -> Result<Option<EstimateReport>, ReportError> {
     let (name, classes) = MATERIALS;
@@ -295,10 +294,8 @@ fn estimate_of(
     let table = features_of(&dir, options)?.without_synthetic();
     let ds = Dataset::from_table(&table)?;
     let features = FeatureSet::parse_with(ward::SHIPPED_FEATURES, &ds.names)?;
-    let size = (ward::DEFAULT_RIDGE_FEATURES, ward::DEFAULT_RIDGE_LAMBDA);
-    let gamma = Some(ward::SHIPPED_RIDGE_GAMMA);
-    let ridge = ward::ridge_spec(&features, &ds.names, size, gamma, seed)?;
-    let fit = ward::fit(&ds, name, &materials, &features, &ridge)?;
+    let spec = ward::RegressionSpec::Boost(Default::default());
+    let fit = ward::fit(&ds, name, &materials, &features, &spec)?;
     let title = format!("{} on {name}", ward::SHIPPED_FEATURES);
     let protocol = estimate::Protocol::CrossValidated;
     estimate::write(out, &title, protocol, &fit.report, &fit.details)?;

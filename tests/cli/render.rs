@@ -379,13 +379,16 @@ fn materials_design_a_class_file_that_render_and_the_estimate_take() {
         ];
         run(&[&base[..], more].concat())
     };
-    let out = cv(&[
+    // The small ridge is the quickest regression to cross-validate.
+    let ridge = [
         "--ward-classes",
         file_arg,
+        "--regressor",
+        "ridge",
         "--ridge-features",
         "50",
-        "--json",
-    ]);
+    ];
+    let out = cv(&[&ridge[..], &["--json"]].concat());
     common::assert_success(&out);
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["n"], 16, "{report}");
@@ -399,7 +402,6 @@ fn materials_design_a_class_file_that_render_and_the_estimate_take() {
     // The report: every held-out estimate, with the per-illumination errors.
     let report_dir = dir.join("estimate");
     let report_arg = report_dir.to_str().unwrap();
-    let ridge = ["--ward-classes", file_arg, "--ridge-features", "50"];
     common::assert_success(&cv(&[&ridge[..], &["--out", report_arg]].concat()));
     let written: serde_json::Value =
         serde_json::from_slice(&std::fs::read(report_dir.join("estimate.json")).unwrap()).unwrap();
@@ -436,17 +438,23 @@ fn materials_design_a_class_file_that_render_and_the_estimate_take() {
         "--estimator-classes",
         file_arg,
         "--estimator-features",
-        "pix.mean,ctr.mean,ctr.core",
-        "--ridge-features",
-        "50",
+        "pix.mean,ctr.mean,ctr.cos",
     ]));
-    // The estimator reads its own features, the classifier hand6.
+    // The estimator reads its own features, the classifier hand6; by default it is boosted
+    // trees (one ensemble per output) predicting the total relative to ctr.cos.
     let model: serde_json::Value =
         serde_json::from_slice(&std::fs::read(models.join("m/1/model.json")).unwrap()).unwrap();
+    let estimator = &model["estimator"];
     assert_eq!(
-        model["estimator"]["inputs"],
-        serde_json::json!(["pix.mean", "ctr.mean", "ctr.core"])
+        estimator["inputs"],
+        serde_json::json!(["pix.mean", "ctr.mean", "ctr.cos"])
     );
+    assert_eq!(estimator["total_anchor"], 2);
+    assert_eq!(
+        estimator["trees"]["trees"].as_array().map(Vec::len),
+        Some(4)
+    );
+    assert_eq!(estimator["boost"]["trees"], 300);
     assert_eq!(model["features"]["set"], "hand6");
     let predictions = dir.join("predictions.csv");
     let out = run(&[

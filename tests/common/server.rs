@@ -135,12 +135,13 @@ pub fn fixture() -> &'static Fixture {
             images: Some(manifest.clone()),
             decode: Default::default(),
             // A Ward-parameter estimator beside the classifier (three materials only: it is
-            // here for the answer's shape, not its accuracy).
+            // here for the answer's shape, not its accuracy; the small ridge is the quickest).
             estimator: Some(EstimatorData {
                 table: table.clone(),
                 label: "train/features.csv".into(),
                 materials: classes,
                 features: None,
+                method: reflectance::learn::estimate::Method::Ridge,
                 size: (50, 1e-2),
                 gamma: Some(1.0 / 6.0),
             }),

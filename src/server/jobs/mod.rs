@@ -156,7 +156,7 @@ pub enum JobRequest {
         cross_validate: bool,
         /// Also fit a Ward-parameter estimator on this feature table (relative to the data
         /// directory; extracted with the model's feature flags), reading the model's
-        /// `features` (random Fourier features 1500, λ 0.01, γ = `gamma` or 1 / inputs).
+        /// `features` (gradient-boosted trees, as `train --estimator-table` by default).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         estimator_table: Option<String>,
         /// The class file of the estimator table's materials (their Ward parameters),
@@ -170,7 +170,7 @@ pub enum JobRequest {
         data: LearnParams,
         /// Estimate the Ward parameters instead of classifying: the class file (relative to
         /// the data directory) whose materials are the data's classes. The regression reads
-        /// `features` (random Fourier features 1500, λ 0.01, γ = `gamma` or 1 / inputs).
+        /// `features` (gradient-boosted trees, as `cv --estimate` by default).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         ward_classes: Option<String>,
     },

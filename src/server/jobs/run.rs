@@ -181,7 +181,8 @@ impl From<TrainError> for Failure {
     }
 }
 
-/// Random Fourier features and ridge penalty of the jobs' Ward-parameter estimators.
+/// Random Fourier features and ridge penalty of the jobs' Ward-parameter estimators, were they
+/// ridges (they are `estimate::Method::default()`, boosted trees).
 const RIDGE_SIZE: (usize, f64) = (
     estimate::DEFAULT_RIDGE_FEATURES,
     estimate::DEFAULT_RIDGE_LAMBDA,
@@ -331,6 +332,7 @@ fn estimator_data(
         label: table.clone(),
         materials: load_classes(&classes_path)?,
         features: None,
+        method: estimate::Method::default(),
         size: RIDGE_SIZE,
         gamma: p.gamma,
     }))
@@ -498,9 +500,23 @@ pub fn execute(
             let (table, label, _) = load_table(p, data, limits, observer)?;
             let ds = Dataset::from_table(&table)?;
             observer.stage("cross_validate");
-            let ridge =
-                estimate::ridge_spec(&spec.features, &ds.names, RIDGE_SIZE, p.gamma, p.seed)?;
-            let fit = estimate::fit(&ds, &label, &materials, &spec.features, &ridge)?;
+            let method = estimate::Method::default();
+            let regression = estimate::regression_spec(
+                method,
+                &spec.features,
+                &ds.names,
+                RIDGE_SIZE,
+                p.gamma,
+                p.seed,
+            )?;
+            let fit = estimate::fit_observed(
+                &ds,
+                &label,
+                &materials,
+                &spec.features,
+                &regression,
+                observer,
+            )?;
             Ok(JobResult {
                 estimate: Some(fit.report),
                 images: Some(table.samples.len()),

@@ -107,6 +107,11 @@ pub struct FeatureConfig {
     /// docs/design.md §8). Absent in older model files.
     #[serde(default, skip_serializing_if = "is_false")]
     pub centre: bool,
+    /// With `centre`: the family ends with the cosine-weighted mean `ctr.cos`. Absent (so
+    /// false) in model files from before it existed, whose centre family is the first five
+    /// values: they keep extracting exactly the row they were trained on.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub centre_cos: bool,
     /// Also compute the domain measurements, `dom.*` (last; an extension, docs/design.md
     /// §8). Absent in older model files.
     #[serde(default, skip_serializing_if = "is_false")]
@@ -155,6 +160,7 @@ impl Default for FeatureConfig {
             dependencies: false,
             capture: false,
             centre: false,
+            centre_cos: false,
             domain: false,
             working_radius: None,
             saturation: None,
@@ -239,6 +245,7 @@ impl FeatureConfig {
             dependencies: extensions.dependencies,
             capture: extensions.capture,
             centre: extensions.centre,
+            centre_cos: extensions.centre,
             domain: extensions.domain,
             working_radius: preprocessing.working_radius,
             saturation: preprocessing.saturation,
@@ -299,6 +306,7 @@ impl FeatureConfig {
             log_domain: self.log_domain,
             capture: self.capture,
             centre: self.centre,
+            centre_cos: self.centre_cos,
             domain: self.domain,
         }
     }

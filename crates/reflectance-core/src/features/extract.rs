@@ -11,7 +11,7 @@ use super::polar::{AngleTable, angle_table, unwrap};
 use super::pyramid::{self, Edge};
 use super::spectrum::{BandPowers, SpectrumPlan};
 use super::stats::{Moments, Summary, moments, percentiles_with, summarize};
-use super::{LOG_PIXEL_FLOOR, ORIENTATION_PAIRS, RADIAL_RINGS};
+use super::{CENTRE_NAMES, LOG_PIXEL_FLOOR, ORIENTATION_PAIRS, RADIAL_RINGS};
 use crate::image::geometry::Circle;
 use ndarray::{Array2, ArrayView2};
 use std::sync::{Arc, OnceLock};
@@ -230,10 +230,11 @@ impl Extractor {
             values.extend(capture);
         }
         if self.config.centre {
-            values.extend(match needed(self.layout.centre()) {
+            let family = match needed(self.layout.centre()) {
                 true => centre::centre_features(seen, seen_circle, white),
-                false => [f64::NAN; 5],
-            });
+                false => [f64::NAN; CENTRE_NAMES.len()],
+            };
+            values.extend(&family[..self.layout.centre().len()]);
         }
         if self.config.domain {
             // On the image as given: the reduction to the working radius crops the rim's
@@ -574,10 +575,10 @@ mod tests {
         }
         let every = FeatureConfig::extended(Extensions::ALL, Preprocessing::default()).names();
         let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14 + 12;
-        assert_eq!(every.len(), 2 * block + 3 + 5 + 1);
+        assert_eq!(every.len(), 2 * block + 3 + 6 + 1);
         assert_eq!(every[2 * block..2 * block + 3], CAPTURE_NAMES);
-        assert_eq!(every[2 * block + 3..2 * block + 8], CENTRE_NAMES);
-        assert_eq!(every[2 * block + 8..], DOMAIN_NAMES);
+        assert_eq!(every[2 * block + 3..2 * block + 9], CENTRE_NAMES);
+        assert_eq!(every[2 * block + 9..], DOMAIN_NAMES);
         assert_eq!(every[..FEATURE_COUNT], names[..]);
         let last_pair = format!("r{}_r{RADIAL_RINGS}", RADIAL_RINGS - 1);
         assert_eq!(
@@ -837,7 +838,7 @@ mod tests {
         .unwrap();
         let extended_full = extended.extract(luminance.view(), &circle, 0.9);
         let block = FEATURE_COUNT + (RADIAL_RINGS - 1) * 14 + 12;
-        let count = 2 * block + 3 + 5 + 1;
+        let count = 2 * block + 3 + 6 + 1;
         assert_eq!(extended.feature_count(), count);
         assert_eq!(extended_full.len(), count);
         let extended_subsets = [
@@ -934,6 +935,56 @@ mod tests {
         for (a, b) in one.iter().zip(&three) {
             assert!((a - b).abs() < 1e-9, "{a} {b}");
         }
+    }
+
+    #[test]
+    fn a_model_file_from_before_ctr_cos_extracts_its_own_five_centre_values() {
+        let config = FeatureConfig::extended(
+            Extensions {
+                centre: true,
+                domain: true,
+                ..Extensions::default()
+            },
+            Preprocessing::default(),
+        );
+        let mut json = serde_json::to_value(config).unwrap();
+        assert_eq!(json["centre_cos"], true);
+        json.as_object_mut().unwrap().remove("centre_cos");
+        let old: FeatureConfig = serde_json::from_value(json).unwrap();
+        let (names, old_names) = (config.names(), old.names());
+        assert_eq!(
+            names[FEATURE_COUNT..],
+            [
+                "ctr.mean",
+                "ctr.core",
+                "ctr.p10",
+                "ctr.p50",
+                "ctr.p90",
+                "ctr.cos",
+                "dom.outline"
+            ]
+        );
+        let without_cos: Vec<&String> = names.iter().filter(|n| *n != "ctr.cos").collect();
+        assert_eq!(old_names.iter().collect::<Vec<_>>(), without_cos);
+        let circle = Circle {
+            cx: 60.0,
+            cy: 60.0,
+            r: 50.0,
+        };
+        let image = Array2::from_shape_fn((121, 121), |(y, x)| {
+            0.2 + 0.1 * ((x as f64 * 0.3).sin() + (y as f64 * 0.2).cos()).abs()
+        });
+        let new_row = Extractor::new(config)
+            .unwrap()
+            .extract(image.view(), &circle, 0.5);
+        let old_row = Extractor::new(old)
+            .unwrap()
+            .extract(image.view(), &circle, 0.5);
+        assert_eq!(old_row.len(), old_names.len());
+        let cos = names.iter().position(|n| n == "ctr.cos").unwrap();
+        let mut expected = new_row.clone();
+        expected.remove(cos);
+        assert_eq!(old_row, expected);
     }
 
     #[test]

@@ -158,6 +158,8 @@ pub struct Layout {
     pub log_domain: bool,
     pub capture: bool,
     pub centre: bool,
+    /// Whether the centre family ends with `ctr.cos` (see `FeatureConfig::centre_cos`).
+    pub centre_cos: bool,
     pub domain: bool,
 }
 
@@ -181,7 +183,7 @@ impl Layout {
     pub fn centre(&self) -> Range<usize> {
         let start = self.capture().end;
         match self.centre {
-            true => start..start + CENTRE_NAMES.len(),
+            true => start..start + CENTRE_NAMES.len() - usize::from(!self.centre_cos),
             false => start..start,
         }
     }
@@ -212,7 +214,7 @@ impl Layout {
             .map(|n| n.to_string());
         let centre = CENTRE_NAMES
             .iter()
-            .filter(|_| self.centre)
+            .take(self.centre().len())
             .map(|n| n.to_string());
         let domain = DOMAIN_NAMES
             .iter()

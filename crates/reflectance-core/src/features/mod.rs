@@ -55,8 +55,10 @@ pub const CAPTURE_NAMES: [&str; 3] = ["cap.noise", "cap.clipped", "cap.blur"];
 /// Prefix of the centre features' names.
 pub const CENTRE_PREFIX: &str = "ctr.";
 /// The centre features ([`centre`]): log10 of the disc inside r/√2 against white, its mean, its
-/// inner half's mean and its 10th, 50th and 90th percentiles.
-pub const CENTRE_NAMES: [&str; 5] = ["ctr.mean", "ctr.core", "ctr.p10", "ctr.p50", "ctr.p90"];
+/// inner half's mean, its 10th, 50th and 90th percentiles and its cosine-weighted mean.
+pub const CENTRE_NAMES: [&str; 6] = [
+    "ctr.mean", "ctr.core", "ctr.p10", "ctr.p50", "ctr.p90", "ctr.cos",
+];
 /// Prefix of the domain measurements' names.
 pub const DOMAIN_PREFIX: &str = "dom.";
 /// The domain measurements: how well the circle follows a sphere's outline ([`outline`]).

@@ -28,7 +28,8 @@ pub const NAMED_SETS: [&str; 11] = [
 /// the capture measurements (`hand6+cap`, `hand6+log+cap`), and the last with the centre
 /// features (`hand6+log+cap+ctr`), and `estimator`, the shipped Ward-parameter estimators'
 /// inputs: hand6+log+cap+ctr without `cap.blur`, so that a model whose classifier does not read
-/// the rim's blur need not measure it (docs/design.md §8), and `scale_free`, the features of
+/// the rim's blur need not measure it, and with the log-domain variance ratios and subband
+/// kurtoses, which tell α better (docs/design.md §8, docs/accuracy.md), and `scale_free`, the features of
 /// hand6+log that do not change when the image is multiplied by a constant (the classifier a
 /// model uses without a white reference: docs/design.md §3 "Without white").
 pub fn named_set(name: &str) -> Option<Vec<String>> {
@@ -68,6 +69,13 @@ pub fn named_set(name: &str) -> Option<Vec<String>> {
         "estimator" => {
             let mut names = named_set("hand6+log+cap+ctr")?;
             names.retain(|n| n != "cap.blur");
+            let bands = || (1..=LEVELS).flat_map(|k| BAND_NAMES.iter().map(move |b| (k, b)));
+            names.extend(
+                bands()
+                    .filter(|(k, _)| *k < LEVELS)
+                    .map(|(k, b)| format!("{LOG_PREFIX}ratio.{b}.s{k}_s{}", k + 1)),
+            );
+            names.extend(bands().map(|(k, b)| format!("{LOG_PREFIX}wav.s{k}.{b}.kurt")));
             Some(names)
         }
         "hand6+cap" => Some(

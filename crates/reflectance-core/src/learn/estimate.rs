@@ -1,19 +1,25 @@
 //! Estimating the Ward parameters (ρd, ρs, α) themselves, with intervals, rather than naming
 //! a class.
 //!
-//! The regressor ([`super::regress`]) predicts four outputs in well-conditioned spaces: the
-//! total reflectance t = ρd + ρs, the specular fraction ρs / t, a mirror score (+1 for α = 0,
-//! −1 otherwise) and log10 α (mirrors placed at [`MIRROR_LOG_ALPHA`], below the glossy
-//! range). An estimate turns them back into (ρd, ρs, α). Its 90 % intervals are split-conformal:
+//! The regressor (gradient-boosted trees, [`super::boost`], or the kernel ridge of
+//! [`super::regress`]) predicts four outputs in well-conditioned spaces: the total reflectance
+//! t = ρd + ρs, the specular fraction ρs / t, a mirror score (+1 for α = 0, −1 otherwise) and
+//! log10 α (mirrors placed at [`MIRROR_LOG_ALPHA`], below the glossy range). When the
+//! cosine-weighted centre [`TOTAL_ANCHOR`] is among the inputs, the total is predicted as
+//! log10 t minus it: that measurement is already t under most light (docs/design.md §8), and
+//! the regression only corrects it where the light or the camera make it err. An estimate
+//! turns the outputs back into (ρd, ρs, α). Its 90 % intervals are split-conformal:
 //! their half-widths are quantiles of the leave-one-illumination-out errors of ρd, ρs and
 //! log10 α, so they hold for illuminations the model never saw.
 
+use super::boost::{self, BoostSpec, Boosted};
 use super::error::LearnError;
 use super::feature_set::FeatureSet;
 use super::matrix::Dataset;
 use super::regress::{self, Ridge, RidgeSpec};
 use super::scaler::Scaler;
 use crate::material::Material;
+use crate::util::progress::{Observer, Silent};
 use ndarray::{Array2, Axis};
 use serde::{Deserialize, Serialize};
 
@@ -27,11 +33,85 @@ pub const COVERAGE: f64 = 0.9;
 pub const DEFAULT_RIDGE_FEATURES: usize = 1500;
 /// Its ridge penalty λ, by default.
 pub const DEFAULT_RIDGE_LAMBDA: f64 = 1e-2;
-/// The RBF γ the shipped estimators and `report` use (on `estimator`: the best of
-/// 0.003–0.04 measured over the 70 probes, docs/accuracy.md).
-pub const SHIPPED_RIDGE_GAMMA: f64 = 0.005;
 /// The feature set of the shipped estimators and of `report`'s estimate.
 pub const SHIPPED_FEATURES: &str = "estimator";
+/// The input the total reflectance is predicted relative to, when present: the centre's
+/// cosine-weighted mean over white, log10 (features::centre).
+pub const TOTAL_ANCHOR: &str = "ctr.cos";
+/// The smallest total reflectance the anchored output takes the logarithm of.
+const TOTAL_FLOOR: f64 = 1e-4;
+
+/// Which regression an estimator uses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Gradient-boosted trees ([`BoostSpec::default`]).
+    #[default]
+    Boost,
+    /// Kernel ridge on random Fourier features (the first estimators').
+    Ridge,
+}
+
+/// How to fit an estimator's regression.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RegressionSpec {
+    Boost(BoostSpec),
+    Ridge(RidgeSpec),
+}
+
+/// A fitted regression (the model file's fields: `spec` and `ridge`, or `boost` and `trees`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Regression {
+    Boost { boost: BoostSpec, trees: Boosted },
+    Ridge { spec: RidgeSpec, ridge: Ridge },
+}
+
+impl Regression {
+    fn predict(&self, z: &[f64]) -> Vec<f64> {
+        match self {
+            Regression::Boost { trees, .. } => trees.predict(z),
+            Regression::Ridge { ridge, .. } => ridge.predict(z),
+        }
+    }
+
+    /// Whether its parts fit `inputs` inputs and four outputs, with finite numbers.
+    fn is_consistent(&self, inputs: usize) -> bool {
+        match self {
+            Regression::Boost { trees, .. } => {
+                trees.inputs == inputs && trees.outputs() == 4 && trees.is_consistent()
+            }
+            Regression::Ridge { ridge, .. } => {
+                let features = ridge.map.phase.len();
+                ridge.map.inputs == inputs
+                    && ridge.map.omega.len() == features * inputs
+                    && ridge.outputs == 4
+                    && ridge.weights.len() == (features + 1) * 4
+                    && ridge
+                        .weights
+                        .iter()
+                        .chain(&ridge.map.omega)
+                        .all(|v| v.is_finite())
+            }
+        }
+    }
+}
+
+/// The regression `method` of `features` over the table's columns `names`: boosted trees
+/// with their defaults, or the ridge of [`ridge_spec`].
+pub fn regression_spec(
+    method: Method,
+    features: &FeatureSet,
+    names: &[String],
+    size: (usize, f64),
+    gamma: Option<f64>,
+    seed: u64,
+) -> Result<RegressionSpec, LearnError> {
+    Ok(match method {
+        Method::Boost => RegressionSpec::Boost(BoostSpec::default()),
+        Method::Ridge => RegressionSpec::Ridge(ridge_spec(features, names, size, gamma, seed)?),
+    })
+}
 
 /// The regression of `features` over the table's columns `names`, with `count` random
 /// Fourier features and penalty `lambda`; γ = `gamma`, else 1 / number of inputs.
@@ -168,14 +248,19 @@ pub struct HalfWidths {
     pub log10_alpha: f64,
 }
 
-/// A fitted estimator: the inputs it reads, their standardization, the ridge, the widths.
+/// A fitted estimator: the inputs it reads, their standardization, the regression, the
+/// widths.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct WardRegressor {
     pub inputs: Vec<String>,
     pub input_indices: Vec<usize>,
     pub scaler: Scaler,
-    pub spec: RidgeSpec,
-    pub ridge: Ridge,
+    #[serde(flatten)]
+    pub regression: Regression,
+    /// Which input (of `inputs`) the total reflectance is predicted relative to
+    /// ([`TOTAL_ANCHOR`]); none in estimators fitted before it existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub total_anchor: Option<usize>,
     pub half_widths: HalfWidths,
     /// Its leave-one-illumination-out accuracy, on the data it was fitted to.
     pub cv: EstimateReport,
@@ -187,14 +272,10 @@ impl WardRegressor {
     /// Check the parts against each other and against the model's feature `names`.
     pub fn validate(&self, names: &[String]) -> Result<(), String> {
         let d = self.input_indices.len();
-        let features = self.ridge.map.phase.len();
         let consistent = self.inputs.len() == d
             && self.scaler.dim() == d
-            && self.ridge.map.inputs == d
-            && self.ridge.map.omega.len() == features * d
-            && self.ridge.outputs == 4
-            && self.ridge.weights.len() == (features + 1) * 4;
-        if !consistent {
+            && self.total_anchor.is_none_or(|k| k < d);
+        if !consistent || !self.regression.is_consistent(d) {
             return Err("the estimator's parts do not fit together".into());
         }
         let named = self
@@ -207,13 +288,11 @@ impl WardRegressor {
         }
         let w = &self.half_widths;
         let widths = [w.rho_d, w.rho_s, w.log10_alpha];
-        let numbers = self
-            .ridge
-            .weights
+        if widths
             .iter()
-            .chain(&self.ridge.map.omega)
-            .chain(&widths);
-        if numbers.chain(&self.scaler.mean).any(|v| !v.is_finite()) {
+            .chain(&self.scaler.mean)
+            .any(|v| !v.is_finite())
+        {
             return Err("the estimator holds a number that is not finite".into());
         }
         Ok(())
@@ -222,9 +301,14 @@ impl WardRegressor {
     /// The four outputs (see [`targets`]) for a row of every extracted feature (canonical
     /// order).
     pub fn predict(&self, values: &[f64]) -> Vec<f64> {
-        let mut z: Vec<f64> = self.input_indices.iter().map(|&i| values[i]).collect();
+        let raw: Vec<f64> = self.input_indices.iter().map(|&i| values[i]).collect();
+        let mut z = raw.clone();
         self.scaler.apply(&mut z);
-        self.ridge.predict(&z)
+        let mut outputs = self.regression.predict(&z);
+        if let Some(k) = self.total_anchor {
+            outputs[0] = 10f64.powf(outputs[0] + raw[k]);
+        }
+        outputs
     }
 
     /// The estimate from a row of every extracted feature (canonical order).
@@ -429,7 +513,19 @@ pub fn fit(
     dataset: &str,
     materials: &[Material],
     features: &FeatureSet,
-    spec: &RidgeSpec,
+    spec: &RegressionSpec,
+) -> Result<Fit, LearnError> {
+    fit_observed(ds, dataset, materials, features, spec, &Silent)
+}
+
+/// [`fit`], reporting the boosted fits' progress to `observer` (which may cancel them).
+pub fn fit_observed(
+    ds: &Dataset,
+    dataset: &str,
+    materials: &[Material],
+    features: &FeatureSet,
+    spec: &RegressionSpec,
+    observer: &dyn Observer,
 ) -> Result<Fit, LearnError> {
     let material_of_class = materials_of(ds, materials)?;
     let input_indices = features.resolve(&ds.names)?.ok_or_else(|| {
@@ -441,8 +537,40 @@ pub fn fit(
     let y = Array2::from_shape_fn((ds.n_rows(), 4), |(i, o)| {
         targets(material_of_class[ds.labels[i]])[o]
     });
-    let fitted = regress::fit(z.view(), y.view(), Some(&ds.groups), spec)?;
-    let held_out = fitted.held_out.unwrap_or_else(|| y.clone());
+    let total_anchor = input_indices
+        .iter()
+        .position(|&i| ds.names[i] == TOTAL_ANCHOR);
+    let mut fitted_y = y.clone();
+    if let Some(k) = total_anchor {
+        for (i, mut row) in fitted_y.rows_mut().into_iter().enumerate() {
+            row[0] = row[0].max(TOTAL_FLOOR).log10() - x[[i, k]];
+        }
+    }
+    let groups = Some(&ds.groups[..]);
+    let (regression, held_out) = match spec {
+        RegressionSpec::Boost(boost) => {
+            let fitted = boost::fit_observed(z.view(), fitted_y.view(), groups, boost, observer)?;
+            let model = Regression::Boost {
+                boost: *boost,
+                trees: fitted.model,
+            };
+            (model, fitted.held_out)
+        }
+        RegressionSpec::Ridge(ridge) => {
+            let fitted = regress::fit(z.view(), fitted_y.view(), groups, ridge)?;
+            let model = Regression::Ridge {
+                spec: *ridge,
+                ridge: fitted.ridge,
+            };
+            (model, fitted.held_out)
+        }
+    };
+    let mut held_out = held_out.unwrap_or_else(|| fitted_y.clone());
+    if let Some(k) = total_anchor {
+        for (i, mut row) in held_out.rows_mut().into_iter().enumerate() {
+            row[0] = 10f64.powf(row[0] + x[[i, k]]);
+        }
+    }
     let mut errors = row_errors_of(ds, &held_out, &material_of_class);
     let group_widths = held_out_widths(ds, &errors);
     mark_covered(ds, &mut errors, &group_widths);
@@ -452,8 +580,8 @@ pub fn fit(
         inputs: input_indices.iter().map(|&i| ds.names[i].clone()).collect(),
         input_indices,
         scaler,
-        spec: *spec,
-        ridge: fitted.ridge,
+        regression,
+        total_anchor,
         half_widths: report.half_widths,
         cv: report.clone(),
         dataset: dataset.to_string(),
@@ -630,8 +758,14 @@ pub fn nearest_class(
     let distance = |&(rho_d, rho_s, alpha): &(f64, f64, f64)| {
         let d = (estimate.rho_d.value - rho_d) / unit(widths.rho_d);
         let s = (estimate.rho_s.value - rho_s) / unit(widths.rho_s);
-        let a =
-            (log_alpha_of(estimate.alpha.value) - log_alpha_of(alpha)) / unit(widths.log10_alpha);
+        // A class without a specular part has no lobe, so no α to compare with.
+        let a = match rho_s > 0.0 {
+            true => {
+                (log_alpha_of(estimate.alpha.value) - log_alpha_of(alpha))
+                    / unit(widths.log10_alpha)
+            }
+            false => 0.0,
+        };
         d * d + s * s + a * a
     };
     classes
@@ -712,8 +846,9 @@ mod tests {
     }
 
     /// Materials of the design under 6 illuminations, seen through features that are smooth
-    /// functions of the parameters, disturbed per illumination and per row.
-    fn dataset(materials: &[Material]) -> Dataset {
+    /// functions of the parameters, disturbed per illumination and per row; `anchored`: the
+    /// first is log10 of the total reflectance, named as [`TOTAL_ANCHOR`].
+    fn dataset(materials: &[Material], anchored: bool) -> Dataset {
         use crate::dataset::{FeatureTable, Sample};
         let mut rng = crate::util::rng::Rng::new(5);
         let mut samples = Vec::new();
@@ -721,8 +856,9 @@ mod tests {
             let shift: Vec<f64> = (0..5).map(|_| 0.05 * (rng.next_f64() - 0.5)).collect();
             for m in materials {
                 let log_alpha = if m.alpha > 0.0 { m.alpha.log10() } else { -3.0 };
+                let total = m.rho_d + m.rho_s;
                 let clean = [
-                    m.rho_d + m.rho_s,
+                    if anchored { total.log10() } else { total },
                     m.rho_s,
                     m.rho_d,
                     log_alpha,
@@ -741,28 +877,85 @@ mod tests {
                 });
             }
         }
-        let table = FeatureTable {
-            names: (0..5).map(|j| format!("f{j}")).collect(),
-            samples,
-        };
+        let mut names: Vec<String> = (0..5).map(|j| format!("f{j}")).collect();
+        if anchored {
+            names[0] = TOTAL_ANCHOR.into();
+        }
+        let table = FeatureTable { names, samples };
         Dataset::from_table(&table).unwrap()
     }
 
-    #[test]
-    fn estimates_held_out_illuminations_with_calibrated_intervals() {
-        let design = crate::material::design::continuous(60, 2, &Default::default());
-        let ds = dataset(&design);
-        let spec = RidgeSpec {
+    fn ridge() -> RegressionSpec {
+        RegressionSpec::Ridge(RidgeSpec {
             features: 300,
             gamma: 0.2,
             lambda: 1e-2,
             seed: 1,
-        };
+        })
+    }
+
+    fn boost() -> RegressionSpec {
+        RegressionSpec::Boost(BoostSpec {
+            trees: 150,
+            depth: 3,
+            min_leaf: 5,
+            ..BoostSpec::default()
+        })
+    }
+
+    #[test]
+    fn estimates_held_out_illuminations_with_calibrated_intervals() {
+        for spec in [ridge(), boost()] {
+            estimates_with_calibrated_intervals(&spec);
+        }
+    }
+
+    #[test]
+    fn the_total_is_predicted_relative_to_the_anchor_when_it_is_an_input() {
+        let design = crate::material::design::continuous(60, 2, &Default::default());
+        for spec in [ridge(), boost()] {
+            let plain = fit(
+                &dataset(&design, false),
+                "test",
+                &design,
+                &FeatureSet::All,
+                &spec,
+            );
+            let ds = dataset(&design, true);
+            let anchored = fit(&ds, "test", &design, &FeatureSet::All, &spec).unwrap();
+            assert_eq!(plain.unwrap().regressor.total_anchor, None);
+            assert_eq!(anchored.regressor.total_anchor, Some(0));
+            assert!(
+                anchored.report.errors.mae_total < 0.03,
+                "{spec:?}: {:?}",
+                anchored.report
+            );
+            // A row's estimate follows its anchor: a brighter centre, a larger total.
+            let mut row = ds.x.row(7).to_vec();
+            let before = anchored.regressor.predict(&row)[0];
+            row[0] += 0.1;
+            let after = anchored.regressor.predict(&row)[0];
+            assert!(after > before, "{spec:?}: {before} → {after}");
+            // The model file keeps the anchor (and one from before it existed reads as none).
+            let json = serde_json::to_value(&anchored.regressor).unwrap();
+            assert_eq!(json["total_anchor"], 0);
+            let mut old = json.clone();
+            old.as_object_mut().unwrap().remove("total_anchor");
+            let read: WardRegressor = serde_json::from_value(old).unwrap();
+            assert_eq!(read.total_anchor, None);
+            let back: WardRegressor = serde_json::from_value(json).unwrap();
+            assert_eq!(back, anchored.regressor);
+        }
+    }
+
+    fn estimates_with_calibrated_intervals(spec: &RegressionSpec) {
+        let design = crate::material::design::continuous(60, 2, &Default::default());
+        let ds = dataset(&design, false);
         let Fit {
             regressor,
             report,
             details,
-        } = fit(&ds, "test", &design, &FeatureSet::All, &spec).unwrap();
+        } = fit(&ds, "test", &design, &FeatureSet::All, spec).unwrap();
         assert_eq!(report.errors.n, 360);
         assert!(report.errors.mae_total < 0.05, "{report:?}");
         assert!(report.errors.mae_rho_s < 0.05, "{report:?}");
@@ -801,7 +994,10 @@ mod tests {
         assert!((e.rho_s.high - e.rho_s.value) <= report.half_widths.rho_s + 1e-12);
         regressor.validate(&ds.names).unwrap();
         let mut broken = regressor.clone();
-        broken.ridge.weights.pop();
+        match &mut broken.regression {
+            Regression::Ridge { ridge, .. } => drop(ridge.weights.pop()),
+            Regression::Boost { trees, .. } => drop(trees.trees[2][0].leaf.pop()),
+        }
         assert!(broken.validate(&ds.names).is_err());
         let renamed: Vec<String> = ds.names.iter().map(|n| format!("{n}x")).collect();
         assert!(regressor.validate(&renamed).is_err());
@@ -809,12 +1005,12 @@ mod tests {
             name: "other".into(),
             ..design[0].clone()
         }];
-        assert!(fit(&ds, "test", &unknown, &FeatureSet::All, &spec).is_err());
+        assert!(fit(&ds, "test", &unknown, &FeatureSet::All, spec).is_err());
     }
 
     #[test]
     fn nearest_class_weighs_each_parameter_by_its_uncertainty() {
-        let classes = [(0.1, 0.0, 0.1), (0.0, 0.8, 0.0), (0.4, 0.1, 0.02)];
+        let classes = [(0.1, 0.02, 0.1), (0.0, 0.8, 0.0), (0.4, 0.1, 0.02)];
         let widths = HalfWidths {
             rho_d: 0.1,
             rho_s: 0.1,
@@ -838,6 +1034,13 @@ mod tests {
             nearest_class(&estimate_of(&targets(&between), &widths), &widths, &[]),
             None
         );
+        // A matte class (no specular part) has no α: a sphere with hardly any gloss is
+        // nearest to it whatever its α, though its α matches the shiny class exactly.
+        let matte_or_shiny = [(0.1, 0.0, 0.0), (0.1, 0.1, 0.01)];
+        let barely = estimate_of(&targets(&material(0.1, 0.02, 0.01)), &widths);
+        assert_eq!(nearest_class(&barely, &widths, &matte_or_shiny), Some(0));
+        let shiny = estimate_of(&targets(&material(0.1, 0.09, 0.01)), &widths);
+        assert_eq!(nearest_class(&shiny, &widths, &matte_or_shiny), Some(1));
     }
 
     #[test]

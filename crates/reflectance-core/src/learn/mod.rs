@@ -6,6 +6,7 @@
 //! randomness comes only from [`crate::util::rng::Rng`] streams forked per task, and parallel
 //! loops collect their results in a fixed order.
 
+pub mod boost;
 pub mod calibration;
 pub mod conformal;
 pub mod cv;

@@ -125,19 +125,24 @@ pub struct Fitted {
 }
 
 fn check(x: ArrayView2<f64>, y: ArrayView2<f64>, spec: &RidgeSpec) -> Result<(), LearnError> {
+    let positive = |v: f64| v > 0.0;
+    if spec.features == 0 || !positive(spec.gamma) || !positive(spec.lambda) {
+        return Err(LearnError::InvalidParameter(format!(
+            "regression needs D ≥ 1 features, γ > 0 and λ > 0, not {}, {} and {}",
+            spec.features, spec.gamma, spec.lambda
+        )));
+    }
+    check_data(x, y)
+}
+
+/// A regression's data: as many target rows as feature rows (> 0), every value finite.
+pub(crate) fn check_data(x: ArrayView2<f64>, y: ArrayView2<f64>) -> Result<(), LearnError> {
     let bad = |what: String| Err(LearnError::InvalidParameter(what));
     if x.nrows() != y.nrows() || x.nrows() == 0 {
         return bad(format!(
             "regression needs as many target rows as feature rows (> 0), not {} and {}",
             y.nrows(),
             x.nrows()
-        ));
-    }
-    let positive = |v: f64| v > 0.0;
-    if spec.features == 0 || !positive(spec.gamma) || !positive(spec.lambda) {
-        return bad(format!(
-            "regression needs D ≥ 1 features, γ > 0 and λ > 0, not {}, {} and {}",
-            spec.features, spec.gamma, spec.lambda
         ));
     }
     if x.iter().chain(y.iter()).any(|v| !v.is_finite()) {

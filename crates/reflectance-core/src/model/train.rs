@@ -77,7 +77,9 @@ pub struct EstimatorData {
     pub materials: Vec<Material>,
     /// The estimator's inputs (`None`: the classifier's feature set).
     pub features: Option<FeatureSet>,
-    /// Random Fourier features and ridge penalty.
+    /// The regression (boosted trees, or the ridge of `size` and `gamma`).
+    pub method: estimate::Method,
+    /// Random Fourier features and ridge penalty (the ridge).
     pub size: (usize, f64),
     /// RBF γ (`None`: 1 / number of inputs).
     pub gamma: Option<f64>,
@@ -464,8 +466,15 @@ fn fit_estimator(
     observer.stage("estimate");
     let ds = Dataset::from_table(&data.table)?;
     let features = data.features.as_ref().unwrap_or(&options.spec.features);
-    let ridge = estimate::ridge_spec(features, &ds.names, data.size, data.gamma, options.seed)?;
-    let fit = estimate::fit(&ds, &data.label, &data.materials, features, &ridge)?;
+    let spec = estimate::regression_spec(
+        data.method,
+        features,
+        &ds.names,
+        data.size,
+        data.gamma,
+        options.seed,
+    )?;
+    let fit = estimate::fit_observed(&ds, &data.label, &data.materials, features, &spec, observer)?;
     Ok((fit.regressor, fit.report))
 }
 
