@@ -60,7 +60,7 @@ pub enum RegressionSpec {
 }
 
 /// A fitted regression (the model file's fields: `spec` and `ridge`, or `boost` and `trees`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum Regression {
     Boost { boost: BoostSpec, trees: Boosted },
@@ -251,6 +251,7 @@ pub struct HalfWidths {
 /// A fitted estimator: the inputs it reads, their standardization, the regression, the
 /// widths.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "WardRegressorFields")]
 pub struct WardRegressor {
     pub inputs: Vec<String>,
     pub input_indices: Vec<usize>,
@@ -266,6 +267,47 @@ pub struct WardRegressor {
     pub cv: EstimateReport,
     /// The feature table it was fitted to (as given).
     pub dataset: String,
+}
+
+/// A model file's estimator as written. Its regression is read field by field: an untagged,
+/// flattened enum would make serde buffer the whole ensemble once more while it tries each
+/// variant (7 MB more at load for the shipped models).
+#[derive(Deserialize)]
+struct WardRegressorFields {
+    inputs: Vec<String>,
+    input_indices: Vec<usize>,
+    scaler: Scaler,
+    boost: Option<BoostSpec>,
+    trees: Option<Boosted>,
+    spec: Option<RidgeSpec>,
+    ridge: Option<Ridge>,
+    #[serde(default)]
+    total_anchor: Option<usize>,
+    half_widths: HalfWidths,
+    cv: EstimateReport,
+    dataset: String,
+}
+
+impl TryFrom<WardRegressorFields> for WardRegressor {
+    type Error = String;
+
+    fn try_from(f: WardRegressorFields) -> Result<Self, String> {
+        let regression = match (f.boost, f.trees, f.spec, f.ridge) {
+            (Some(boost), Some(trees), None, None) => Regression::Boost { boost, trees },
+            (None, None, Some(spec), Some(ridge)) => Regression::Ridge { spec, ridge },
+            _ => return Err("an estimator holds either boost and trees or spec and ridge".into()),
+        };
+        Ok(WardRegressor {
+            inputs: f.inputs,
+            input_indices: f.input_indices,
+            scaler: f.scaler,
+            regression,
+            total_anchor: f.total_anchor,
+            half_widths: f.half_widths,
+            cv: f.cv,
+            dataset: f.dataset,
+        })
+    }
 }
 
 impl WardRegressor {
@@ -301,12 +343,12 @@ impl WardRegressor {
     /// The four outputs (see [`targets`]) for a row of every extracted feature (canonical
     /// order).
     pub fn predict(&self, values: &[f64]) -> Vec<f64> {
-        let raw: Vec<f64> = self.input_indices.iter().map(|&i| values[i]).collect();
-        let mut z = raw.clone();
+        let mut z: Vec<f64> = self.input_indices.iter().map(|&i| values[i]).collect();
+        let anchor = self.total_anchor.map(|k| z[k]);
         self.scaler.apply(&mut z);
         let mut outputs = self.regression.predict(&z);
-        if let Some(k) = self.total_anchor {
-            outputs[0] = 10f64.powf(outputs[0] + raw[k]);
+        if let Some(anchor) = anchor {
+            outputs[0] = 10f64.powf(outputs[0] + anchor);
         }
         outputs
     }

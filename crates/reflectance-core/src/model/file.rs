@@ -271,8 +271,13 @@ pub fn checksum(mut document: Value) -> String {
     if let Value::Object(map) = &mut document {
         map.remove("sha256");
     }
+    digest(&document)
+}
+
+/// SHA-256 (hex) of a document's canonical form.
+fn digest(document: &Value) -> String {
     let mut bytes = Vec::new();
-    canonical(&document, &mut bytes);
+    canonical(document, &mut bytes);
     hex(&Sha256::digest(&bytes))
 }
 
@@ -315,14 +320,24 @@ impl ModelFile {
                 version,
             });
         }
-        let stored = value
-            .get("sha256")
+        // The checksum covers the document without its own field: take the field out for it
+        // and put it back, rather than hash a copy of the whole model.
+        let mut value = value;
+        let field = match &mut value {
+            Value::Object(map) => map.remove("sha256"),
+            _ => None,
+        };
+        let stored = field
+            .as_ref()
             .and_then(Value::as_str)
             .unwrap_or_default()
             .to_string();
-        let actual = checksum(value.clone());
+        let actual = digest(&value);
         if stored != actual {
             return Err(ModelError::Checksum { stored, actual });
+        }
+        if let (Value::Object(map), Some(field)) = (&mut value, field) {
+            map.insert("sha256".into(), field);
         }
         let model: ModelFile =
             serde_json::from_value(value).map_err(|e| ModelError::Json(e.to_string()))?;
