@@ -985,8 +985,14 @@ mod tests {
             old.as_object_mut().unwrap().remove("total_anchor");
             let read: WardRegressor = serde_json::from_value(old).unwrap();
             assert_eq!(read.total_anchor, None);
-            let back: WardRegressor = serde_json::from_value(json).unwrap();
+            let back: WardRegressor = serde_json::from_value(json.clone()).unwrap();
             assert_eq!(back, anchored.regressor);
+            // Half a regression is no estimator.
+            let mut half = json;
+            for field in ["trees", "ridge"] {
+                half.as_object_mut().unwrap().remove(field);
+            }
+            assert!(serde_json::from_value::<WardRegressor>(half).is_err());
         }
     }
 
