@@ -47,6 +47,17 @@ const TYPE_PREFIX: &str = "urn:reflectance:problem:";
 tokio::task_local! {
     /// The current request's id, set by the middleware around every request.
     pub static REQUEST_ID: String;
+    /// Whether the current request is one of the Open Inference Protocol's (`/v2…`), whose
+    /// clients read an error's message from an `error` member.
+    pub static OPEN_INFERENCE: bool;
+}
+
+/// The `error` member of a problem on the Open Inference Protocol's routes.
+fn protocol_error(detail: &str) -> Option<String> {
+    OPEN_INFERENCE
+        .try_with(|&v2| v2.then(|| detail.to_string()))
+        .ok()
+        .flatten()
 }
 
 /// The current request's id (empty outside a request).
@@ -284,6 +295,10 @@ pub struct Problem {
     pub detail: String,
     /// The request's id (also in the `x-request-id` header).
     pub request_id: String,
+    /// The detail again, on the Open Inference Protocol's routes (`/v2…`): where its
+    /// clients read the message.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
 }
 
 /// The problems every classification endpoint can answer with, for the OpenAPI document.
@@ -375,6 +390,7 @@ impl ApiError {
             status: status.as_u16(),
             detail: self.detail.clone(),
             request_id,
+            error: protocol_error(&self.detail),
         }
     }
 }
@@ -624,6 +640,7 @@ pub async fn normalize(response: Response, request_id: &str) -> Response {
         type_: kind.type_uri(),
         title: title.to_string(),
         status: status.as_u16(),
+        error: protocol_error(&detail),
         detail,
         request_id: request_id.to_string(),
     };

@@ -2,7 +2,7 @@
 //! request id, metrics, request log, problem+json normalization (outermost), then panic
 //! catching, the per-request timeout and the body limit.
 
-use super::error::{self, ApiError, Kind, REQUEST_ID};
+use super::error::{self, ApiError, Kind, OPEN_INFERENCE, REQUEST_ID};
 use super::handlers::{
     admin, classify, datasets, health, locate, material, models, preview, v2, web,
 };
@@ -73,11 +73,15 @@ async fn observe(mut request: Request, next: Next) -> Response {
     let path = request.uri().path().to_string();
     let _in_flight = InFlight::enter();
     let id = request_id.clone();
+    let open_inference = path == "/v2" || path.starts_with("/v2/");
     let mut response = REQUEST_ID
-        .scope(request_id.clone(), async move {
-            let response = next.run(request).await;
-            error::normalize(response, &id).await
-        })
+        .scope(
+            request_id.clone(),
+            OPEN_INFERENCE.scope(open_inference, async move {
+                let response = next.run(request).await;
+                error::normalize(response, &id).await
+            }),
+        )
         .await;
     if let Ok(v) = HeaderValue::from_str(&request_id) {
         response.headers_mut().insert(REQUEST_ID_HEADER, v);
@@ -170,7 +174,19 @@ pub fn data_router(state: SharedState) -> Router {
         .route("/v2/health/ready", get(v2::health_ready))
         .route("/v2/models/{name}", get(v2::model_metadata))
         .route("/v2/models/{name}/ready", get(v2::model_ready))
-        .route("/v2/models/{name}/infer", post(v2::infer));
+        .route("/v2/models/{name}/infer", post(v2::infer))
+        .route(
+            "/v2/models/{name}/versions/{version}",
+            get(v2::model_version_metadata),
+        )
+        .route(
+            "/v2/models/{name}/versions/{version}/ready",
+            get(v2::model_version_ready),
+        )
+        .route(
+            "/v2/models/{name}/versions/{version}/infer",
+            post(v2::infer_version),
+        );
     finish(router, None, &state)
 }
 

@@ -12,3 +12,4 @@ mod honest;
 mod hostile;
 mod openapi;
 mod page;
+mod v2;
