@@ -29,6 +29,10 @@ pub struct ServeArgs {
         default_value = defaults::ADMIN_LISTEN
     )]
     pub admin_listen: SocketAddr,
+    /// Address of the Open Inference Protocol's gRPC service (`inference.GRPCInferenceService`;
+    /// off unless given, e.g. 0.0.0.0:8001).
+    #[arg(long, env = "REFLECTANCE_GRPC_LISTEN")]
+    pub grpc_listen: Option<SocketAddr>,
     /// File holding the admin bearer token (surrounding whitespace ignored). The token may
     /// also be given in the REFLECTANCE_ADMIN_TOKEN environment variable.
     #[arg(long, env = "REFLECTANCE_ADMIN_TOKEN_FILE")]
@@ -169,6 +173,7 @@ impl ServeArgs {
             default_model: self.default_model,
             listen: self.listen,
             admin_listen: self.admin_listen,
+            grpc_listen: self.grpc_listen,
             admin_token: token,
             data_dir: self.data_dir,
             jobs_dir,

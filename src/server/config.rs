@@ -80,6 +80,8 @@ pub struct Config {
     pub default_model: String,
     pub listen: SocketAddr,
     pub admin_listen: SocketAddr,
+    /// The Open Inference Protocol's gRPC service (`None`: off).
+    pub grpc_listen: Option<SocketAddr>,
     /// `None`: the admin plane is off.
     pub admin_token: Option<String>,
     pub data_dir: PathBuf,
@@ -108,6 +110,7 @@ impl std::fmt::Debug for Config {
             .field("default_model", &self.default_model)
             .field("listen", &self.listen)
             .field("admin_listen", &self.admin_listen)
+            .field("grpc_listen", &self.grpc_listen)
             .field(
                 "admin_token",
                 &self.admin_token.as_ref().map(|_| "<redacted>"),
@@ -144,6 +147,7 @@ impl Config {
             default_model: default_model.to_string(),
             listen: address(defaults::LISTEN),
             admin_listen: address(defaults::ADMIN_LISTEN),
+            grpc_listen: None,
             admin_token: None,
             jobs_dir: data_dir.join(defaults::JOBS_SUBDIR),
             data_dir,

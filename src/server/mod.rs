@@ -7,12 +7,14 @@
 //! * [`error`] — the one place errors become HTTP statuses and problem+json;
 //! * [`listener`] — the accept loop and its header deadline;
 //! * [`datasets`] — uploaded datasets under the data directory;
+//! * [`grpc`] — the Open Inference Protocol's gRPC service, on its own port;
 //! * [`auth`], [`metrics`], [`jobs`], [`openapi`].
 
 pub(crate) mod auth;
 pub mod config;
 pub(crate) mod datasets;
 pub(crate) mod error;
+pub(crate) mod grpc;
 pub(crate) mod handlers;
 pub(crate) mod jobs;
 pub mod listener;
@@ -165,15 +167,22 @@ async fn termination() {
     }
 }
 
-/// Serve both planes on bound listeners until `shutdown` resolves, then drain: readiness
-/// turns 503, after `drain_delay` the listeners close and in-flight requests get up to
-/// `shutdown_grace` to finish; running jobs are asked to stop.
+/// The bound listeners: the data plane, and the admin plane and gRPC when they are on.
+pub struct Listeners {
+    pub data: tokio::net::TcpListener,
+    pub admin: Option<tokio::net::TcpListener>,
+    pub grpc: Option<tokio::net::TcpListener>,
+}
+
+/// Serve every listener until `shutdown` resolves, then drain: readiness turns 503, after
+/// `drain_delay` the listeners close and in-flight requests get up to `shutdown_grace` to
+/// finish; running jobs are asked to stop.
 pub async fn serve(
     state: SharedState,
-    data: tokio::net::TcpListener,
-    admin: Option<tokio::net::TcpListener>,
+    listeners: Listeners,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), String> {
+    let Listeners { data, admin, grpc } = listeners;
     let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
     let signal = |mut rx: tokio::sync::watch::Receiver<bool>| async move {
         let _ = rx.wait_for(|stop| *stop).await;
@@ -193,6 +202,8 @@ pub async fn serve(
             signal(stop_rx.clone()),
         ))
     });
+    let grpc_task =
+        grpc.map(|grpc| tokio::spawn(grpc::serve(state.clone(), grpc, signal(stop_rx.clone()))));
     shutdown.await;
     tracing::info!("shutting down: draining");
     state.readiness.set(Phase::Draining);
@@ -206,6 +217,11 @@ pub async fn serve(
         let _ = data_task.await;
         if let Some(task) = admin_task {
             let _ = task.await;
+        }
+        if let Some(task) = grpc_task
+            && let Ok(Err(e)) = task.await
+        {
+            tracing::warn!(error = %e, "the gRPC server stopped with an error");
         }
     })
     .await;
@@ -253,10 +269,22 @@ pub fn run(config: Config) -> Result<(), String> {
         } else {
             None
         };
+        let grpc = match config.grpc_listen {
+            Some(address) => Some(
+                tokio::net::TcpListener::bind(address)
+                    .await
+                    .map_err(|e| format!("cannot listen on {address}: {e}"))?,
+            ),
+            None => None,
+        };
         let bound = |listener: &tokio::net::TcpListener, asked| {
             listener.local_addr().unwrap_or(asked)
         };
         let admin_at = admin.as_ref().map(|l| bound(l, config.admin_listen));
+        let grpc_at = grpc
+            .as_ref()
+            .zip(config.grpc_listen)
+            .map(|(l, asked)| bound(l, asked));
         let data_at = bound(&data, config.listen);
         // 0.0.0.0 suits a container; on a laptop it opens the port to the network.
         let reach = match data_at.ip().is_unspecified() {
@@ -271,8 +299,9 @@ pub fn run(config: Config) -> Result<(), String> {
         tracing::info!(
             models = %config.models.display(),
             default_model = %config.default_model,
-            "listening on http://{data_at}{reach}{}",
+            "listening on http://{data_at}{reach}{}{}",
             admin_at.map_or(" (admin plane off: no token)".into(), |a| format!(", admin on http://{a}")),
+            grpc_at.map_or(String::new(), |g| format!(", Open Inference Protocol gRPC on {g}")),
         );
         let state = build_state(config)?;
         // Listen at once (liveness answers, readiness says "loading"), load meanwhile.
@@ -295,7 +324,7 @@ pub fn run(config: Config) -> Result<(), String> {
                 }
             }
         };
-        serve(state, data, admin, shutdown).await?;
+        serve(state, Listeners { data, admin, grpc }, shutdown).await?;
         match failure.lock().unwrap_or_else(|e| e.into_inner()).take() {
             Some(reason) => Err(reason),
             None => Ok(()),

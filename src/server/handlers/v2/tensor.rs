@@ -156,13 +156,12 @@ fn bytes_elements(raw: &Bytes) -> Result<Vec<Bytes>, String> {
     Ok(elements)
 }
 
+/// One element of `datatype` from its `size()` little-endian bytes.
 fn read_number(datatype: Datatype, c: &[u8]) -> f64 {
-    let array = |n: usize| {
-        let mut a = [0u8; 8];
-        a[..n].copy_from_slice(&c[..n]);
-        a
-    };
-    let [b0, b1, b2, b3, ..] = array(4);
+    let mut padded = [0u8; 8];
+    let n = c.len().min(8);
+    padded[..n].copy_from_slice(&c[..n]);
+    let [b0, b1, b2, b3, ..] = padded;
     match datatype {
         Datatype::Uint8 => f64::from(b0),
         Datatype::Int8 => f64::from(b0 as i8),
@@ -172,9 +171,9 @@ fn read_number(datatype: Datatype, c: &[u8]) -> f64 {
         Datatype::Uint32 => f64::from(u32::from_le_bytes([b0, b1, b2, b3])),
         Datatype::Int32 => f64::from(i32::from_le_bytes([b0, b1, b2, b3])),
         Datatype::Fp32 => f64::from(f32::from_le_bytes([b0, b1, b2, b3])),
-        Datatype::Uint64 => u64::from_le_bytes(array(8)) as f64,
-        Datatype::Int64 => i64::from_le_bytes(array(8)) as f64,
-        Datatype::Fp64 => f64::from_le_bytes(array(8)),
+        Datatype::Uint64 => u64::from_le_bytes(padded) as f64,
+        Datatype::Int64 => i64::from_le_bytes(padded) as f64,
+        Datatype::Fp64 => f64::from_le_bytes(padded),
         Datatype::Bool | Datatype::Bytes => f64::NAN,
     }
 }
