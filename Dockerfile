@@ -12,6 +12,9 @@ ARG RUST_VERSION=1.95
 FROM rust:${RUST_VERSION}-slim-bookworm AS chef
 RUN cargo install cargo-chef --locked
 WORKDIR /app
+# The binary is stripped below: the line tables Cargo.toml's release profile keeps for
+# profiling would be compiled, linked and thrown away (as in .ci/run's build).
+ENV CARGO_PROFILE_RELEASE_DEBUG=false
 
 FROM chef AS planner
 COPY . .
