@@ -506,6 +506,56 @@ function showSet(set, label) {
   $("set").replaceChildren(...set.labels.map((name) => element("li", name, name === label ? "top" : "")));
 }
 
+// A material's download link: its Ward parameters (and colour) as GET /v1/material.gltf.
+function materialLink(m) {
+  const name = m.name.toLowerCase().replace(/[^a-z0-9_-]/g, "-").slice(0, 64);
+  const query = { ...m.ward, name };
+  if (m.colour) {
+    query.colour = m.colour.join(",");
+  }
+  return `/v1/material.gltf?${new URLSearchParams(query)}`;
+}
+
+function materialWords(m) {
+  return m.source === "estimate" ? "the estimated parameters" : `class ${m.name}'s parameters`;
+}
+
+// The material a download holds (the estimate when it agrees with the class named, else
+// the class's, with the estimate offered beside it), rendered by the service.
+function showMaterial(material) {
+  $("rendered-box").hidden = !material;
+  if (!material) {
+    return;
+  }
+  const shown = material.download;
+  $("rendered").src = `/v1/preview?${new URLSearchParams({ ...shown.ward, size: 192 })}`;
+  $("rendered").alt = `A sphere of ${materialWords(shown)}, rendered`;
+  $("rendered-caption").textContent =
+    `How it looks: ${materialWords(shown)} rendered by the service under a procedural sky (GET /v1/preview).`;
+  $("gltf").href = materialLink(shown);
+  $("gltf").textContent = `Download ${shown.source === "estimate" ? "the estimate" : shown.name} for a renderer (glTF)`;
+  const other = material.alternative;
+  $("gltf-alternative").hidden = !other;
+  if (other) {
+    $("gltf-alternative").href = materialLink(other);
+    $("gltf-alternative").textContent = `Download ${materialWords(other)} instead (glTF)`;
+  }
+  $("material-note").textContent = material.note.charAt(0).toUpperCase() + material.note.slice(1) + ".";
+}
+
+// The surface's colour: a swatch of the albedo, or why it is unknown.
+function showColour(colour) {
+  const known = Boolean(colour.srgb);
+  $("swatch").hidden = !known;
+  if (known) {
+    $("swatch").style.background = colour.srgb;
+    $("swatch").title = colour.srgb;
+  }
+  $("colour-text").textContent = known
+    ? `Colour (${colour.note}): ${colour.srgb}, linear RGB over white ${colour.rgb.map((c) => c.toFixed(2)).join(", ")}`
+    : `Colour ${colour.note}.`;
+}
+
 function show(answer) {
   $("label").textContent = answer.label;
   showDomain(answer.domain);
@@ -516,23 +566,8 @@ function show(answer) {
     ? `Ward parameters: ρd = ${w.rho_d}, ρs = ${w.rho_s}, α = ${w.alpha}`
     : "";
   showEstimate(answer.ward);
-  // The estimate when the model makes a whole one (it needs a white reference), else the
-  // class: rendered by the service.
-  const whole = answer.ward && answer.ward.rho_d && answer.ward.rho_s;
-  const shown = whole
-    ? { rho_d: answer.ward.rho_d.value, rho_s: answer.ward.rho_s.value, alpha: answer.ward.alpha.value }
-    : w;
-  $("rendered-box").hidden = !shown;
-  if (shown) {
-    const query = new URLSearchParams({ ...shown, size: 192 });
-    $("rendered").src = `/v1/preview?${query}`;
-    const name = whole ? "estimate" : answer.label.toLowerCase().replace(/[^a-z0-9_-]/g, "-").slice(0, 64);
-    $("gltf").href = `/v1/material.gltf?${new URLSearchParams({ ...shown, name })}`;
-    const what = whole ? "the estimated parameters" : `class ${answer.label}'s parameters`;
-    $("rendered").alt = `A sphere of ${what}, rendered`;
-    $("rendered-caption").textContent =
-      `How it looks: ${what} rendered by the service under a procedural sky (GET /v1/preview).`;
-  }
+  showMaterial(answer.material);
+  showColour(answer.colour);
   showBars(answer.probabilities, answer.label);
   const warnings = $("warnings");
   warnings.replaceChildren(...answer.warnings.map((text) => element("li", text)));

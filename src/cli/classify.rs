@@ -14,6 +14,14 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
+/// Which material `classify --gltf` writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum GltfMaterial {
+    Auto,
+    Class,
+    Estimate,
+}
+
 #[derive(Args, Debug)]
 pub struct ClassifyArgs {
     /// The photograph or rendering (PNG, JPEG, TIFF, PNM, Radiance HDR, PFM or OpenEXR).
@@ -38,11 +46,16 @@ pub struct ClassifyArgs {
     /// Print the JSON answer of `POST /v1/classify` instead of a summary.
     #[arg(long)]
     json: bool,
-    /// Also write the material as a glTF 2.0 asset (a sphere with it) to this file: the
-    /// estimated Ward parameters when the model estimates them and a white reference is
-    /// given, else the predicted class's.
+    /// Also write the material as a glTF 2.0 asset (a sphere with it) to this file (binary
+    /// glTF when it ends in .glb): the answer's download (`material.download`: the estimate
+    /// when it agrees with the class named, else the class's material), or see
+    /// --gltf-material. What it holds is said on stderr.
     #[arg(long, value_name = "FILE.gltf")]
     gltf: Option<PathBuf>,
+    /// Which material --gltf writes: the answer's download (auto), the predicted class's, or
+    /// the estimate.
+    #[arg(long, value_enum, default_value_t = GltfMaterial::Auto, requires = "gltf")]
+    gltf_material: GltfMaterial,
     #[command(flatten)]
     limits: LimitArgs,
 }
@@ -106,7 +119,7 @@ pub fn run(args: ClassifyArgs) -> CliResult {
         .map_err(|e| error_text(&e, &args))?;
     let answer = classified.response(String::new(), started.elapsed().as_secs_f64() * 1e3);
     if let Some(path) = &args.gltf {
-        write_gltf(path, &answer)?;
+        write_gltf(path, &answer, args.gltf_material)?;
     }
     if args.json {
         let text = serde_json::to_string_pretty(&answer)?;
@@ -117,42 +130,54 @@ pub fn run(args: ClassifyArgs) -> CliResult {
     Ok(())
 }
 
-/// The answer's material as glTF: the estimate, else the predicted class's parameters.
-fn write_gltf(path: &Path, answer: &ClassifyResponse) -> CliResult {
-    let estimate = answer
-        .ward
-        .as_ref()
-        .and_then(|w| Some((w.rho_d?, w.rho_s?, w)));
-    let (material, about) = match (estimate, &answer.class.ward) {
-        (Some((rho_d, rho_s, w)), _) => (
-            crate::material::Material {
-                name: "estimate".into(),
-                rho_d: rho_d.value,
-                rho_s: rho_s.value,
-                alpha: w.alpha.value,
-            },
-            serde_json::json!({"source": "the estimate of reflectance classify", "estimate": w,
-                               "model": answer.model, "label": answer.label}),
-        ),
-        (None, Some(w)) => (
-            crate::material::Material {
-                name: answer.label.clone(),
-                rho_d: w.rho_d,
-                rho_s: w.rho_s,
-                alpha: w.alpha,
-            },
-            serde_json::json!({"source": "the class of reflectance classify",
-                               "model": answer.model, "label": answer.label}),
-        ),
-        (None, None) => {
-            return Err(CliError::Invalid(
-                "--gltf: no material to write: without a white reference the estimate has no \
-                 rho_d and rho_s, and this model does not know its classes' parameters"
-                    .into(),
-            ));
-        }
+/// The answer's material as glTF: its download, or the one asked for.
+fn write_gltf(path: &Path, answer: &ClassifyResponse, which: GltfMaterial) -> CliResult {
+    let Some(materials) = &answer.material else {
+        return Err(CliError::Invalid(
+            "--gltf: no material to write: without a white reference the estimate has no \
+             rho_d and rho_s, and this model does not know its classes' parameters"
+                .into(),
+        ));
     };
-    super::gltf::write(path, &material, about)
+    let offered = [Some(&materials.download), materials.alternative.as_ref()];
+    let chosen = match which {
+        GltfMaterial::Auto => Some(&materials.download),
+        GltfMaterial::Class => offered.into_iter().flatten().find(|m| m.source == "class"),
+        GltfMaterial::Estimate => offered
+            .into_iter()
+            .flatten()
+            .find(|m| m.source == "estimate"),
+    };
+    let Some(chosen) = chosen else {
+        let why = match which {
+            GltfMaterial::Estimate => {
+                "no whole estimate (the model has no estimator, or no white reference was given)"
+            }
+            _ => "the model does not know the class's parameters",
+        };
+        return Err(CliError::Invalid(format!("--gltf-material: {why}")));
+    };
+    let material = crate::material::Material {
+        name: chosen.name.clone(),
+        rho_d: chosen.ward.rho_d,
+        rho_s: chosen.ward.rho_s,
+        alpha: chosen.ward.alpha,
+    };
+    let about = serde_json::json!({"source": format!("the {} of reflectance classify", chosen.source),
+                                   "material": chosen, "model": answer.model, "label": answer.label,
+                                   "note": materials.note});
+    super::gltf::write(path, &material, chosen.colour, about)?;
+    let what = match chosen.source.as_str() {
+        "estimate" => "the estimate".to_string(),
+        _ => format!("class {}'s material", chosen.name),
+    };
+    let note = if which == GltfMaterial::Auto {
+        format!(" ({})", materials.note)
+    } else {
+        String::new()
+    };
+    eprintln!("wrote {}: {what}{note}", path.display());
+    Ok(())
 }
 
 /// A classification's failure, naming the file it is about and asking for the flags that
@@ -238,6 +263,16 @@ fn summary(answer: &ClassifyResponse) -> String {
             "estimate (90 % intervals): {}{unknown}\n",
             parts.join(", ")
         ));
+    }
+    if let Some(m) = &answer.material {
+        out.push_str(&format!("material: {}\n", m.note));
+    }
+    match (&answer.colour.rgb, &answer.colour.srgb) {
+        (Some([r, g, b]), Some(hex)) => out.push_str(&format!(
+            "colour ({}): rgb {r:.3}, {g:.3}, {b:.3} (luminance 1), albedo {hex}\n",
+            answer.colour.note
+        )),
+        _ => out.push_str(&format!("colour: {}\n", answer.colour.note)),
     }
     for warning in &answer.warnings {
         out.push_str(&format!("warning: {warning}\n"));

@@ -58,6 +58,7 @@ pub fn run(args: FeaturesArgs) -> CliResult {
     let options = DecodeOptions {
         encoding,
         limits: args.limits.limits(),
+        colour: false,
     };
     match (&args.manifest, &args.out) {
         (Some(manifest), Some(out)) => table(manifest, out, args.shard, &extractor, &options),

@@ -3,16 +3,25 @@
 //! [`crate::material::gltf`].
 
 use super::{CliError, CliResult};
-use crate::material::gltf::sphere_asset;
+use crate::material::gltf::{Container, Rgb, parse_colour, sphere};
 use crate::material::{Material, load_classes};
-use clap::Args;
+use clap::{Args, ValueEnum};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
+/// The container of the files a class file's classes are written to.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum Format {
+    /// JSON with the buffer embedded (`.gltf`).
+    Gltf,
+    /// Binary glTF (`.glb`).
+    Glb,
+}
+
 #[derive(Args, Debug)]
 pub struct GltfArgs {
-    /// A class file: write OUT/<class>.gltf for each of its classes.
-    #[arg(long, conflicts_with_all = ["rho_d", "rho_s", "alpha"])]
+    /// A class file: write OUT/<class>.gltf (or .glb, see --format) for each of its classes.
+    #[arg(long, conflicts_with_all = ["rho_d", "rho_s", "alpha", "name"])]
     classes: Option<PathBuf>,
     /// Diffuse reflectance ρd (with --rho-s and --alpha: one material, written to OUT).
     #[arg(long, requires_all = ["rho_s", "alpha"])]
@@ -23,26 +32,35 @@ pub struct GltfArgs {
     /// Ward roughness α (0: a mirror).
     #[arg(long, requires_all = ["rho_d", "rho_s"])]
     alpha: Option<f64>,
-    /// The .gltf file (one material) or the folder (a class file).
+    /// The single material's name in the file (1–64 of a-z, 0-9, '_', '-'; default
+    /// `material`).
+    #[arg(long, requires = "rho_d")]
+    name: Option<String>,
+    /// Its colour: linear r,g,b relative to white (any scale; the grey value keeps its
+    /// luminance). Default: grey.
+    #[arg(long, value_name = "R,G,B", value_parser = parse_colour)]
+    colour: Option<Rgb>,
+    /// The files' format for --classes (a single file's is its name's: .glb or .gltf).
+    #[arg(long, value_enum, default_value_t = Format::Gltf)]
+    format: Format,
+    /// The .gltf or .glb file (one material) or the folder (a class file).
     #[arg(long)]
     out: PathBuf,
 }
 
-/// Write `material` as a glTF asset at `path`.
-pub(super) fn write(path: &Path, material: &Material, about: Value) -> CliResult {
+/// Write `material` (tinted by `colour`) as a glTF asset at `path`: binary glTF when the
+/// name ends in `.glb`.
+pub(super) fn write(
+    path: &Path,
+    material: &Material,
+    colour: Option<Rgb>,
+    about: Value,
+) -> CliResult {
     material
         .validate()
         .map_err(crate::material::ClassFileError::from)?;
-    let asset = sphere_asset(
-        &material.name,
-        material.rho_d,
-        material.rho_s,
-        material.alpha,
-        about,
-    );
-    let text = serde_json::to_string(&asset)?;
-    crate::util::durable::write_atomic(path, text.as_bytes())
-        .map_err(|e| CliError::at(path.display(), e))
+    let bytes = sphere(material, colour, about).encode(Container::of_path(path));
+    crate::util::durable::write_atomic(path, &bytes).map_err(|e| CliError::at(path.display(), e))
 }
 
 pub fn run(args: GltfArgs) -> CliResult {
@@ -50,22 +68,37 @@ pub fn run(args: GltfArgs) -> CliResult {
         (Some(classes), ..) => {
             let materials = load_classes(classes)?;
             std::fs::create_dir_all(&args.out).map_err(|e| CliError::at(args.out.display(), e))?;
+            let extension = match args.format {
+                Format::Gltf => "gltf",
+                Format::Glb => "glb",
+            };
             for material in &materials {
-                let path = args.out.join(format!("{}.gltf", material.name));
+                let path = args.out.join(format!("{}.{extension}", material.name));
                 let about = json!({"source": format!("class {:?} of {}", material.name, classes.display())});
-                write(&path, material, about)?;
+                write(&path, material, args.colour, about)?;
                 println!("{}", path.display());
             }
             Ok(())
         }
         (None, Some(rho_d), Some(rho_s), Some(alpha)) => {
+            let name = args.name.unwrap_or_else(|| "material".into());
+            if !crate::model::registry::valid_name(&name) {
+                return Err(CliError::Invalid(format!(
+                    "--name {name:?}: use 1–64 of a-z, 0-9, '_' and '-'"
+                )));
+            }
             let material = Material {
-                name: "material".into(),
+                name,
                 rho_d,
                 rho_s,
                 alpha,
             };
-            write(&args.out, &material, json!({"source": "reflectance gltf"}))?;
+            write(
+                &args.out,
+                &material,
+                args.colour,
+                json!({"source": "reflectance gltf"}),
+            )?;
             println!("{}", args.out.display());
             Ok(())
         }

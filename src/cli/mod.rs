@@ -97,6 +97,7 @@ impl LimitArgs {
         crate::image::decode::DecodeOptions {
             encoding: None,
             limits: self.limits(),
+            colour: false,
         }
     }
 }

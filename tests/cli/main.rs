@@ -6,6 +6,7 @@ mod common;
 
 mod dataset;
 mod features;
+mod gltf;
 mod models;
 mod render;
 mod report;

@@ -171,7 +171,7 @@ def test_errors_carry_the_message(server, transport):
         (lambda: client.infer("ward6", inputs(module)[1:]), "image"),
         (lambda: client.infer("ward6", inputs(module, image=b"not an image")), "format"),
         (lambda: client.infer("ward6", inputs(module),
-                              outputs=[module.InferRequestedOutput("colour")]), "unknown output"),
+                              outputs=[module.InferRequestedOutput("hue")]), "unknown output"),
     ]
     for call, words in cases:
         with pytest.raises(InferenceServerException) as raised:

@@ -646,6 +646,7 @@ fn spheres_are_found_in_photograph_like_composites() {
     let spheres = spheres(&sphere_maps);
     let options = DecodeOptions {
         encoding: None,
+        colour: false,
         limits: Limits {
             max_pixels: 60_000_000,
             ..Limits::default()

@@ -1068,19 +1068,62 @@ async fn exports_a_material_as_gltf() {
         answer.header("content-disposition"),
         Some("attachment; filename=\"j.gltf\"")
     );
-    let expected = reflectance::material::gltf::sphere_asset(
-        "j",
-        0.25,
-        0.1,
-        0.02,
-        json!({"source": "GET /v1/material.gltf"}),
+    // Known values of the mapping (docs/design.md §8), solved independently in numpy:
+    // ρs 0.1 → F0 0.07993, ior 1.7883; baseColor ρd / (1 − F0); GGX roughness √(0.7 α).
+    let doc = answer.json();
+    assert_eq!(
+        doc["extras"]["ward"],
+        json!({"rho_d": 0.25, "rho_s": 0.1, "alpha": 0.02})
     );
-    assert_eq!(answer.json(), expected);
-    let pbr = &expected["materials"][0]["pbrMetallicRoughness"];
+    let material = &doc["materials"][0];
+    assert_eq!(material["name"], "j");
+    let pbr = &material["pbrMetallicRoughness"];
     let roughness = pbr["roughnessFactor"].as_f64().unwrap();
     assert!(
         (roughness * roughness - 0.7 * 0.02).abs() < 1e-12,
         "{roughness}"
+    );
+    assert_eq!(pbr["metallicFactor"], 0.0);
+    let ior = material["extensions"]["KHR_materials_ior"]["ior"]
+        .as_f64()
+        .unwrap();
+    assert!((ior - 1.7883).abs() < 2e-3, "{ior}");
+    let base = pbr["baseColorFactor"][0].as_f64().unwrap();
+    assert!((base - 0.25 / (1.0 - 0.07993)).abs() < 1e-3, "{base}");
+    assert!(
+        material["extensions"]
+            .get("KHR_materials_specular")
+            .is_none()
+    );
+
+    // Binary glTF, and a colour: the same material, tinted, in the binary container.
+    let glb = send(
+        &server.data,
+        get("/v1/material.gltf?rho_d=0.25&rho_s=0.1&alpha=0.02&name=j&format=glb&colour=0.6,0.3,0.2"),
+    )
+    .await;
+    assert_eq!(glb.status, 200, "{}", String::from_utf8_lossy(&glb.body));
+    assert_eq!(glb.header("content-type"), Some("model/gltf-binary"));
+    assert_eq!(
+        glb.header("content-disposition"),
+        Some("attachment; filename=\"j.glb\"")
+    );
+    assert_eq!(&glb.body[0..4], b"glTF");
+    let length = u32::from_le_bytes(glb.body[12..16].try_into().unwrap()) as usize;
+    let inside: Value = serde_json::from_slice(&glb.body[20..20 + length]).unwrap();
+    let tinted: Vec<f64> = inside["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let y = 0.2126 * tinted[0] + 0.7152 * tinted[1] + 0.0722 * tinted[2];
+    assert!(
+        (y - base).abs() < 1e-9,
+        "the tint keeps the grey value's luminance: {tinted:?}"
+    );
+    assert!(
+        (tinted[0] / tinted[1] - 2.0).abs() < 1e-9 && (tinted[1] / tinted[2] - 1.5).abs() < 1e-9
     );
     let refused = [
         ("rho_s=0.1&alpha=0", "rho_d"),
@@ -1088,6 +1131,11 @@ async fn exports_a_material_as_gltf() {
         ("rho_d=0.1&rho_s=0.1&alpha=2", "alpha"),
         ("rho_d=0.1&rho_s=0.1&alpha=0&name=../x", "invalid name"),
         ("rho_d=0.1&rho_s=0.1&alpha=0&size=3", "size"),
+        ("rho_d=0.1&rho_s=0.1&alpha=0&name=", "invalid name"),
+        ("rho_d=0.1&rho_s=0.1&alpha=0&colour=1,2", "colour"),
+        ("rho_d=0.1&rho_s=0.1&alpha=0&colour=0,0,0", "colour"),
+        ("rho_d=0.1&rho_s=0.1&alpha=0&colour=-1,1,1", "colour"),
+        ("rho_d=0.1&rho_s=0.1&alpha=0&format=obj", "format"),
     ];
     refuses_queries(&server, "/v1/material.gltf", &refused).await;
 }

@@ -49,7 +49,8 @@ async fn kserve_v2_protocol() {
             "prediction_set",
             "in_domain",
             "ward",
-            "specular_fraction"
+            "specular_fraction",
+            "colour"
         ]
     );
     assert_eq!(
@@ -390,7 +391,7 @@ async fn nested_data_other_number_types_and_compressed_bodies() {
         .problem(422, "invalid-field");
     assert!(doc["error"].as_str().unwrap().contains("shape"), "{doc}");
     let mut bad = request.clone();
-    bad["outputs"] = json!([{"name": "colour"}]);
+    bad["outputs"] = json!([{"name": "hue"}]);
     send(data, post_json("/v2/models/ward6/infer", &bad))
         .await
         .problem(422, "unknown-field");

@@ -4,6 +4,7 @@
 
 use crate::features::Extractor;
 use crate::features::analysis::{self, Analysis, AnalysisError, Locate, WhiteInput};
+use crate::image::colour::{self, Rgb};
 use crate::image::decode::{self, DecodeError, DecodeOptions, Encoding};
 use crate::image::display;
 use crate::image::geometry::{self, Method as GeometryMethod};
@@ -12,6 +13,7 @@ use crate::learn::LearnError;
 use crate::learn::conformal;
 use crate::learn::domain::Verdict;
 use crate::learn::estimate::{StatedEstimate, WardEstimate};
+use crate::material::gltf::METAL_RATIO;
 use crate::model::{ClassInfo, Head, ModelError, ModelFile};
 use bytes::Bytes;
 use serde::{Deserialize, Serialize};
@@ -259,9 +261,12 @@ pub fn classify(
     limits: decode::Limits,
 ) -> Result<Classified, InferenceError> {
     let t = Instant::now();
+    // A colour is read only against a card's colour.
+    let colour = matches!(input.white, WhiteSpec::Card { .. } | WhiteSpec::Rect { .. });
     let options = DecodeOptions {
         encoding: input.encoding,
         limits,
+        colour,
     };
     let image = decode_part("", &input.image, &options)?;
     drop(input.image);
@@ -280,6 +285,7 @@ pub fn classify(
             // A mask holds coverage, not light: its samples are read as stored.
             let as_stored = DecodeOptions {
                 encoding: Some(Encoding::Linear),
+                colour: false,
                 ..options
             };
             let mask = decode_part("mask: ", &bytes, &as_stored)?;
@@ -549,6 +555,160 @@ pub struct WardParams {
     pub alpha: f64,
 }
 
+/// A material a renderer can be given: the class's or the estimate's Ward parameters.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct MaterialOut {
+    /// `class` (the predicted class's parameters) or `estimate` (the estimated ones).
+    pub source: String,
+    /// Its name in an exported file: the class's name, or `estimate`.
+    pub name: String,
+    pub ward: WardParams,
+    /// For the estimate: the class its parameters are nearest to.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nearest_class: Option<String>,
+    /// Its colour (the answer's `colour.rgb`), when known: an export is tinted by it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub colour: Option<[f64; 3]>,
+}
+
+/// The surface's colour, measured against a white card's colour.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct ColourOut {
+    /// Linear RGB relative to white, scaled to a Rec. 709 luminance of 1: the diffuse
+    /// albedo (a metal's F0) is its grey value times this. Absent when unknown.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rgb: Option<[f64; 3]>,
+    /// rg chromaticity, r / (r + g + b) and g / (r + g + b).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub chromaticity: Option<[f64; 2]>,
+    /// The albedo of the material a download holds (its grey value times `rgb`) as 8-bit
+    /// sRGB, `#rrggbb`: a swatch.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub srgb: Option<String>,
+    /// What the colour is of (`diffuse`, or `specular` for a metal), or why it is unknown.
+    pub note: String,
+}
+
+/// Why a colour is unknown without a white card's colour.
+pub const COLOUR_UNKNOWN: &str = "unknown: the colour needs a white card in colour \
+    (white_rect in an RGB photograph, or an RGB white_image); exports are grey";
+
+/// `#rrggbb` of linear RGB in [0, 1].
+fn srgb_hex(rgb: [f64; 3]) -> String {
+    let encode = |v: f64| {
+        let v = v.clamp(0.0, 1.0);
+        let s = if v <= 0.003_130_8 {
+            12.92 * v
+        } else {
+            1.055 * v.powf(1.0 / 2.4) - 0.055
+        };
+        (s * 255.0).round() as u8
+    };
+    let [r, g, b] = rgb.map(encode);
+    format!("#{r:02x}{g:02x}{b:02x}")
+}
+
+impl ColourOut {
+    /// The colour of `material` (its diffuse, or its specular for a metal) from an
+    /// appearance relative to white; unknown without one.
+    fn of(appearance: Option<Rgb>, material: Option<&MaterialOut>) -> ColourOut {
+        let unknown = || ColourOut {
+            rgb: None,
+            chromaticity: None,
+            srgb: None,
+            note: COLOUR_UNKNOWN.into(),
+        };
+        let Some(appearance) = appearance else {
+            return unknown();
+        };
+        let ward = material.map(|m| &m.ward);
+        let metal = ward.is_some_and(|w| w.rho_s > 0.0 && w.rho_d < METAL_RATIO * w.rho_s);
+        let Some(rgb) = colour::surface_colour(appearance) else {
+            return unknown();
+        };
+        let sum: f64 = rgb.iter().sum();
+        let grey = ward.map_or(1.0, |w| if metal { w.rho_s } else { w.rho_d });
+        ColourOut {
+            chromaticity: Some([rgb[0] / sum, rgb[1] / sum]),
+            srgb: Some(srgb_hex(rgb.map(|c| grey * c))),
+            rgb: Some(rgb),
+            note: if metal { "specular" } else { "diffuse" }.into(),
+        }
+    }
+}
+
+/// What an exported material holds (`GET /v1/material.gltf`, `classify --gltf`, the page's
+/// download): the estimate when it agrees with the class named (it is the finer), else the
+/// class's material, with the estimate offered beside it and a note saying why.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct MaterialsOut {
+    /// The material a download holds.
+    pub download: MaterialOut,
+    /// The other one, when the estimate is nearest another class than the one named.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alternative: Option<MaterialOut>,
+    /// Which material the download holds, and why, for people.
+    pub note: String,
+}
+
+fn name_the(w: &WardParams) -> String {
+    format!("ρd {:.2}, ρs {:.2}, α {:.3}", w.rho_d, w.rho_s, w.alpha)
+}
+
+impl MaterialsOut {
+    /// The choice between `class` (the predicted class's material, when known) and
+    /// `estimate` (a whole estimate, with the class it is nearest).
+    pub fn choose(
+        class: Option<MaterialOut>,
+        estimate: Option<MaterialOut>,
+    ) -> Option<MaterialsOut> {
+        match (class, estimate) {
+            (None, None) => None,
+            (Some(class), None) => Some(MaterialsOut {
+                note: format!("the download holds class {}'s material", class.name),
+                download: class,
+                alternative: None,
+            }),
+            (None, Some(estimate)) => Some(MaterialsOut {
+                note: format!(
+                    "the download holds the estimate ({})",
+                    name_the(&estimate.ward)
+                ),
+                download: estimate,
+                alternative: None,
+            }),
+            (Some(class), Some(estimate)) => {
+                let nearest = estimate.nearest_class.clone().unwrap_or_default();
+                if nearest == class.name {
+                    return Some(MaterialsOut {
+                        note: format!(
+                            "the download holds the estimate ({}), which is nearest {}, the class named",
+                            name_the(&estimate.ward),
+                            class.name
+                        ),
+                        download: estimate,
+                        alternative: None,
+                    });
+                }
+                Some(MaterialsOut {
+                    note: format!(
+                        "the estimate ({}) is nearest {nearest}, not {}: the download holds class \
+                         {}'s material; the estimate is offered beside it",
+                        name_the(&estimate.ward),
+                        class.name,
+                        class.name
+                    ),
+                    download: class,
+                    alternative: Some(estimate),
+                })
+            }
+        }
+    }
+}
+
 /// A class of the model, for people.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
@@ -803,6 +963,43 @@ pub struct ClassifyResponse {
     /// estimator; ρd and ρs only with a white reference.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ward: Option<StatedEstimate>,
+    /// The material an export holds (and the other one when the estimate disagrees with
+    /// the class named); absent when neither is known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material: Option<MaterialsOut>,
+    /// The surface's colour, or why it is unknown.
+    pub colour: ColourOut,
+}
+
+/// The materials of an answer: the class's, and the estimate's when it is whole (it needs a
+/// white reference).
+fn materials(
+    model: &LoadedModel,
+    class: &ClassOut,
+    estimate: Option<&WardEstimate>,
+    white_given: bool,
+) -> Option<MaterialsOut> {
+    let class = class.ward.clone().map(|ward| MaterialOut {
+        source: "class".into(),
+        name: class.name.clone(),
+        ward,
+        nearest_class: None,
+        colour: None,
+    });
+    let estimate = estimate.filter(|_| white_given).map(|e| MaterialOut {
+        source: "estimate".into(),
+        name: "estimate".into(),
+        ward: WardParams {
+            rho_d: e.rho_d.value,
+            rho_s: e.rho_s.value,
+            alpha: e.alpha.value,
+        },
+        nearest_class: model
+            .nearest_class(e)
+            .map(|k| model.file.classifier.classes()[k].clone()),
+        colour: None,
+    });
+    MaterialsOut::choose(class, estimate)
 }
 
 impl Classified {
@@ -877,6 +1074,7 @@ impl Classified {
             })
             .collect();
         probabilities.sort_by(|a, b| b.p.total_cmp(&a.p));
+        let white_given = self.analysis.white.method != WhiteMethod::None;
         let predicted = match model.file.classes.get(d.class) {
             Some(info) => ClassOut::from(info),
             None => ClassOut::from(&ClassInfo {
@@ -884,6 +1082,17 @@ impl Classified {
                 ward: None,
             }),
         };
+        let mut material = materials(model, &predicted, self.ward.as_ref(), white_given);
+        let colour = ColourOut::of(
+            self.analysis.appearance,
+            material.as_ref().map(|m| &m.download),
+        );
+        if let (Some(m), Some(rgb)) = (material.as_mut(), colour.rgb) {
+            m.download.colour = Some(rgb);
+            if let Some(other) = m.alternative.as_mut() {
+                other.colour = Some(rgb);
+            }
+        }
         ClassifyResponse {
             request_id,
             model: ModelId {
@@ -920,9 +1129,9 @@ impl Classified {
             },
             explain: self.explain,
             images: self.images,
-            ward: self
-                .ward
-                .map(|w| w.stated(self.analysis.white.method != WhiteMethod::None)),
+            material,
+            colour,
+            ward: self.ward.map(|w| w.stated(white_given)),
         }
     }
 }

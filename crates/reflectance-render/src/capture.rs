@@ -11,7 +11,8 @@
 //!
 //! Renders are grey (the map's luminance), so a JPEG's chroma planes are constant and its
 //! chroma subsampling (4:2:0 in a camera) changes nothing: the luminance plane carries the
-//! whole effect.
+//! whole effect. [`capture_rgb`] takes three channel renders (a colour photograph, with a
+//! white card in it) through the same camera.
 
 use crate::image::blur::gaussian_blur;
 use crate::image::decode::Encoding;
@@ -187,37 +188,88 @@ pub fn capture(
     settings: &CaptureSettings,
     rng: &mut Rng,
 ) -> Result<Capture, CaptureError> {
+    capture_channels(&[luminance], circle, white, None, settings, rng)
+}
+
+/// A white card in a capture: a rectangle of captured pixels (x, y, width, height) whose
+/// linear radiance is `rgb` (white's colour times the card's reflectance).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Card {
+    pub rect: [usize; 4],
+    pub rgb: [f64; 3],
+}
+
+/// A colour photograph of three channel renders (linear R, G and B; `white` is white's
+/// luminance, which sets the exposure) with a white `card` beside the sphere: every channel
+/// goes through the same camera (noise drawn per channel), and the file is RGB.
+pub fn capture_rgb(
+    channels: [ArrayView2<f64>; 3],
+    circle: &Circle,
+    white: f64,
+    card: Option<Card>,
+    settings: &CaptureSettings,
+    rng: &mut Rng,
+) -> Result<Capture, CaptureError> {
+    capture_channels(&channels, circle, white, card.as_ref(), settings, rng)
+}
+
+fn capture_channels(
+    channels: &[ArrayView2<f64>],
+    circle: &Circle,
+    white: f64,
+    card: Option<&Card>,
+    settings: &CaptureSettings,
+    rng: &mut Rng,
+) -> Result<Capture, CaptureError> {
     check(settings, circle, white)?;
     let factor = settings.radius / circle.r;
-    let coverage = disc_coverage(luminance.dim(), circle);
-    let scene = scale(luminance, factor);
+    let dim = channels.first().map_or((0, 0), ArrayView2::dim);
+    let coverage = disc_coverage(dim, circle);
     let inside = scale(coverage.view(), factor);
     let background = settings.background * white;
-    let mut signal = Array2::from_shape_fn(scene.dim(), |p| {
-        let inside = inside[p].clamp(0.0, 1.0);
-        inside * scene[p] + (1.0 - inside) * background
-    });
-    if settings.blur > 0.0 {
-        signal = gaussian_blur(signal.view(), settings.blur);
-    }
     let e = settings.exposure;
     let (shot, read) = (
         settings.noise * settings.noise * settings.shot_share,
         settings.noise * settings.noise * (1.0 - settings.shot_share),
     );
     let mut clipped = (0usize, 0usize);
-    let exposed = Array2::from_shape_fn(signal.dim(), |p| {
-        // Full scale is 1: white lands at e.
-        let x = signal[p] / white * e;
-        let variance = shot * e * x.max(0.0) + read * e * e;
-        let v = (x + variance.sqrt() * normal(rng)).clamp(0.0, 1.0);
-        if inside[p] >= 0.5 {
-            clipped.0 += usize::from(v >= 1.0);
-            clipped.1 += 1;
+    let mut exposed_channels = Vec::with_capacity(channels.len());
+    for (c, channel) in channels.iter().enumerate() {
+        let scene = scale(*channel, factor);
+        let mut signal = Array2::from_shape_fn(scene.dim(), |p| {
+            let inside = inside[p].clamp(0.0, 1.0);
+            inside * scene[p] + (1.0 - inside) * background
+        });
+        if let Some(card) = card {
+            let [x, y, w, h] = card.rect;
+            let (rows, cols) = signal.dim();
+            signal
+                .slice_mut(ndarray::s![
+                    y.min(rows)..(y + h).min(rows),
+                    x.min(cols)..(x + w).min(cols)
+                ])
+                .fill(card.rgb[c]);
         }
-        v
-    });
-    let bytes = encode(exposed.view(), settings.quantization)?;
+        if settings.blur > 0.0 {
+            signal = gaussian_blur(signal.view(), settings.blur);
+        }
+        let exposed = Array2::from_shape_fn(signal.dim(), |p| {
+            // Full scale is 1: white lands at e.
+            let x = signal[p] / white * e;
+            let variance = shot * e * x.max(0.0) + read * e * e;
+            let v = (x + variance.sqrt() * normal(rng)).clamp(0.0, 1.0);
+            if inside[p] >= 0.5 {
+                clipped.0 += usize::from(v >= 1.0);
+                clipped.1 += 1;
+            }
+            v
+        });
+        exposed_channels.push(exposed);
+    }
+    let bytes = match &exposed_channels[..] {
+        [grey] => encode(grey.view(), settings.quantization)?,
+        channels => encode_rgb(channels, settings.quantization)?,
+    };
     let (circle, white) = reported(circle, settings);
     Ok(Capture {
         bytes,
@@ -363,6 +415,50 @@ fn encode(samples: ArrayView2<f64>, quantization: Quantization) -> Result<Vec<u8
             let rgb: Vec<u8> = srgb8().into_iter().flat_map(|v| [v, v, v]).collect();
             image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, quality)
                 .write_image(&rgb, width, height, image::ExtendedColorType::Rgb8)
+                .map_err(fail)?
+        }
+    }
+    Ok(out)
+}
+
+/// Quantize three normalized linear channels (in [0, 1]) and encode them as an RGB file.
+fn encode_rgb(
+    channels: &[Array2<f64>],
+    quantization: Quantization,
+) -> Result<Vec<u8>, CaptureError> {
+    use image::ImageEncoder;
+    let (h, w) = channels.first().map_or((0, 0), Array2::dim);
+    let (width, height) = (w as u32, h as u32);
+    let fail = |e: image::ImageError| CaptureError::Encode(e.to_string());
+    let interleaved = |f: &dyn Fn(f64) -> u16| -> Vec<u16> {
+        (0..h * w)
+            .flat_map(|i| channels.iter().map(move |c| (i / w, i % w, c)))
+            .map(|(y, x, c)| f(c[[y, x]]))
+            .collect()
+    };
+    let srgb8 = || -> Vec<u8> {
+        interleaved(&|v| (255.0 * linear_to_srgb(v)).round() as u16)
+            .into_iter()
+            .map(|v| v as u8)
+            .collect()
+    };
+    let mut out = Vec::new();
+    match quantization {
+        Quantization::Srgb8 => image::codecs::png::PngEncoder::new(&mut out)
+            .write_image(&srgb8(), width, height, image::ExtendedColorType::Rgb8)
+            .map_err(fail)?,
+        Quantization::Linear16 => {
+            let bytes: Vec<u8> = interleaved(&|v| (65535.0 * v).round() as u16)
+                .into_iter()
+                .flat_map(u16::to_ne_bytes)
+                .collect();
+            image::codecs::png::PngEncoder::new(&mut out)
+                .write_image(&bytes, width, height, image::ExtendedColorType::Rgb16)
+                .map_err(fail)?
+        }
+        Quantization::Jpeg { quality } => {
+            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, quality)
+                .write_image(&srgb8(), width, height, image::ExtendedColorType::Rgb8)
                 .map_err(fail)?
         }
     }

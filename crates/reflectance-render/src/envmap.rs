@@ -37,20 +37,47 @@ pub enum EnvMapError {
     Other(String),
 }
 
+fn read_picture(path: &Path) -> Result<(rgbe::RgbePicture, String), EnvMapError> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| EnvMapError::Read {
+        path: name.clone(),
+        source,
+    })?;
+    let picture = rgbe::read(&bytes, &Limits::default()).map_err(|source| EnvMapError::Decode {
+        path: name.clone(),
+        source,
+    })?;
+    Ok((picture, name))
+}
+
 impl EnvMap {
-    /// Load a Radiance `.hdr` lat-long map.
+    /// Load a Radiance `.hdr` lat-long map (its luminance).
     pub fn load(path: &Path) -> Result<EnvMap, EnvMapError> {
-        let name = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| EnvMapError::Read {
-            path: name.clone(),
-            source,
-        })?;
-        let picture =
-            rgbe::read(&bytes, &Limits::default()).map_err(|source| EnvMapError::Decode {
-                path: name.clone(),
-                source,
-            })?;
-        let (width, height) = (picture.width, picture.height);
+        let (picture, name) = read_picture(path)?;
+        EnvMap::checked(
+            picture.width,
+            picture.height,
+            picture.luminance().into_raw_vec_and_offset().0,
+            name,
+        )
+    }
+
+    /// Load a Radiance `.hdr` lat-long map's R, G and B as three maps (for colour renders).
+    pub fn load_channels(path: &Path) -> Result<[EnvMap; 3], EnvMapError> {
+        let (picture, name) = read_picture(path)?;
+        let channel = |c: usize| {
+            let values = picture.pixels.iter().map(|p| p[c]).collect();
+            EnvMap::checked(picture.width, picture.height, values, name.clone())
+        };
+        Ok([channel(0)?, channel(1)?, channel(2)?])
+    }
+
+    fn checked(
+        width: usize,
+        height: usize,
+        luminance: Vec<f64>,
+        name: String,
+    ) -> Result<EnvMap, EnvMapError> {
         if width < 4 || height < 2 {
             return Err(EnvMapError::TooSmall {
                 path: name,
@@ -58,7 +85,6 @@ impl EnvMap {
                 height,
             });
         }
-        let luminance = picture.luminance().into_raw_vec_and_offset().0;
         if luminance.iter().any(|v| !v.is_finite() || *v < 0.0) {
             return Err(EnvMapError::BadValues { path: name });
         }

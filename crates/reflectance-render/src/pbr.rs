@@ -7,7 +7,7 @@
 use crate::envmap::EnvMap;
 use crate::ward::{Material, WardBrdf};
 use crate::{Camera, Vec3, View};
-use reflectance_core::material::gltf::Pbr;
+use reflectance_core::material::gltf::{Pbr, fresnel_dielectric};
 use reflectance_core::util::rng::Rng;
 use std::f64::consts::PI;
 
@@ -34,25 +34,48 @@ impl Brdf for Material {
     }
 }
 
+/// Which renderer's reading of glTF's BRDF: both GGX with height-correlated Smith
+/// visibility and the dielectric's diffuse weighted by 1 − F; they differ in the Fresnel
+/// term of a dielectric.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reading {
+    /// The Khronos glTF sample viewer (what real-time viewers implement): Schlick's
+    /// F0 + (1 − F0)(1 − v·h)⁵ with F0 = ((ior − 1)/(ior + 1))², scaled by `specularFactor`.
+    Viewer,
+    /// Blender's Cycles: the exact Fresnel term of the index; `specularFactor` 0 is no
+    /// reflection.
+    Cycles,
+}
+
 /// glTF 2.0's BRDF (its specification's Appendix B, with `KHR_materials_ior` and
-/// `KHR_materials_specular`) for grey materials: GGX with separable Smith visibility and
-/// Schlick's Fresnel; the dielectric's diffuse weighted by 1 − F.
+/// `KHR_materials_specular`) for grey materials, as a renderer reads it.
 #[derive(Clone, Copy, Debug)]
-pub struct Gltf(pub Pbr);
+pub struct Gltf {
+    pub pbr: Pbr,
+    pub reading: Reading,
+}
 
 impl Gltf {
-    /// (F0, F90) of the dielectric and of the metal.
+    /// (dielectric, metal) Fresnel terms at v·h.
     fn fresnel(&self, v_dot_h: f64) -> (f64, f64) {
-        let p = &self.0;
-        let weight = (1.0 - v_dot_h.abs()).clamp(0.0, 1.0).powi(5);
-        let f0 = ((p.ior - 1.0) / (p.ior + 1.0)).powi(2).min(1.0) * p.specular;
-        let dielectric = f0 + (p.specular - f0) * weight;
+        let p = &self.pbr;
+        let c = v_dot_h.abs().min(1.0);
+        let weight = (1.0 - c).powi(5);
+        let dielectric = match self.reading {
+            Reading::Viewer => {
+                let f0 = ((p.ior - 1.0) / (p.ior + 1.0)).powi(2).min(1.0);
+                p.specular * (f0 + (1.0 - f0) * weight)
+            }
+            Reading::Cycles if p.specular == 0.0 => 0.0,
+            Reading::Cycles => fresnel_dielectric(c, p.ior),
+        };
         let metal = p.base_color + (1.0 - p.base_color) * weight;
         (dielectric, metal)
     }
 
+    /// GGX's distribution times the height-correlated Smith visibility.
     fn ggx(&self, n: Vec3, v: Vec3, l: Vec3) -> f64 {
-        let a2 = self.0.roughness.powi(4);
+        let a2 = self.pbr.roughness.powi(4);
         let (nl, nv) = (n.dot(l), n.dot(v));
         if nl <= 0.0 || nv <= 0.0 {
             return 0.0;
@@ -60,8 +83,9 @@ impl Gltf {
         let h = (l + v).normalized();
         let nh = n.dot(h);
         let d = a2 / (PI * (nh * nh * (a2 - 1.0) + 1.0).powi(2));
-        let smith = |c: f64| c + (a2 + (1.0 - a2) * c * c).sqrt();
-        d / (smith(nl) * smith(nv))
+        let visibility = 0.5
+            / (nl * (nv * nv * (1.0 - a2) + a2).sqrt() + nv * (nl * nl * (1.0 - a2) + a2).sqrt());
+        d * visibility
     }
 }
 
@@ -69,18 +93,18 @@ impl Brdf for Gltf {
     fn diffuse(&self, _: Vec3, v: Vec3, l: Vec3) -> f64 {
         let h = (l + v).normalized();
         let (dielectric, _) = self.fresnel(v.dot(h));
-        (1.0 - self.0.metallic) * (1.0 - dielectric) * self.0.base_color / PI
+        (1.0 - self.pbr.metallic) * (1.0 - dielectric) * self.pbr.base_color / PI
     }
     fn specular(&self, n: Vec3, v: Vec3, l: Vec3) -> f64 {
         let h = (l + v).normalized();
         let (dielectric, metal) = self.fresnel(v.dot(h));
-        let m = self.0.metallic;
+        let m = self.pbr.metallic;
         ((1.0 - m) * dielectric + m * metal) * self.ggx(n, v, l)
     }
     fn mirror(&self, cos: f64) -> Option<f64> {
         let (dielectric, metal) = self.fresnel(cos);
-        let m = self.0.metallic;
-        (self.0.roughness == 0.0).then_some((1.0 - m) * dielectric + m * metal)
+        let m = self.pbr.metallic;
+        (self.pbr.roughness == 0.0).then_some((1.0 - m) * dielectric + m * metal)
     }
 }
 
@@ -257,14 +281,65 @@ mod tests {
             rho_s: 0.75,
             alpha: 0.0,
         };
-        let gltf = Gltf(pbr_of(0.0, 0.75, 0.0));
-        let (w, g) = (
-            mean(&draw(&map, &map, &ward, &view, &drawing)),
-            mean(&draw(&map, &map, &gltf, &view, &drawing)),
-        );
-        assert!(
-            (w - 0.75).abs() < 1e-9 && (g - 0.75).abs() < 2e-3,
-            "ward {w}, gltf {g}"
-        );
+        let w = mean(&draw(&map, &map, &ward, &view, &drawing));
+        assert!((w - 0.75).abs() < 1e-9, "ward {w}");
+        for reading in [Reading::Viewer, Reading::Cycles] {
+            let gltf = Gltf {
+                pbr: pbr_of(0.0, 0.75, 0.0),
+                reading,
+            };
+            let g = mean(&draw(&map, &map, &gltf, &view, &drawing));
+            assert!((g - 0.75).abs() < 2e-3, "{reading:?}: gltf {g}");
+        }
+    }
+
+    /// A dielectric mirror under uniform light, as each renderer reads it: its disc's mean
+    /// is the disc mean of its Fresnel term, the exact one for Cycles (the core's quadrature
+    /// of it, which the mapping solves with) and Schlick's for the viewer.
+    #[test]
+    fn dielectric_mirrors_reflect_their_fresnel_term() {
+        use reflectance_core::material::gltf::{DISC_EDGE, disc_fresnel, ior_of_f0};
+        let map = uniform();
+        let view = View::default();
+        let size = 240;
+        let drawing = Drawing { size, ..DRAWING };
+        for f0 in [0.03, 0.24] {
+            let pbr = Pbr {
+                base_color: 0.0,
+                metallic: 0.0,
+                roughness: 0.0,
+                ior: ior_of_f0(f0),
+                specular: 1.0,
+            };
+            for (reading, expected) in [
+                (Reading::Cycles, disc_fresnel(f0)),
+                (Reading::Viewer, {
+                    // (1 − cos θ)⁵ over the disc to DISC_EDGE, cos θ = √(1 − u), u = ρ².
+                    let n = 100_000;
+                    let e2 = DISC_EDGE * DISC_EDGE;
+                    let w: f64 = (0..n)
+                        .map(|i| (1.0 - (1.0 - e2 * (i as f64 + 0.5) / n as f64).sqrt()).powi(5))
+                        .sum::<f64>()
+                        / n as f64;
+                    f0 + (1.0 - f0) * w
+                }),
+            ] {
+                let pixels = draw(&map, &map, &Gltf { pbr, reading }, &view, &drawing);
+                let (mut sum, mut count) = (0.0, 0);
+                for (p, value) in pixels.iter().enumerate() {
+                    let x = 2.0 * ((p % size) as f64 + 0.5) / size as f64 - 1.0;
+                    let y = 1.0 - 2.0 * ((p / size) as f64 + 0.5) / size as f64;
+                    if let Some(v) = value.filter(|_| x * x + y * y <= DISC_EDGE * DISC_EDGE) {
+                        sum += v;
+                        count += 1;
+                    }
+                }
+                let mean = sum / count as f64;
+                assert!(
+                    (mean - expected).abs() < 0.01 * expected,
+                    "{reading:?} F0 {f0}: {mean} vs {expected}"
+                );
+            }
+        }
     }
 }

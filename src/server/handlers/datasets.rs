@@ -161,6 +161,7 @@ pub async fn upload(
     let decode = DecodeOptions {
         encoding: None,
         limits: state.config.limits,
+        colour: false,
     };
     // If this request is dropped (a timeout, the client gone), the checking stops and
     // nothing is stored.

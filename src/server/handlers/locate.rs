@@ -83,6 +83,7 @@ pub async fn locate(
     let options = DecodeOptions {
         encoding,
         limits: state.config.limits,
+        colour: false,
     };
     let permit = state.cpu.admit()?;
     let worker_state = state.clone();

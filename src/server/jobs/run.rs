@@ -363,6 +363,7 @@ fn load_table(
     let options = DecodeOptions {
         encoding: None,
         limits: *limits,
+        colour: false,
     };
     observer.stage("features");
     let table = dataset::extract_manifest_with(&extractor, &manifest, &options, observer)?;
@@ -418,6 +419,7 @@ pub fn execute(
                 decode: DecodeOptions {
                     encoding: None,
                     limits: *limits,
+                    colour: false,
                 },
                 estimator: estimator_data(p, estimator_table, estimator_classes, data)?,
             };

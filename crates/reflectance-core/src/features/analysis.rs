@@ -4,6 +4,7 @@
 
 use crate::features::polar::UnwrapConfig;
 use crate::features::{CaptureMeasurements, Extractor};
+use crate::image::colour::{self, Rgb};
 use crate::image::decode::{DecodeError, LinearImage};
 use crate::image::geometry::{self, Geometry, GeometryError, Method};
 use crate::image::white::{self, White, WhiteError};
@@ -65,6 +66,10 @@ pub struct Analysis {
     /// The capture measurements, when asked for.
     #[serde(skip)]
     pub measured: Option<CaptureMeasurements>,
+    /// The sphere's RGB over white's ([`colour::appearance`]), when both were decoded
+    /// with their colour.
+    #[serde(skip)]
+    pub appearance: Option<Rgb>,
 }
 
 /// The mask of a decoded mask image.
@@ -251,12 +256,18 @@ pub fn analyze_subset(
     let full_scale = (!image.is_float).then_some(1.0);
     let (values, measured) =
         extractor.extract_measured(luminance, &circle, white.value, full_scale, wanted, measure);
+    let appearance = image
+        .colour
+        .as_ref()
+        .zip(white.rgb)
+        .and_then(|(copy, rgb)| colour::appearance(copy, &circle, rgb));
     Ok(Analysis {
         values,
         geometry,
         white,
         warnings,
         measured,
+        appearance,
     })
 }
 

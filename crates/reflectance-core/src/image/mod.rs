@@ -3,6 +3,7 @@
 
 pub mod blur;
 pub(crate) mod circle;
+pub mod colour;
 pub mod decode;
 pub(crate) mod detect;
 pub mod display;

@@ -3,6 +3,7 @@
 //! (median luminance, divided by the card's reflectance) in a separate crop or in a
 //! rectangle of the photograph itself, or absent.
 
+use crate::image::colour::Rgb;
 use crate::image::decode::LinearImage;
 use ndarray::s;
 use serde::Serialize;
@@ -23,6 +24,10 @@ pub enum Method {
 pub struct White {
     pub value: f64,
     pub method: Method,
+    /// White's linear RGB (the card's mean over its reflectance), when a card was measured
+    /// in an image decoded with its colour.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rgb: Option<Rgb>,
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -99,6 +104,7 @@ pub fn given(value: f64) -> Result<White, WhiteError> {
         Ok(White {
             value,
             method: Method::Given,
+            rgb: None,
         })
     } else {
         Err(WhiteError::NotPositive(value))
@@ -118,7 +124,8 @@ pub fn from_card(card: &LinearImage, card_reflectance: f64) -> Result<White, Whi
             .collect(),
         None => card.luminance.iter().copied().collect(),
     };
-    from_samples(values, card_reflectance, Method::WhiteImage)
+    let rgb = card.colour.as_ref().and_then(|c| c.mean(|_, _| true, 0.0));
+    from_samples(values, card_reflectance, Method::WhiteImage, rgb)
 }
 
 /// White from a white card inside the photograph: the median luminance of the pixels
@@ -144,13 +151,29 @@ pub fn from_rect(
             .collect(),
         None => luminance.iter().copied().collect(),
     };
-    from_samples(values, card_reflectance, Method::WhiteRect)
+    // The copy's pixels whose centres lie in the rectangle (at least the one nearest its
+    // centre, for a rectangle smaller than a copy pixel).
+    let rgb = image.colour.as_ref().and_then(|copy| {
+        let inside = |x: f64, y: f64| {
+            x >= rect.x - 0.5
+                && x <= rect.x + rect.w - 0.5
+                && y >= rect.y - 0.5
+                && y <= rect.y + rect.h - 0.5
+        };
+        copy.mean(inside, 0.0).or_else(|| {
+            let (cx, cy) = (rect.x + rect.w / 2.0, rect.y + rect.h / 2.0);
+            let half = copy.factor() as f64 / 2.0;
+            copy.mean(|x, y| (x - cx).abs() <= half && (y - cy).abs() <= half, 0.0)
+        })
+    });
+    from_samples(values, card_reflectance, Method::WhiteRect, rgb)
 }
 
 fn from_samples(
     mut values: Vec<f64>,
     card_reflectance: f64,
     method: Method,
+    rgb: Option<Rgb>,
 ) -> Result<White, WhiteError> {
     if !(card_reflectance > 0.0 && card_reflectance <= 1.0) {
         return Err(WhiteError::BadReflectance(card_reflectance));
@@ -162,6 +185,7 @@ fn from_samples(
     Ok(White {
         value: median / card_reflectance,
         method,
+        rgb: rgb.map(|c| c.map(|v| v / card_reflectance)),
     })
 }
 
@@ -170,6 +194,7 @@ pub fn missing() -> White {
     White {
         value: 1.0,
         method: Method::None,
+        rgb: None,
     }
 }
 
@@ -201,6 +226,7 @@ mod tests {
         LinearImage {
             luminance: Array2::from_shape_vec((1, values.len()), values.to_vec()).unwrap(),
             alpha_mask: None,
+            colour: None,
             format: Format::Png,
             is_float: false,
             warnings: vec![],

@@ -3,6 +3,7 @@
 //! REST handlers ([`super`]) and the gRPC service (`server::grpc`) both call these.
 
 use super::tensor::{Datatype, Elements, Tensor};
+use crate::image::colour;
 use crate::image::white::Method as WhiteMethod;
 use crate::inference::{Classified, LoadedModel};
 use crate::learn::estimate::Interval;
@@ -59,6 +60,8 @@ pub fn outputs(model: &LoadedModel) -> Vec<TensorMetadata> {
         outputs.push(meta("ward", "FP64", vec![3, 3]));
         outputs.push(meta("specular_fraction", "FP64", vec![3]));
     }
+    // Only against a white card in colour.
+    outputs.push(meta("colour", "FP64", vec![3]));
     outputs
 }
 
@@ -212,6 +215,10 @@ pub fn answer(c: &Classified) -> Vec<Tensor> {
             vec![3],
             rows(&[w.specular_fraction()]),
         ));
+    }
+    // Linear RGB relative to white, luminance 1.
+    if let Some(rgb) = c.analysis.appearance.and_then(colour::surface_colour) {
+        tensors.push(Tensor::fp64("colour", vec![3], rgb.to_vec()));
     }
     tensors
 }

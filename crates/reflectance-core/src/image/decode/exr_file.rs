@@ -1,6 +1,7 @@
 //! OpenEXR through the `exr` crate: the first layer's R, G, B (or Y) and A channels.
 
-use super::{DecodeError, FloatPlane, Format, Limits, luminance, validate_float};
+use super::{DecodeError, DecodeOptions, FloatPlane, Format, luminance, validate_float};
+use crate::image::colour::ColourCopy;
 use exr::prelude::{ReadChannels, ReadLayers};
 use ndarray::Array2;
 use std::io::Cursor;
@@ -17,7 +18,8 @@ fn map_error(error: exr::error::Error) -> DecodeError {
     }
 }
 
-pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<FloatPlane, DecodeError> {
+pub(crate) fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<FloatPlane, DecodeError> {
+    let limits = &options.limits;
     let meta =
         exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(map_error)?;
     for header in &meta.headers {
@@ -42,6 +44,7 @@ pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<FloatPlane, Decode
             .find(|c| c.name.to_string().rsplit('.').next() == Some(name))
             .map(|c| c.sample_data.values_as_f32().map(f64::from).collect())
     };
+    let mut colour = None;
     let values = match (channel("R"), channel("G"), channel("B"), channel("Y")) {
         (Some(r), Some(g), Some(b), _) => {
             let nonfinite = [&r, &g, &b]
@@ -50,6 +53,10 @@ pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<FloatPlane, Decode
                 .filter(|v| !v.is_finite())
                 .count();
             let lum = (0..r.len()).map(|i| luminance(r[i], g[i], b[i])).collect();
+            let same_size = [&r, &g, &b].iter().all(|c| c.len() == width * height);
+            if options.colour && same_size {
+                colour = Some(ColourCopy::new(width, height, |i| [r[i], g[i], b[i]]));
+            }
             (lum, nonfinite)
         }
         (_, _, _, Some(y)) => {
@@ -73,5 +80,6 @@ pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<FloatPlane, Decode
     Ok(FloatPlane {
         luminance: lum,
         alpha,
+        colour,
     })
 }

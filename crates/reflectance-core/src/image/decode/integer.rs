@@ -2,9 +2,10 @@
 //! then 8/16-bit samples through a transfer-function table (float TIFF stays linear).
 
 use super::{
-    DecodeError, DecodeOptions, Encoding, Format, Limits, LinearImage, alpha_to_mask, luminance,
+    DecodeError, DecodeOptions, Format, Limits, LinearImage, alpha_to_mask, luminance,
     validate_float,
 };
+use crate::image::colour::ColourCopy;
 use image::{DynamicImage, ImageDecoder, ImageError, ImageFormat, ImageReader};
 use ndarray::Array2;
 use std::io::Cursor;
@@ -33,7 +34,7 @@ pub(crate) fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<LinearImag
     let mut image =
         DynamicImage::from_decoder(decoder).map_err(|e| map_error(e, format, limits))?;
     image.apply_orientation(orientation);
-    to_linear(image, format, options.encoding)
+    to_linear(image, format, options)
 }
 
 fn image_limits(limits: &Limits) -> image::Limits {
@@ -65,39 +66,49 @@ fn map_error(error: ImageError, format: Format, limits: &Limits) -> DecodeError 
 fn to_linear(
     image: DynamicImage,
     format: Format,
-    encoding: Option<Encoding>,
+    options: &DecodeOptions,
 ) -> Result<LinearImage, DecodeError> {
     let (w, h) = (image.width() as usize, image.height() as usize);
-    let enc = encoding.unwrap_or_default();
-    let (luminance, alpha_mask) = match image {
-        DynamicImage::ImageLuma8(img) => integer_planes(img.as_raw(), 1, w, h, &enc.table(8)),
-        DynamicImage::ImageLumaA8(img) => integer_planes(img.as_raw(), 2, w, h, &enc.table(8)),
-        DynamicImage::ImageRgb8(img) => integer_planes(img.as_raw(), 3, w, h, &enc.table(8)),
-        DynamicImage::ImageRgba8(img) => integer_planes(img.as_raw(), 4, w, h, &enc.table(8)),
-        DynamicImage::ImageLuma16(img) => integer_planes(img.as_raw(), 1, w, h, &enc.table(16)),
-        DynamicImage::ImageLumaA16(img) => integer_planes(img.as_raw(), 2, w, h, &enc.table(16)),
-        DynamicImage::ImageRgb16(img) => integer_planes(img.as_raw(), 3, w, h, &enc.table(16)),
-        DynamicImage::ImageRgba16(img) => integer_planes(img.as_raw(), 4, w, h, &enc.table(16)),
-        float => return float_tiff(float.into_rgba32f(), format),
+    let enc = options.encoding.unwrap_or_default();
+    let c = options.colour;
+    let planes = match image {
+        DynamicImage::ImageLuma8(img) => integer_planes(img.as_raw(), 1, w, h, &enc.table(8), c),
+        DynamicImage::ImageLumaA8(img) => integer_planes(img.as_raw(), 2, w, h, &enc.table(8), c),
+        DynamicImage::ImageRgb8(img) => integer_planes(img.as_raw(), 3, w, h, &enc.table(8), c),
+        DynamicImage::ImageRgba8(img) => integer_planes(img.as_raw(), 4, w, h, &enc.table(8), c),
+        DynamicImage::ImageLuma16(img) => integer_planes(img.as_raw(), 1, w, h, &enc.table(16), c),
+        DynamicImage::ImageLumaA16(img) => integer_planes(img.as_raw(), 2, w, h, &enc.table(16), c),
+        DynamicImage::ImageRgb16(img) => integer_planes(img.as_raw(), 3, w, h, &enc.table(16), c),
+        DynamicImage::ImageRgba16(img) => integer_planes(img.as_raw(), 4, w, h, &enc.table(16), c),
+        float => return float_tiff(float.into_rgba32f(), format, c),
     };
     Ok(LinearImage {
-        luminance,
-        alpha_mask,
+        luminance: planes.luminance,
+        alpha_mask: planes.alpha_mask,
+        colour: planes.colour,
         format,
         is_float: false,
         warnings: Vec::new(),
     })
 }
 
-/// Luminance through `table` and the alpha mask of interleaved integer samples
-/// (1 = grey, 2 = grey+alpha, 3 = RGB, 4 = RGBA).
+/// What an integer image becomes.
+struct Planes {
+    luminance: Array2<f64>,
+    alpha_mask: Option<Array2<bool>>,
+    colour: Option<ColourCopy>,
+}
+
+/// Luminance through `table`, the alpha mask and (with `colour`, for RGB) the colour copy of
+/// interleaved integer samples (1 = grey, 2 = grey+alpha, 3 = RGB, 4 = RGBA).
 fn integer_planes<T: Copy + Into<u32>>(
     samples: &[T],
     channels: usize,
     width: usize,
     height: usize,
     table: &[f64],
-) -> (Array2<f64>, Option<Array2<bool>>) {
+    colour: bool,
+) -> Planes {
     let lookup = |s: T| table[s.into() as usize];
     let pixels = samples.chunks_exact(channels);
     let lum: Vec<f64> = match channels {
@@ -115,10 +126,24 @@ fn integer_planes<T: Copy + Into<u32>>(
         alpha_to_mask(&Array2::from_shape_vec((height, width), alpha).expect("plane size"))
     });
     let lum = Array2::from_shape_vec((height, width), lum).expect("plane size");
-    (lum, alpha_mask.flatten())
+    let colour = (colour && channels >= 3).then(|| {
+        ColourCopy::new(width, height, |i| {
+            let p = &samples[i * channels..i * channels + 3];
+            [lookup(p[0]), lookup(p[1]), lookup(p[2])]
+        })
+    });
+    Planes {
+        luminance: lum,
+        alpha_mask: alpha_mask.flatten(),
+        colour,
+    }
 }
 
-fn float_tiff(image: image::Rgba32FImage, format: Format) -> Result<LinearImage, DecodeError> {
+fn float_tiff(
+    image: image::Rgba32FImage,
+    format: Format,
+    colour: bool,
+) -> Result<LinearImage, DecodeError> {
     let (w, h) = (image.width() as usize, image.height() as usize);
     let pixels = image.pixels();
     let nonfinite = pixels
@@ -134,9 +159,16 @@ fn float_tiff(image: image::Rgba32FImage, format: Format) -> Result<LinearImage,
     validate_float(&lum, nonfinite)?;
     let alpha = pixels.map(|p| f64::from(p[3])).collect();
     let alpha = Array2::from_shape_vec((h, w), alpha).expect("plane size");
+    let colour = colour.then(|| {
+        ColourCopy::new(w, h, |i| {
+            let p = image.as_raw();
+            [p[4 * i], p[4 * i + 1], p[4 * i + 2]].map(f64::from)
+        })
+    });
     Ok(LinearImage {
         luminance: lum,
         alpha_mask: alpha_to_mask(&alpha),
+        colour,
         format,
         is_float: true,
         warnings: Vec::new(),

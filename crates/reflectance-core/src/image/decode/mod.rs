@@ -11,6 +11,7 @@ mod integer;
 pub mod pfm;
 pub mod rgbe;
 
+use crate::image::colour::ColourCopy;
 use ndarray::Array2;
 use std::fmt;
 use std::path::Path;
@@ -105,6 +106,9 @@ pub struct LinearImage {
     /// `true` where alpha ≥ 0.5; `None` when the file has no alpha or it is fully opaque.
     pub alpha_mask: Option<Array2<bool>>,
     pub format: Format,
+    /// The reduced linear-RGB copy, when asked for (`DecodeOptions::colour`) and the file
+    /// has colour.
+    pub colour: Option<ColourCopy>,
     /// Whether the samples were floating point (and so already linear).
     pub is_float: bool,
     pub warnings: Vec<String>,
@@ -170,6 +174,8 @@ pub struct DecodeOptions {
     /// `None` means the default, sRGB, without a warning.
     pub encoding: Option<Encoding>,
     pub limits: Limits,
+    /// Keep a reduced linear-RGB copy beside the luminance (for a colour measurement).
+    pub colour: bool,
 }
 
 impl FromStr for Encoding {
@@ -201,9 +207,9 @@ fn sniff(bytes: &[u8]) -> Container {
 /// Decode an in-memory image file into linear luminance.
 pub fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<LinearImage, DecodeError> {
     let mut image = match sniff(bytes) {
-        Container::Hdr => float_image(rgbe::decode(bytes, &options.limits)?, Format::Hdr),
-        Container::Pfm => float_image(pfm::decode(bytes, &options.limits)?, Format::Pfm),
-        Container::Exr => float_image(exr_file::decode(bytes, &options.limits)?, Format::Exr),
+        Container::Hdr => float_image(rgbe::decode(bytes, options)?, Format::Hdr),
+        Container::Pfm => float_image(pfm::decode(bytes, options)?, Format::Pfm),
+        Container::Exr => float_image(exr_file::decode(bytes, options)?, Format::Exr),
         Container::Other => integer::decode(bytes, options)?,
     };
     let ignored = options
@@ -240,6 +246,7 @@ pub fn from_luminance(luminance: Array2<f64>, limits: &Limits) -> Result<LinearI
         FloatPlane {
             luminance,
             alpha: None,
+            colour: None,
         },
         Format::Array,
     ))
@@ -249,12 +256,14 @@ pub fn from_luminance(luminance: Array2<f64>, limits: &Limits) -> Result<LinearI
 pub(crate) struct FloatPlane {
     pub luminance: Array2<f64>,
     pub alpha: Option<Array2<f64>>,
+    pub colour: Option<ColourCopy>,
 }
 
 fn float_image(plane: FloatPlane, format: Format) -> LinearImage {
     LinearImage {
         alpha_mask: plane.alpha.as_ref().and_then(alpha_to_mask),
         luminance: plane.luminance,
+        colour: plane.colour,
         format,
         is_float: true,
         warnings: Vec::new(),

@@ -1,14 +1,17 @@
 //! Portable Float Map: `PF` (RGB) or `Pf` (grey), rows stored bottom-up, the sign of the
 //! scale gives the byte order (negative = little-endian), its magnitude is ignored.
 
-use super::{DecodeError, FloatPlane, Format, Limits, luminance, validate_float};
+use super::{DecodeError, DecodeOptions, FloatPlane, Format, luminance, validate_float};
+use crate::image::colour::ColourCopy;
 use ndarray::Array2;
 
 const FORMAT: Format = Format::Pfm;
 
-pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<FloatPlane, DecodeError> {
+pub(crate) fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<FloatPlane, DecodeError> {
     let header = Header::parse(bytes)?;
-    limits.check(header.width as u64, header.height as u64)?;
+    options
+        .limits
+        .check(header.width as u64, header.height as u64)?;
     let samples = header.width * header.height * header.channels;
     let data = bytes
         .get(header.data_start..)
@@ -42,9 +45,17 @@ pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<FloatPlane, Decode
         }
     });
     validate_float(&lum, nonfinite)?;
+    let colour = (options.colour && header.channels == 3).then(|| {
+        ColourCopy::new(header.width, header.height, |i| {
+            let (row, col) = (i / header.width, i % header.width);
+            let base = ((header.height - 1 - row) * header.width + col) * 3;
+            [read(base), read(base + 1), read(base + 2)]
+        })
+    });
     Ok(FloatPlane {
         luminance: lum,
         alpha: None,
+        colour,
     })
 }
 
@@ -118,7 +129,7 @@ mod tests {
     fn gray_round_trip_and_row_order() {
         let values = [0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0];
         let bytes = encode_gray(3, 2, &values);
-        let plane = decode(&bytes, &Limits::default()).unwrap();
+        let plane = decode(&bytes, &DecodeOptions::default()).unwrap();
         assert_eq!(plane.luminance.dim(), (2, 3));
         assert_eq!(plane.luminance[[0, 0]], 0.0);
         assert_eq!(plane.luminance[[1, 2]], 5.0);
@@ -135,15 +146,29 @@ mod tests {
         for v in [1.0f32, 0.0, 0.0, 0.0, 0.0, 1.0] {
             bytes.extend_from_slice(&v.to_be_bytes());
         }
-        let lum = decode(&bytes, &Limits::default()).unwrap().luminance;
+        let lum = decode(&bytes, &DecodeOptions::default()).unwrap().luminance;
         // Bottom row stored first: row 1 is pure red, row 0 pure blue.
         assert_eq!(lum[[1, 0]], 0.2126);
         assert_eq!(lum[[0, 0]], 0.0722);
+        // The colour copy, asked for, in the same row order.
+        let with_colour = DecodeOptions {
+            colour: true,
+            ..DecodeOptions::default()
+        };
+        let copy = decode(&bytes, &with_colour).unwrap().colour.unwrap();
+        assert_eq!(copy.mean(|_, y| y < 0.5, 0.0), Some([0.0, 0.0, 1.0]));
+        assert_eq!(copy.mean(|_, y| y > 0.5, 0.0), Some([1.0, 0.0, 0.0]));
+        assert!(
+            decode(&bytes, &DecodeOptions::default())
+                .unwrap()
+                .colour
+                .is_none()
+        );
     }
 
     #[test]
     fn bad_files_are_errors() {
-        let limits = Limits::default();
+        let limits = DecodeOptions::default();
         let short = &encode_gray(4, 4, &[1.0; 16])[..30];
         assert!(matches!(
             decode(short, &limits),

@@ -4,7 +4,8 @@
 //! Values are `m · 2^(e − 136)` exactly (no +0.5 offset); `EXPOSURE` is ignored; XYZE gives Y
 //! directly. Decoding is exact in f64.
 
-use super::{DecodeError, FloatPlane, Format, Limits, luminance, validate_float};
+use super::{DecodeError, DecodeOptions, FloatPlane, Format, Limits, luminance, validate_float};
+use crate::image::colour::ColourCopy;
 use ndarray::Array2;
 
 const FORMAT: Format = Format::Hdr;
@@ -32,13 +33,17 @@ impl RgbePicture {
 }
 
 /// Decode and validate (finite, non-negative): the image-input path.
-pub(crate) fn decode(bytes: &[u8], limits: &Limits) -> Result<FloatPlane, DecodeError> {
-    let picture = read(bytes, limits)?;
+pub(crate) fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<FloatPlane, DecodeError> {
+    let picture = read(bytes, &options.limits)?;
     let luminance = picture.luminance();
     validate_float(&luminance, 0)?;
+    // XYZE holds no RGB: its colour is not read.
+    let colour = (options.colour && !picture.xyz)
+        .then(|| ColourCopy::new(picture.width, picture.height, |i| picture.pixels[i]));
     Ok(FloatPlane {
         luminance,
         alpha: None,
+        colour,
     })
 }
 
