@@ -24,6 +24,8 @@ fuzz_target!(|data: &[u8]| {
             max_height: 1024,
             max_pixels: 1 << 20,
         },
+        // The colour copy is decoded too, so that its path is fuzzed with the rest.
+        colour: true,
     };
     let Ok(image) = decode(data, &options) else {
         return;
