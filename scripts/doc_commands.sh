@@ -7,6 +7,9 @@
 #   DOC_COMMANDS_SLOW=1 scripts/doc_commands.sh  # also the long blocks (hours)
 #   scripts/doc_commands.sh --list               # list every code block and its tag
 #
+# Nothing beside the repository is needed: CI runs this from a copy of the repository with no
+# ../shared next to it (.ci/run). Only DOC_COMMANDS_SLOW=1 needs ../shared/data/probes.
+#
 # Conventions (also in docs/development.md, "Documentation commands"):
 #
 # * ```sh blocks are executed; ```text, ```json (and ```console, ```yaml) blocks are shown,
@@ -43,7 +46,7 @@
 #   next version, tests read versions from answers rather than assuming numbers.
 #
 # Needs: bash, python3, curl, jq (installed with apt-get when missing and run as root),
-# setsid, ../shared beside the repository, and the ports 8080, 8081, 8090 and 8091 free.
+# setsid, and the ports 8080, 8081, 8090 and 8091 free.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 cd "$ROOT"
@@ -57,9 +60,14 @@ fi
 [ ${#FILES[@]} -eq 0 ] && FILES=(README.md docs/*.md)
 
 die() { echo "doc_commands: $*" >&2; exit 1; }
+export DOC_COMMANDS_SLOW=${DOC_COMMANDS_SLOW:-0}
 
-[ -d ../shared/data/probes ] && [ -d ../shared/data/classes ] \
-  || die "../shared (light probes and classes) must be beside the repository"
+# README.md and docs/ need nothing beside the repository (the light probes and class files
+# they read are shipped in data/probes and data/classes); only the slow blocks read the full
+# probe set of the project's development data, ../shared.
+if [ "$DOC_COMMANDS_SLOW" = 1 ] && ! [ -d ../shared/data/probes ]; then
+  die "DOC_COMMANDS_SLOW=1: the slow blocks need ../shared/data/probes (the 70 light probes) beside the repository"
+fi
 command -v curl >/dev/null || die "curl is needed"
 command -v setsid >/dev/null || die "setsid (util-linux) is needed"
 if ! command -v jq >/dev/null; then
@@ -104,7 +112,6 @@ else
 fi
 export PATH="$ROOT/target/release:$PATH"
 export DOC_ROOT="$ROOT" DOC_SERVERS="$SERVERS_FILE"
-export DOC_COMMANDS_SLOW=${DOC_COMMANDS_SLOW:-0}
 
 START=$SECONDS
 n=0

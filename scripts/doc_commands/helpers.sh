@@ -50,8 +50,9 @@ __doc_skip_block() {
   echo "--- $1: skipped, $2"
 }
 
+# On stderr: a skipped command adds nothing to the block's output, which an expect block checks.
 __doc_skip_line() {
-  echo "(skipped: $1 — $2)"
+  echo "(skipped: $1 — $2)" >&2
 }
 
 # __doc_serve PORT USES_CARGO COMMAND — start a server in its own process group and wait
