@@ -619,9 +619,16 @@ function wire() {
     state.rect = [x, y, w, h].every(Number.isFinite) ? { x, y, w, h } : null;
     draw();
   });
+  // The card's rectangle and reflectance mean something only with a card (also when the
+  // browser restores a choice of the card on reload).
+  const showWhiteFields = () => {
+    $("rect-help").hidden = whiteMode() !== "rect";
+    $("white-reflectance-field").hidden = whiteMode() !== "rect";
+  };
+  showWhiteFields();
   for (const radio of document.querySelectorAll('input[name="white-mode"]')) {
     radio.addEventListener("change", () => {
-      $("rect-help").hidden = whiteMode() !== "rect";
+      showWhiteFields();
       if (whiteMode() === "value") {
         $("white-value").focus();
       }

@@ -5,9 +5,10 @@
 //! fits a phone's width; `/docs` renders the served OpenAPI document.
 //!
 //! Needs Debian's `chromium` and `chromium-driver` (`.ci/run` installs them). Without them the
-//! test is marked ignored, with the reason in the summary (`build.rs` decides at build time:
-//! `touch build.rs` after installing them), unless `REFLECTANCE_REQUIRE_BROWSER=1` (set by
-//! `.ci/run`), with which it runs and fails if they are missing.
+//! test is marked ignored, with the reason in the summary (`build.rs` decides at build time
+//! and notices their installation by itself: the next `cargo test` runs it), unless
+//! `REFLECTANCE_REQUIRE_BROWSER=1` (set by `.ci/run`), with which it runs and fails if they
+//! are missing.
 //! `REFLECTANCE_UPDATE_SCREENSHOT=1` rewrites `docs/page.jpg` from the run.
 
 use crate::common;
@@ -294,11 +295,27 @@ fn adjust_the_circle(browser: &Browser, (cx, r): (f64, f64)) {
     assert!((browser.number("r") - r).abs() < 3.0);
 }
 
+/// Whether the card's reflectance field is shown (it is only with a white card).
+fn card_reflectance_shown(browser: &Browser) -> bool {
+    browser
+        .script("return document.getElementById('white-reflectance').getClientRects().length > 0;")
+        .as_bool()
+        .unwrap()
+}
+
 fn outline_the_white_card(browser: &Browser) {
     browser.find("input[name='white-mode'][value='rect']");
+    assert!(
+        !card_reflectance_shown(browser),
+        "the card's reflectance is shown without a card"
+    );
     browser.script(
         "const radio = document.querySelector(\"input[name='white-mode'][value='rect']\"); \
          radio.click();",
+    );
+    assert!(
+        card_reflectance_shown(browser),
+        "the card's reflectance is hidden"
     );
     browser.drag(
         browser.on_canvas(100.0, 640.0, PHOTO_WIDTH),
@@ -467,7 +484,7 @@ fn keep_the_screenshot(png: &[u8]) {
 
 #[cfg_attr(
     not(browser),
-    ignore = "needs chromium and chromedriver (Debian: chromium chromium-driver; then touch build.rs)"
+    ignore = "needs chromium and chromedriver (Debian: chromium chromium-driver)"
 )]
 #[test]
 fn the_page_classifies_a_photograph_in_a_real_browser() {
@@ -532,4 +549,16 @@ fn classify_and_read_the_answer_on_a_phone(browser: &Browser) {
            .map(e => `${e.tagName}#${e.id}.${e.className}`);",
     );
     assert_eq!(overflow, json!([]), "wider than a phone's screen");
+    // Every class name whole, on one line: not cut, not broken.
+    let cut = browser.script(
+        "return [...document.querySelectorAll('#bars .name')].filter(e => { \
+           const range = document.createRange(); range.selectNodeContents(e); \
+           return e.scrollWidth > e.clientWidth + 0.5 || range.getClientRects().length !== 1; \
+         }).map(e => e.textContent);",
+    );
+    assert_eq!(cut, json!([]), "class names cut on a phone");
+    assert!(
+        !card_reflectance_shown(browser),
+        "the card's reflectance is shown with the white reference \"none\""
+    );
 }
