@@ -48,7 +48,11 @@ def test_an_array_is_classified_and_a_picture_of_nothing_is_out_of_domain():
     assert answer["geometry"]["method"] == "given"
     noise = np.random.default_rng(3).random((256, 256))
     odd = model.classify(noise, cx=c, cy=c, r=100, white=1.0)
+    # Flagged by the domain check alone (outline and typicality), not the capture envelope:
+    # the verdict the model's one source gives, as on every other surface.
     assert odd["domain"]["in_domain"] is False, odd["domain"]
+    assert len(odd["domain"]["reasons"]) == 2, odd["domain"]
+    assert not any("noise" in reason for reason in odd["domain"]["reasons"]), odd["domain"]
 
 
 def test_bad_models_and_arguments_are_python_errors(tmp_path):

@@ -149,7 +149,75 @@ fn classify_writes_the_material_the_answer_names() {
         material["pbrMetallicRoughness"]["metallicFactor"], 0.0,
         "a dielectric"
     );
-    assert!(number(&material["extensions"]["KHR_materials_ior"]["ior"]) > 1.0);
+    // The pinned factors, from the mapping's formulas written out here: F0 of the ior
+    // ((n − 1)/(n + 1))², near the 0.08 of ρs 0.1 (ρs 0.105 gives a little more); the base
+    // colour ρd / (1 − F0) with ρd 0.287 (ρs there instead would give 0.11); the GGX
+    // roughness √(0.7 α).
+    let ior = number(&material["extensions"]["KHR_materials_ior"]["ior"]);
+    let f0 = ((ior - 1.0) / (ior + 1.0)).powi(2);
+    assert!((0.079..0.095).contains(&f0), "F0 {f0} (ior {ior})");
+    let pbr = &material["pbrMetallicRoughness"];
+    let base = number(&pbr["baseColorFactor"][0]);
+    assert!(
+        (base - number(&ward["rho_d"]) / (1.0 - f0)).abs() < 1e-9,
+        "{pbr}"
+    );
+    assert!((base - 0.287 / (1.0 - f0)).abs() < 1e-3, "{pbr}");
+    let roughness = number(&pbr["roughnessFactor"]);
+    assert!(
+        (roughness.powi(2) - 0.7 * number(&ward["alpha"])).abs() < 1e-9,
+        "{pbr}"
+    );
+}
+
+/// `gltf --classes`: one file per class, each with its own parameters in `extras.ward`
+/// and the factors of the mapping: a matte's base colour is ρd, chrome's a metal's F0
+/// (ρs − 1/21)/(1 − 1/21), a mirror's roughness 0.
+#[test]
+fn every_class_of_a_class_file_as_gltf() {
+    let dir = temp("classes");
+    let classes = dir.join("classes.json");
+    std::fs::write(
+        &classes,
+        r#"{"classes": [{"name": "matte", "rho_d": 0.9, "rho_s": 0.0, "alpha": 0.0},
+                        {"name": "chrome", "rho_d": 0.0, "rho_s": 0.75, "alpha": 0.0},
+                        {"name": "glossy", "rho_d": 0.25, "rho_s": 0.1, "alpha": 0.02}]}"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    assert_success(&reflectance(&[
+        "gltf",
+        "--classes",
+        classes.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    let matte = document(&out.join("matte.gltf"));
+    assert_eq!(matte["extras"]["ward"]["rho_d"], 0.9);
+    assert_eq!(matte["extras"]["ward"]["rho_s"], 0.0);
+    let pbr = &matte["materials"][0]["pbrMetallicRoughness"];
+    assert_eq!(pbr["metallicFactor"], 0.0);
+    assert!(
+        (number(&pbr["baseColorFactor"][0]) - 0.9).abs() < 1e-6,
+        "{pbr}"
+    );
+    let chrome = document(&out.join("chrome.gltf"));
+    assert_eq!(chrome["extras"]["ward"]["rho_d"], 0.0);
+    assert_eq!(chrome["extras"]["ward"]["rho_s"], 0.75);
+    let pbr = &chrome["materials"][0]["pbrMetallicRoughness"];
+    assert_eq!(pbr["metallicFactor"], 1.0);
+    assert_eq!(number(&pbr["roughnessFactor"]), 0.0);
+    let metal = (0.75 - 1.0 / 21.0) / (1.0 - 1.0 / 21.0);
+    assert!(
+        (number(&pbr["baseColorFactor"][0]) - metal).abs() < 1e-6,
+        "{pbr}"
+    );
+    // ρs 0.1 → F0 0.07993 (solved independently in numpy), as in the single material.
+    let glossy = document(&out.join("glossy.gltf"));
+    assert_eq!(glossy["extras"]["ward"]["rho_d"], 0.25);
+    assert_eq!(glossy["extras"]["ward"]["rho_s"], 0.1);
+    let pbr = &glossy["materials"][0]["pbrMetallicRoughness"];
+    assert!((number(&pbr["baseColorFactor"][0]) - 0.25 / (1.0 - 0.07993)).abs() < 1e-3);
 }
 
 /// A flat RGB "sphere" of linear (0.5, 0.25, 0.125) beside a white card of 0.8: the colour

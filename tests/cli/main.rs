@@ -7,6 +7,7 @@ mod common;
 mod dataset;
 mod features;
 mod gltf;
+mod honest;
 mod models;
 mod render;
 mod report;

@@ -174,7 +174,9 @@ pub struct Decision {
 }
 
 impl Decision {
-    /// Out of domain: a check failed, or the capture is outside the envelope.
+    /// Out of domain: a check failed, or the capture is outside the envelope. The one
+    /// source of the verdict: every surface (`/v1`'s [`Decision::domain`], V2 and gRPC's
+    /// `in_domain`, `reflectance predict`'s CSV, the command line and Python) reads it here.
     pub fn in_domain(&self) -> bool {
         self.verdict.as_ref().is_none_or(Verdict::in_domain) && self.envelope.is_empty()
     }
@@ -1010,7 +1012,8 @@ impl Classified {
 }
 
 impl Decision {
-    /// The domain, with the envelope's warnings among the reasons.
+    /// The domain, with the envelope's warnings among the reasons; its verdict is
+    /// [`Decision::in_domain`]'s.
     pub fn domain(&self) -> DomainOut {
         let mut reasons = Vec::new();
         if let Some(v) = &self.verdict {
@@ -1018,7 +1021,7 @@ impl Decision {
         }
         reasons.extend(self.envelope.iter().cloned());
         DomainOut {
-            in_domain: reasons.is_empty(),
+            in_domain: self.in_domain(),
             score: self.verdict.as_ref().map(|v| v.score),
             threshold: self.verdict.as_ref().map(|v| v.threshold),
             reasons,

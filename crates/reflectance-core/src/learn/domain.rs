@@ -462,12 +462,18 @@ mod tests {
             typical.in_domain() && typical.failed().is_empty(),
             "{typical:?}"
         );
+        // Each flagged input is out of domain, by the check that flags it.
         let far = check.verdict(&[5.0, 5.0, 5.0, 5.0], &[0.8, -0.5]);
         assert_eq!(far.failed(), [CheckKind::Typicality]);
+        assert!(!far.in_domain(), "{far:?}");
         let no_outline = check.verdict(&[0.1, -0.2, 0.3, 0.0], &[0.1, -0.5]);
         assert_eq!(no_outline.failed(), [CheckKind::Outline]);
+        assert!(!no_outline.in_domain(), "{no_outline:?}");
+        // The brightness bound alone: the statistics pass, the bound is broken.
         let bright = check.verdict(&[0.1, -0.2, 0.3, 0.0], &[0.8, 1.0]);
         assert_eq!(bright.failed(), [CheckKind::Brightness]);
+        assert!(bright.score <= bright.threshold, "{bright:?}");
+        assert!(!bright.in_domain(), "{bright:?}");
         // Nothing held out: no check.
         let always: Vec<Option<usize>> = vec![None; n];
         let rows = Rows {

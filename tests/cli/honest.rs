@@ -1,0 +1,145 @@
+//! The honest parts of an answer through the real binary, with the shipped models and known
+//! answers: a calibrated prediction set of more than the top label (`classify --json`), and
+//! a picture of nothing out of domain in `classify --json` and `predict`'s CSV (the same
+//! verdict the service gives, tests/server/honest.rs).
+
+use crate::common::{assert_success, fixtures};
+use reflectance::util::rng::Rng;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+
+fn temp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!(
+        "reflectance-cli-honest-{}-{name}",
+        std::process::id()
+    ));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Grey noise the size of the README's sphere, 8-bit values 96–159 (as the server test's):
+/// flagged by the outline and typicality checks, inside the capture envelope.
+fn write_noise(path: &Path) {
+    let mut rng = Rng::new(3);
+    let noise = image::GrayImage::from_fn(196, 191, |_, _| image::Luma([96 + rng.below(64) as u8]));
+    noise.save(path).unwrap();
+}
+
+/// `classify --json` of `image` with the README's circle and white 0.8.
+fn classify(model: &str, image: &Path, extra: &[&str]) -> Value {
+    let mut args = vec![
+        "classify",
+        image.to_str().unwrap(),
+        "--model",
+        model,
+        "--white",
+        "0.8",
+        "--cx",
+        "96.5",
+        "--cy",
+        "94.25",
+        "--r",
+        "85",
+        "--json",
+    ];
+    args.extend_from_slice(extra);
+    let out = Command::new(env!("CARGO_BIN_EXE_reflectance"))
+        .args(&args)
+        .current_dir(ROOT)
+        .output()
+        .unwrap();
+    assert_success(&out);
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+fn labels(doc: &Value) -> Vec<&str> {
+    doc["prediction_set"]["labels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l.as_str().unwrap())
+        .collect()
+}
+
+/// ward11 on the README's sphere with its white: K alone at 50 %, K and J at 95 % (K's
+/// probability 0.825 puts J's score 0.835 under the 95 % threshold 0.838).
+#[test]
+fn classify_names_a_calibrated_set_of_two_labels() {
+    let sphere = fixtures().join("features/sphere_rgb8.png");
+    let narrow = classify("models/ward11", &sphere, &["--coverage", "0.5"]);
+    assert_eq!(labels(&narrow), ["K"], "{narrow}");
+    let wide = classify("models/ward11", &sphere, &[]);
+    assert_eq!(labels(&wide), ["K", "J"], "{wide}");
+    assert_eq!(wide["domain"]["in_domain"], true, "{}", wide["domain"]);
+}
+
+/// A picture of nothing is out of domain in `classify --json` and in `predict`'s CSV, the
+/// README's sphere in domain.
+#[test]
+fn a_picture_of_nothing_is_out_of_domain_in_classify_and_predict() {
+    let dir = temp("nothing");
+    let noise = dir.join("noise.png");
+    write_noise(&noise);
+    for model in ["models/ward6", "models/ward11"] {
+        let doc = classify(model, &noise, &[]);
+        assert_eq!(
+            doc["domain"]["in_domain"], false,
+            "{model}: {}",
+            doc["domain"]
+        );
+        assert_eq!(
+            doc["domain"]["reasons"].as_array().unwrap().len(),
+            2,
+            "{}",
+            doc["domain"]
+        );
+    }
+    std::fs::copy(
+        fixtures().join("features/sphere_rgb8.png"),
+        dir.join("sphere.png"),
+    )
+    .unwrap();
+    let manifest = dir.join("manifest.csv");
+    std::fs::write(
+        &manifest,
+        "path,class,illumination,cx,cy,r,white\n\
+         sphere.png,chrome,x,96.5,94.25,85,0.8\n\
+         noise.png,chrome,x,96.5,94.25,85,0.8\n",
+    )
+    .unwrap();
+    let out_csv = dir.join("p.csv");
+    let out = Command::new(env!("CARGO_BIN_EXE_reflectance"))
+        .args([
+            "predict",
+            "--model",
+            "models/ward6",
+            "--manifest",
+            manifest.to_str().unwrap(),
+            "--out",
+            out_csv.to_str().unwrap(),
+        ])
+        .current_dir(ROOT)
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let csv = std::fs::read_to_string(&out_csv).unwrap();
+    let rows: Vec<Vec<&str>> = csv.lines().map(|l| l.split(',').collect()).collect();
+    let column = |name: &str| rows[0].iter().position(|c| *c == name).unwrap();
+    let (path, in_domain, failed) = (column("path"), column("in_domain"), column("domain_failed"));
+    assert_eq!(rows.len(), 3, "{csv}");
+    assert_eq!(
+        (rows[1][path], rows[1][in_domain]),
+        ("sphere.png", "true"),
+        "{csv}"
+    );
+    assert_eq!(rows[1][failed], "", "{csv}");
+    assert_eq!(
+        (rows[2][path], rows[2][in_domain]),
+        ("noise.png", "false"),
+        "{csv}"
+    );
+    assert_eq!(rows[2][failed], "outline typicality", "{csv}");
+}
