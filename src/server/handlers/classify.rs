@@ -60,18 +60,19 @@ pub struct RawInput {
     #[schema(value_type = String, format = Binary, required = true)]
     pub image: Option<Bytes>,
     /// Linear luminance of an ideal white surface at the sphere (finite, > 0).
-    #[schema(value_type = f64, required = false)]
+    #[schema(value_type = f64, required = false, exclusive_minimum = 0.0)]
     pub white: Option<String>,
     /// A crop of a white card (its median luminance is the white reference); not with `white`.
     #[schema(value_type = String, format = Binary, required = false)]
     pub white_image: Option<Bytes>,
     /// Reflectance of the white card in (0, 1] (default 1); only with `white_image` or
     /// `white_rect`.
-    #[schema(value_type = f64, required = false)]
+    #[schema(value_type = f64, required = false, exclusive_minimum = 0.0, maximum = 1.0)]
     pub white_reflectance: Option<String>,
     /// A white card inside the photograph: the rectangle `x,y,w,h` in pixels (left, top,
     /// width, height; every pixel it touches counts); not with `white` or `white_image`.
-    #[schema(value_type = String, required = false, example = "40,300,120,80")]
+    #[schema(value_type = String, required = false, example = "40,300,120,80",
+        pattern = "^ *-?[0-9]+(\\.[0-9]+)? *, *-?[0-9]+(\\.[0-9]+)? *, *[0-9]+(\\.[0-9]+)? *, *[0-9]+(\\.[0-9]+)? *$")]
     pub white_rect: Option<String>,
     /// Sphere centre x (column) in pixels; give cx, cy and r together.
     #[schema(value_type = f64, required = false)]
@@ -80,21 +81,22 @@ pub struct RawInput {
     #[schema(value_type = f64, required = false)]
     pub cy: Option<String>,
     /// Sphere radius in pixels (≥ 32).
-    #[schema(value_type = f64, required = false)]
+    #[schema(value_type = f64, required = false, minimum = 32.0)]
     pub r: Option<String>,
     /// A mask image of the sphere (same size; alpha, or luminance ≥ 0.5); not with cx/cy/r.
     #[schema(value_type = String, format = Binary, required = false)]
     pub mask: Option<Bytes>,
     /// How integer samples are linearized: `srgb` (default), `linear` or `gamma:<g>`.
-    #[schema(value_type = String, required = false, example = "srgb")]
+    #[schema(value_type = String, required = false, example = "srgb", pattern = "^(srgb|linear|gamma:[0-9]+(\\.[0-9]+)?)$")]
     pub encoding: Option<String>,
     /// Extra output: `features` (all extracted features), `explain` (nearest training
     /// images, with thumbnails) and/or `images` (the unwrapped annulus and the subbands as
     /// PNG); comma-separated or repeated.
-    #[schema(value_type = String, required = false, example = "features,explain,images")]
+    #[schema(value_type = String, required = false, example = "features,explain,images",
+        pattern = "^[ ,]*((features|explain|images)[ ,]*)*$")]
     pub include: Vec<String>,
     /// The prediction set's coverage, from 0.5 to 0.999 (default 0.95).
-    #[schema(value_type = f64, required = false, example = 0.9)]
+    #[schema(value_type = f64, required = false, example = 0.9, minimum = 0.5, maximum = 0.999)]
     pub coverage: Option<String>,
 }
 

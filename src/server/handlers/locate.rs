@@ -21,10 +21,11 @@ pub struct LocateForm {
     #[schema(value_type = String, format = Binary)]
     image: Vec<u8>,
     /// How integer samples are linearized: `srgb` (default), `linear` or `gamma:<g>`.
-    #[schema(value_type = String, required = false, example = "srgb")]
+    #[schema(value_type = String, required = false, example = "srgb", pattern = "^(srgb|linear|gamma:[0-9]+(\\.[0-9]+)?)$")]
     encoding: Option<String>,
     /// `preview`: also return the image as a grey PNG (for formats browsers cannot show).
-    #[schema(value_type = String, required = false, example = "preview")]
+    #[schema(value_type = String, required = false, example = "preview",
+        pattern = "^[ ,]*(preview[ ,]*)*$")]
     include: Option<String>,
 }
 

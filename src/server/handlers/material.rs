@@ -30,7 +30,10 @@ pub struct MaterialQuery {
     name: Option<String>,
     /// The material's colour: linear `r,g,b` relative to white (any scale; the grey
     /// value keeps its luminance). Default: grey.
-    #[param(example = "0.62,0.31,0.22")]
+    #[param(
+        example = "0.62,0.31,0.22",
+        pattern = "^ *[0-9]+(\\.[0-9]+)? *, *[0-9]+(\\.[0-9]+)? *, *[0-9]+(\\.[0-9]+)? *$"
+    )]
     colour: Option<String>,
     /// `gltf` (JSON with the buffer embedded, the default) or `glb` (binary glTF).
     #[param(inline)]

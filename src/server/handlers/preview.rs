@@ -21,15 +21,20 @@ use utoipa::IntoParams;
 #[serde(deny_unknown_fields)]
 pub struct PreviewQuery {
     /// Diffuse reflectance ρd ≥ 0 (ρd + ρs ≤ 1).
+    #[param(minimum = 0.0, maximum = 1.0)]
     rho_d: f64,
     /// Specular reflectance ρs ≥ 0.
+    #[param(minimum = 0.0, maximum = 1.0)]
     rho_s: f64,
     /// Ward roughness α: 0 is a mirror; at most 0.5.
+    #[param(minimum = 0.0, maximum = 0.5)]
     alpha: f64,
     /// The illumination: `sky-1` (default) … `sky-4`, procedural maps with the statistics of
     /// natural light.
+    #[param(pattern = "^sky-[1-4]$")]
     probe: Option<String>,
     /// Image size in pixels, 72–384 (default 192); the sphere's radius is size / 2.2.
+    #[param(minimum = 72, maximum = 384)]
     size: Option<usize>,
 }
 

@@ -73,6 +73,9 @@ pub struct InferInput {
     pub name: String,
     pub shape: Vec<i64>,
     /// `BYTES` for files and text; a number type (`FP64`, `FP32`, `INT32`, …) for numbers.
+    #[schema(
+        pattern = "^(BOOL|UINT8|UINT16|UINT32|UINT64|INT8|INT16|INT32|INT64|FP16|FP32|FP64|BYTES)$"
+    )]
     pub datatype: String,
     /// `binary_data_size`: the element bytes are in the binary part of the body.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -81,7 +84,7 @@ pub struct InferInput {
     /// The elements, flat or nested by the shape: files as base64 strings, text as
     /// strings, numbers as numbers. Absent with `binary_data_size`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(value_type = Option<Vec<Object>>)]
+    #[schema(value_type = Option<Vec<Value>>)]
     pub data: Option<Value>,
 }
 
@@ -121,7 +124,7 @@ pub struct InferOutput {
     pub parameters: Option<Value>,
     /// Strings (BYTES), numbers (FP64) or booleans (BOOL); absent when binary.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    #[schema(value_type = Option<Vec<Object>>)]
+    #[schema(value_type = Option<Vec<Value>>)]
     pub data: Option<Vec<Value>>,
 }
 
@@ -133,6 +136,13 @@ pub struct InferResponse {
     pub id: Option<String>,
     pub outputs: Vec<InferOutput>,
 }
+
+/// A body of the binary tensor data extension: the request's (or answer's) JSON, its length
+/// in `Inference-Header-Content-Length`, then the tensors' bytes.
+#[derive(ToSchema)]
+#[schema(value_type = String, format = Binary)]
+#[allow(dead_code, reason = "a type for the OpenAPI document, never built")]
+pub struct BinaryTensorData(Vec<u8>);
 
 /// A problem on the protocol's routes: the problem document with the message again in
 /// `error`, where the protocol's clients read it.
@@ -602,18 +612,20 @@ async fn infer_with(
     Ok(response)
 }
 
-/// Classify one image with the model's active version.
+/// Classify one image with the model's active version. The body is JSON, or with the
+/// binary tensor data extension the JSON (its length in the `Inference-Header-Content-Length`
+/// header) followed by the inputs' bytes; gzip or deflate (`Content-Encoding`) bodies are
+/// read too.
 #[utoipa::path(post, operation_id = "v2_infer", path = "/v2/models/{name}/infer", tag = "kserve-v2",
-    params(("name" = String, Path, description = "Model name", example = "ward6"),
-           ("Inference-Header-Content-Length" = Option<u64>, Header, description = "The binary tensor data extension: the length of the JSON part; the rest of the body is the inputs' binary data")),
+    params(("name" = String, Path, description = "Model name", example = "ward6")),
     request_body(content(
         (InferRequest = "application/json"),
-        (Vec<u8> = "application/octet-stream"))),
+        (BinaryTensorData = "application/octet-stream"))),
     responses(
         (status = 200, description = "Inference result: JSON, or (outputs asked for as binary data) the JSON followed by their bytes, its length in `Inference-Header-Content-Length`",
          content(
             (InferResponse = "application/json"),
-            (Vec<u8> = "application/octet-stream")),
+            (BinaryTensorData = "application/octet-stream")),
          headers(("x-model-version" = u32, description = "The model version that answered"),
                  ("inference-header-content-length" = Option<u64>, description = "With binary outputs: the length of the JSON part"))),
         (status = 400, description = "Malformed JSON or binary data (`malformed-request`)", body = V2Problem, content_type = "application/problem+json"),
@@ -634,16 +646,15 @@ pub async fn infer(
 /// Classify one image with a version the registry holds.
 #[utoipa::path(post, operation_id = "v2_infer_version", path = "/v2/models/{name}/versions/{version}/infer", tag = "kserve-v2",
     params(("name" = String, Path, description = "Model name", example = "ward6"),
-           ("version" = String, Path, description = "A version the registry holds", example = "1", pattern = "^[1-9][0-9]{0,8}$"),
-           ("Inference-Header-Content-Length" = Option<u64>, Header, description = "The binary tensor data extension: the length of the JSON part")),
+           ("version" = String, Path, description = "A version the registry holds", example = "1", pattern = "^[1-9][0-9]{0,8}$")),
     request_body(content(
         (InferRequest = "application/json"),
-        (Vec<u8> = "application/octet-stream"))),
+        (BinaryTensorData = "application/octet-stream"))),
     responses(
         (status = 200, description = "Inference result (as for the active version)",
          content(
             (InferResponse = "application/json"),
-            (Vec<u8> = "application/octet-stream")),
+            (BinaryTensorData = "application/octet-stream")),
          headers(("x-model-version" = u32, description = "The model version that answered"),
                  ("inference-header-content-length" = Option<u64>, description = "With binary outputs: the length of the JSON part"))),
         (status = 400, description = "Malformed JSON or binary data (`malformed-request`)", body = V2Problem, content_type = "application/problem+json"),
