@@ -46,7 +46,8 @@
 #   next version, tests read versions from answers rather than assuming numbers.
 #
 # Needs: bash, python3, curl, jq (installed with apt-get when missing and run as root),
-# setsid, and the ports 8080, 8081, 8090 and 8091 free.
+# setsid, perl, tritonclient (docs/service.md's client example), and the ports 8080, 8081,
+# 8090, 8091, 8092 and 8001 free.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 cd "$ROOT"

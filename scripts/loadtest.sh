@@ -3,6 +3,9 @@
 # connections, wrk. Prints requests/s, latency percentiles and the server's peak RSS.
 #
 #   scripts/loadtest.sh                 # 20 s, 32 connections, 2 wrk threads
+#   ROUTES="v1 v2 v1 v2" scripts/loadtest.sh   # also the same request as Open Inference
+#                                       # Protocol binary tensor data (POST /v2/models/M/infer),
+#                                       # alternating, on one server
 #   DURATION=60s CONNECTIONS=64 scripts/loadtest.sh
 #   MODELS=models scripts/loadtest.sh   # a registry with ward6 (default: train one from the fixture table)
 #   MODELS=models MODEL=ward11 scripts/loadtest.sh   # any model of the registry
@@ -15,6 +18,7 @@ CONNECTIONS=${CONNECTIONS:-32}
 THREADS=${THREADS:-2}
 PORT=${PORT:-18080}
 MODEL=${MODEL:-ward6}
+ROUTES=${ROUTES:-v1}
 
 if ! command -v wrk >/dev/null; then
   echo "== installing wrk" >&2
@@ -69,8 +73,15 @@ echo >&2
   done ) &
 SAMPLER_PID=$!
 
-echo "== wrk: $CONNECTIONS connections, $THREADS threads, $DURATION, 256×256 PNG → POST /v1/classify" >&2
-IMAGE="$WORK/sphere.png" wrk -t"$THREADS" -c"$CONNECTIONS" -d"$DURATION" --latency \
-  -s scripts/loadtest/classify.lua "http://127.0.0.1:$PORT/v1/classify"
+for route in $ROUTES; do
+  case $route in
+    v1) script=classify.lua url=/v1/classify ;;
+    v2) script=v2_infer.lua url=/v2/models/$MODEL/infer ;;
+    *) echo "unknown route $route (v1 or v2)" >&2; exit 2 ;;
+  esac
+  echo "== wrk: $CONNECTIONS connections, $THREADS threads, $DURATION, 256×256 PNG → POST $url" >&2
+  IMAGE="$WORK/sphere.png" wrk -t"$THREADS" -c"$CONNECTIONS" -d"$DURATION" --latency \
+    -s "scripts/loadtest/$script" "http://127.0.0.1:$PORT$url"
+done
 
 echo "server peak RSS: $(( $(cat "$WORK/rss" 2>/dev/null || echo 0) / 1024 )) MiB"
