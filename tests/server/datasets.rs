@@ -322,3 +322,123 @@ async fn uploads_that_cannot_be_used_are_refused_whole_and_leave_nothing() {
     assert_eq!(list["datasets"], json!([]));
     assert!(leftovers(&data).is_empty(), "{:?}", leftovers(&data));
 }
+
+/// A tar of `manifest` at the root, `members` (archive path, file) and `links` (archive
+/// path, target) as symbolic links.
+fn tar_with_links(
+    manifest: &[u8],
+    members: &[(String, PathBuf)],
+    links: &[(&str, &Path)],
+) -> Vec<u8> {
+    let mut builder = tar::Builder::new(Vec::new());
+    let mut header = tar::Header::new_gnu();
+    header.set_size(manifest.len() as u64);
+    header.set_mode(0o644);
+    header.set_cksum();
+    builder
+        .append_data(&mut header, "manifest.csv", manifest)
+        .unwrap();
+    for (name, file) in members {
+        builder.append_path_with_name(file, name).unwrap();
+    }
+    for (name, target) in links {
+        let mut header = tar::Header::new_gnu();
+        header.set_entry_type(tar::EntryType::Symlink);
+        header.set_size(0);
+        header.set_mode(0o777);
+        builder.append_link(&mut header, name, target).unwrap();
+    }
+    builder.into_inner().unwrap()
+}
+
+/// Manifest rows that leave the archive are refused by name, whatever the rest holds: an
+/// absolute path to an image elsewhere on the server (one of the fixture's own files), a
+/// path through `..` (to an image the archive does hold) and a path through a symbolic
+/// link to a folder outside (the link itself refused as a member). Among usable rows the
+/// upload keeps the 12 images of the archive, not 13 or more; alone, each is a 422 whose
+/// detail names it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn manifest_rows_that_leave_the_archive_are_refused_by_name() {
+    let (server, data) = server("datasets-escape", |_| {});
+    let dir = data.join("../upload-escape");
+    std::fs::create_dir_all(&dir).unwrap();
+    let (manifest, members) = dataset_files(&dir, 4);
+    let manifest = String::from_utf8(manifest).unwrap();
+    // The first row with a circle: its fields after the path are reused.
+    let row = manifest.lines().nth(2).unwrap();
+    let (name, rest) = row.split_once(',').unwrap();
+    let file = &members.iter().find(|(n, _)| n == name).unwrap().1;
+    let absolute = std::fs::canonicalize(file).unwrap();
+    let (light, base) = name.split_once('/').unwrap();
+    let other = if light == "probe0" {
+        "probe1"
+    } else {
+        "probe0"
+    };
+    let escapes = [
+        (
+            absolute.display().to_string(),
+            "leaves the dataset's folder",
+        ),
+        (format!("{other}/../{name}"), "leaves the dataset's folder"),
+        (format!("linked/{base}"), "no such image"),
+    ];
+    let folder = file.parent().unwrap();
+    let links = [("linked", folder)];
+    let mut all = manifest.clone();
+    for (path, _) in &escapes {
+        all.push_str(&format!("{path},{rest}\n"));
+    }
+    let bytes = tar_with_links(all.as_bytes(), &members, &links);
+    let answer = upload(&server, "escapes", &bytes).await;
+    assert_eq!(
+        answer.status,
+        201,
+        "{}",
+        String::from_utf8_lossy(&answer.body)
+    );
+    let info = answer.json();
+    assert_eq!(info["images"], 12, "{info}");
+    let refused = info["refused"].as_array().unwrap();
+    let reason_of = |path: &str| {
+        refused
+            .iter()
+            .find(|r| r["path"] == path)
+            .map(|r| r["reason"].as_str().unwrap().to_string())
+            .unwrap_or_else(|| panic!("{path} is not refused: {info}"))
+    };
+    for (path, why) in &escapes {
+        assert!(reason_of(path).contains(why), "{path}: {info}");
+    }
+    assert!(
+        reason_of("linked").contains("links are not accepted"),
+        "{info}"
+    );
+    let detail = send(&server.admin, authed(get("/admin/v1/datasets/escapes")))
+        .await
+        .json();
+    let kept = detail["manifest"].as_array().unwrap();
+    assert_eq!(kept.len(), 12);
+    assert!(
+        kept.iter().all(|r| {
+            let path = r["path"].as_str().unwrap();
+            !path.starts_with('/') && !path.contains("..") && !path.starts_with("linked")
+        }),
+        "{detail}"
+    );
+
+    // Each alone: nothing usable, and the problem names it.
+    for (k, (path, why)) in escapes.iter().enumerate() {
+        let alone = format!("path,class,illumination,cx,cy,r,white\n{path},{rest}\n");
+        let bytes = tar_with_links(alone.as_bytes(), &members, &links);
+        let problem = upload(&server, &format!("alone{k}"), &bytes)
+            .await
+            .problem(422, "unusable-dataset");
+        let detail = problem["detail"].as_str().unwrap();
+        assert!(
+            detail.contains(&format!("{path}: manifest line 2: ")) && detail.contains(why),
+            "{detail}"
+        );
+    }
+    assert!(leftovers(&data).is_empty(), "{:?}", leftovers(&data));
+}
