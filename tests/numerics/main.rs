@@ -10,5 +10,6 @@ mod decode_errors;
 mod detection;
 mod golden;
 mod learn_reference;
+mod real_photos;
 mod render_physics;
 mod resolution;
