@@ -689,21 +689,25 @@ fn spheres_are_found_in_photograph_like_composites() {
     for miss in &misses {
         eprintln!("miss {miss}");
     }
-    // The rates measured on 180 (docs/accuracy.md, 90 % in all), less a margin for the few
-    // each category gets in a short run: cut by the frame, low contrast and off the lens's
-    // axis are not yet at the others' level.
+    // The rates docs/accuracy.md reports on 180 composites (20 of each kind), applied to
+    // this run's count: 90 % in all, and each kind at least its own rate (rounded down to
+    // whole composites; the suite's run of 4 per kind found 34 of 36).
     assert!(
-        total as f64 >= 0.85 * count as f64,
+        total as f64 >= 0.9 * count as f64,
         "{total} of {count}: {misses:#?}"
     );
     for (category, (ok, n)) in CATEGORIES.iter().zip(&per_category) {
-        let floor = match category {
-            Category::CutByFrame | Category::LowContrast | Category::OffAxis => 0.5,
-            _ => 0.75,
+        let of_20 = match category {
+            Category::TableTop | Category::Large | Category::FillsFrame => 20,
+            Category::Scene | Category::CutByFrame | Category::Crowd => 18,
+            Category::Small => 16,
+            Category::LowContrast => 15,
+            Category::OffAxis => 17,
         };
+        let floor = (of_20 * n) / 20;
         assert!(
-            *ok as f64 >= floor * *n as f64,
-            "{category:?}: {ok} of {n} found: {misses:#?}"
+            *ok >= floor,
+            "{category:?}: {ok} of {n} found, docs/accuracy.md reports {of_20} of 20: {misses:#?}"
         );
     }
 }

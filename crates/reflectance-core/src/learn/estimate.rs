@@ -1005,10 +1005,19 @@ mod tests {
             details,
         } = fit(&ds, "test", &design, &FeatureSet::All, spec).unwrap();
         assert_eq!(report.errors.n, 360);
-        assert!(report.errors.mae_total < 0.05, "{report:?}");
+        // docs/accuracy.md reports the shipped estimator's total MAE at 0.028 and its log10 α
+        // MAE at 0.151 on the originals of 80 materials under 70 probes (5 600 renders, an
+        // hour to make): too large a setting for a unit test. These synthetic features are
+        // easier (0.019 / 0.016 total, 0.015 / 0.013 log10 α measured for the ridge and the
+        // trees), so the docs' figures bound them; ρs (docs 0.075) and mirror-or-not (docs
+        // 91.2 %) are held tighter here.
+        assert!(report.errors.mae_total <= 0.028, "{report:?}");
         assert!(report.errors.mae_rho_s < 0.05, "{report:?}");
         assert!(report.errors.mirror_accuracy > 0.95, "{report:?}");
-        assert!(report.errors.mae_log10_alpha.unwrap() < 0.2, "{report:?}");
+        assert!(
+            report.errors.mae_log10_alpha.unwrap() <= 0.151,
+            "{report:?}"
+        );
         for c in [
             report.errors.coverage_rho_d,
             report.errors.coverage_rho_s,
