@@ -16,7 +16,7 @@ cd "$(dirname "$0")/.."
 SECONDS_PER_TARGET=${SECONDS_PER_TARGET:-600}
 PARALLEL=${PARALLEL:-1}
 TARGETS=("$@")
-[ ${#TARGETS[@]} -eq 0 ] && TARGETS=(decode_features multipart_router model_file)
+[ ${#TARGETS[@]} -eq 0 ] && TARGETS=(decode_features multipart_router model_file archive_unpack)
 
 command -v cargo-fuzz >/dev/null || cargo install cargo-fuzz --locked
 export RUSTC_BOOTSTRAP=1

@@ -5,9 +5,13 @@ models (nothing is committed): fuzz/corpus/<target>/seed-*.
     python3 scripts/fuzz/seeds.py
 """
 import base64
+import gzip
+import io
 import json
 import pathlib
 import struct
+import tarfile
+import zipfile
 import zlib
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -86,6 +90,50 @@ def main():
         model = json.loads((ROOT / "models" / name / "1/model.json").read_text())
         model["exemplars"] = model.get("exemplars", [])[:3]
         write("model_file", name, json.dumps(model).encode())
+
+    # archive_unpack: a dataset archive as tar, tar.gz and zip (a manifest and an image),
+    # and the same with a member that leaves the folder and a link.
+    for name, data in archives().items():
+        write("archive_unpack", name, data)
+
+
+def tar_of(members, links=()):
+    out = io.BytesIO()
+    with tarfile.open(fileobj=out, mode="w", format=tarfile.GNU_FORMAT) as tar:
+        for name, data in members:
+            info = tarfile.TarInfo(name)
+            info.size = len(data)
+            tar.addfile(info, io.BytesIO(data))
+        for name, target in links:
+            info = tarfile.TarInfo(name)
+            info.type = tarfile.SYMTYPE
+            info.linkname = target
+            tar.addfile(info)
+    return out.getvalue()
+
+
+def zip_of(members):
+    out = io.BytesIO()
+    with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as archive:
+        for name, data in members:
+            archive.writestr(name, data)
+    return out.getvalue()
+
+
+def archives():
+    image = (FEATURES / "sphere_gray8.png").read_bytes()
+    manifest = (b"path,class,illumination,cx,cy,r,white\n"
+                b"probe0/a.png,shiny,probe0,52.35,48.7,40.3,1.0\n"
+                b"../b.png,shiny,probe1,,,,\n/etc/passwd,shiny,probe2,,,,\n")
+    members = [("manifest.csv", manifest), ("probe0/a.png", image)]
+    hostile = members + [("../b.png", b"x"), ("./probe0/../c.png", b"y")]
+    return {
+        "dataset.tar": tar_of(members),
+        "dataset.tar.gz": gzip.compress(tar_of(members), mtime=0),
+        "dataset.zip": zip_of(members),
+        "hostile.tar": tar_of(hostile, links=[("link", "/etc")]),
+        "hostile.zip": zip_of(hostile),
+    }
 
 
 if __name__ == "__main__":
