@@ -20,7 +20,11 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
     for entry in std::fs::read_dir(dir).expect("readable") {
         let entry = entry.expect("an entry");
         let kind = entry.file_type().expect("a type");
-        assert!(kind.is_file() || kind.is_dir(), "{:?} is neither", entry.path());
+        assert!(
+            kind.is_file() || kind.is_dir(),
+            "{:?} is neither",
+            entry.path()
+        );
         if kind.is_dir() {
             walk(&entry.path(), out);
         }
