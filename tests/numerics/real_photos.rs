@@ -6,7 +6,9 @@
 //!
 //! `cargo test --release --test numerics real_photographs -- --nocapture --test-threads 1`
 //! prints the table per kind (a photo counts under each of its tags) and per source, the
-//! time per photo (decoding and detection), and a line per photo.
+//! time per photo (decoding and detection), and a line per photo (with where the true
+//! circle is among the alternatives offered); `REFLECTANCE_REAL_PHOTOS_VERBOSE=1` also
+//! lists the first five alternatives.
 
 use reflectance::image::decode::{DecodeOptions, decode_file};
 use reflectance::image::geometry::{self, GeometryError};
@@ -99,9 +101,9 @@ fn print_table(title: &str, tallies: &BTreeMap<String, Tally>) {
     }
 }
 
-/// The found count measured on the development set (docs/accuracy.md): detection must not
-/// fall below it.
-const FOUND_FLOOR: usize = 15;
+/// The found count measured on the development set (docs/accuracy.md; 15 before the
+/// calibrated acceptance): detection must not fall below it.
+const FOUND_FLOOR: usize = 17;
 
 #[test]
 #[cfg_attr(
@@ -123,16 +125,21 @@ fn real_photographs() {
         let t = Instant::now();
         let image = decode_file(&dev_set().join(&photo.path), &options).unwrap();
         // What `classify` does without a circle: the alpha channel, else detection.
-        let found = match &image.alpha_mask {
-            Some(alpha) => geometry::fit_mask(alpha.view(), geometry::Method::Alpha),
-            None => geometry::detect(image.luminance.view()),
+        let (found, ranked) = match &image.alpha_mask {
+            Some(alpha) => (
+                geometry::fit_mask(alpha.view(), geometry::Method::Alpha),
+                Vec::new(),
+            ),
+            None => geometry::detect_ranked(image.luminance.view()),
         };
         let seconds = t.elapsed().as_secs_f64();
+        let close = |g: &geometry::Geometry| {
+            (g.cx - photo.cx).hypot(g.cy - photo.cy) <= 0.04 * photo.r
+                && (g.r - photo.r).abs() <= 0.04 * photo.r
+        };
         let outcome = match &found {
             Ok(g) => {
-                let close = (g.cx - photo.cx).hypot(g.cy - photo.cy) <= 0.04 * photo.r
-                    && (g.r - photo.r).abs() <= 0.04 * photo.r;
-                if close {
+                if close(g) {
                     Outcome::Found
                 } else {
                     Outcome::Wrong
@@ -152,10 +159,30 @@ fn real_photographs() {
             Err(e) => e.to_string(),
         };
         let mark = ["found", "WRONG", "refused"][outcome as usize];
+        // Where the true circle is among the alternatives offered (confidence ≥ 0.3).
+        let offered = match ranked.iter().position(close) {
+            Some(k) => format!(
+                "; the true circle is offered {} at {:.2}",
+                k + 1,
+                ranked[k].confidence.unwrap_or(0.0)
+            ),
+            None => "; the true circle is not offered".into(),
+        };
         eprintln!(
-            "{mark:7} {:42} {:>5.2} s  truth ({:.1}, {:.1}, r {:.1}): {said}",
+            "{mark:7} {:42} {:>5.2} s  truth ({:.1}, {:.1}, r {:.1}): {said}{offered}",
             photo.path, seconds, photo.cx, photo.cy, photo.r
         );
+        if std::env::var_os("REFLECTANCE_REAL_PHOTOS_VERBOSE").is_some() {
+            for g in ranked.iter().take(5) {
+                eprintln!(
+                    "        offered ({:.1}, {:.1}, r {:.1}) at {:.2}",
+                    g.cx,
+                    g.cy,
+                    g.r,
+                    g.confidence.unwrap_or(0.0)
+                );
+            }
+        }
         for tag in photo.kind.split('+') {
             add(&mut per_kind, tag, outcome);
         }
