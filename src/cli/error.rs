@@ -45,6 +45,8 @@ pub enum CliError {
     Render(#[from] RenderError),
     #[error(transparent)]
     Json(#[from] serde_json::Error),
+    #[error(transparent)]
+    Serve(#[from] crate::server::StartError),
     /// A failure about one thing (a file, an address): what it is, then what went wrong.
     #[error("{what}: {source}")]
     At {

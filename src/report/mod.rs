@@ -203,7 +203,7 @@ pub fn run(
         let paper = full
             .originals()
             .with_columns(&base_names)
-            .map_err(ReportError::Plot)?;
+            .map_err(|e| ReportError::Plot(e.to_string()))?;
         let views = full.without_synthetic();
         let synthetic_rows = full.samples.len() - views.samples.len();
         let paper_ds = Dataset::from_table(&paper)?;

@@ -27,13 +27,46 @@ pub(crate) mod store;
 use config::{Config, LogFormat};
 use state::{AppState, CpuPool, ModelStore, Phase, Readiness, SharedState};
 use std::future::Future;
+use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Instant;
+
+/// Why the server cannot start (or stopped at start): the command line prints it and exits 1.
+#[derive(Debug, thiserror::Error)]
+pub enum StartError {
+    #[error("default model {name:?} is not in {registry} (it holds: {holds})")]
+    NoDefaultModel {
+        name: String,
+        registry: String,
+        holds: String,
+    },
+    #[error("default model {name:?} in {registry} cannot be served: {reason}")]
+    DefaultNotServed {
+        name: String,
+        registry: String,
+        reason: String,
+    },
+    #[error(transparent)]
+    Registry(#[from] crate::model::registry::RegistryError),
+    #[error("the model registry: {0}")]
+    Models(String),
+    #[error("cannot start the runtime: {0}")]
+    Runtime(std::io::Error),
+    #[error("cannot listen on {address}: {source}")]
+    Listen {
+        address: SocketAddr,
+        source: std::io::Error,
+    },
+    #[error("cannot start the CPU pool: {0}")]
+    CpuPool(#[from] rayon::ThreadPoolBuildError),
+    #[error(transparent)]
+    Jobs(#[from] jobs::OpenError),
+}
 
 /// Build the shared state: clean the registry's staging leftovers, start the job system
 /// (when the admin plane is on) and the CPU pool. Models are not loaded yet (the server
 /// reports `loading`); call [`load_models`].
-pub fn build_state(config: Config) -> Result<SharedState, String> {
+pub fn build_state(config: Config) -> Result<SharedState, StartError> {
     let _ = metrics::handle();
     let registry = crate::model::registry::Registry::new(&config.models);
     match registry.clean_staging() {
@@ -77,8 +110,11 @@ pub fn build_state(config: Config) -> Result<SharedState, String> {
 
 /// Load every model's active version (blocking); the default model must load. Marks the
 /// state ready.
-pub fn load_models(state: &AppState) -> Result<(), String> {
-    let failed = state.models.load_all().map_err(|e| e.detail)?;
+pub fn load_models(state: &AppState) -> Result<(), StartError> {
+    let failed = state
+        .models
+        .load_all()
+        .map_err(|e| StartError::Models(e.detail))?;
     for (name, reason) in &failed {
         tracing::error!(model = %name, %reason, "model not served: its active version does not load");
     }
@@ -88,10 +124,11 @@ pub fn load_models(state: &AppState) -> Result<(), String> {
             .iter()
             .find(|(n, _)| n == default)
             .map_or("it is not in the registry".to_string(), |(_, r)| r.clone());
-        return Err(format!(
-            "default model {default:?} in {} cannot be served: {reason}",
-            state.config.models.display()
-        ));
+        return Err(StartError::DefaultNotServed {
+            name: default.clone(),
+            registry: state.config.models.display().to_string(),
+            reason,
+        });
     }
     for model in state.models.all_active() {
         tracing::info!(
@@ -181,7 +218,7 @@ pub async fn serve(
     state: SharedState,
     listeners: Listeners,
     shutdown: impl Future<Output = ()> + Send + 'static,
-) -> Result<(), String> {
+) {
     let Listeners { data, admin, grpc } = listeners;
     let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
     let signal = |mut rx: tokio::sync::watch::Receiver<bool>| async move {
@@ -232,12 +269,11 @@ pub async fn serve(
         let _ = tokio::task::spawn_blocking(move || jobs.join(grace)).await;
     }
     tracing::info!("stopped");
-    Ok(())
 }
 
 /// `reflectance serve`: everything, from configuration to shutdown.
 /// (The binary has already tuned the heap for repeated requests: `crate::util::heap`.)
-pub fn run(config: Config) -> Result<(), String> {
+pub fn run(config: Config) -> Result<(), StartError> {
     init_logging(&config);
     // Before claiming to listen: the registry is there and holds the default model (its
     // file is verified while the server already answers, as loading takes a while).
@@ -245,36 +281,28 @@ pub fn run(config: Config) -> Result<(), String> {
     registry
         .active(&config.default_model)
         .map_err(|e| match e {
-            crate::model::registry::RegistryError::UnknownModel(name) => format!(
-                "default model {name:?} is not in {} (it holds: {})",
-                config.models.display(),
-                registry.names().unwrap_or_default().join(", ")
-            ),
-            other => other.to_string(),
+            crate::model::registry::RegistryError::UnknownModel(name) => {
+                StartError::NoDefaultModel {
+                    name,
+                    registry: config.models.display().to_string(),
+                    holds: registry.names().unwrap_or_default().join(", "),
+                }
+            }
+            other => other.into(),
         })?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .thread_name("reflectance-io")
         .build()
-        .map_err(|e| format!("cannot start the runtime: {e}"))?;
+        .map_err(StartError::Runtime)?;
     runtime.block_on(async move {
-        let data = tokio::net::TcpListener::bind(config.listen)
-            .await
-            .map_err(|e| format!("cannot listen on {}: {e}", config.listen))?;
-        let admin = if config.admin_enabled() {
-            let listener = tokio::net::TcpListener::bind(config.admin_listen)
-                .await
-                .map_err(|e| format!("cannot listen on {}: {e}", config.admin_listen))?;
-            Some(listener)
-        } else {
-            None
+        let data = bind(config.listen).await?;
+        let admin = match config.admin_enabled() {
+            true => Some(bind(config.admin_listen).await?),
+            false => None,
         };
         let grpc = match config.grpc_listen {
-            Some(address) => Some(
-                tokio::net::TcpListener::bind(address)
-                    .await
-                    .map_err(|e| format!("cannot listen on {address}: {e}"))?,
-            ),
+            Some(address) => Some(bind(address).await?),
             None => None,
         };
         let bound = |listener: &tokio::net::TcpListener, asked| {
@@ -306,14 +334,14 @@ pub fn run(config: Config) -> Result<(), String> {
         let state = build_state(config)?;
         // Listen at once (liveness answers, readiness says "loading"), load meanwhile.
         let loader = state.clone();
-        let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<String>();
+        let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<StartError>();
         tokio::task::spawn_blocking(move || {
             if let Err(e) = load_models(&loader) {
                 tracing::error!(error = %e, "cannot start");
                 let _ = stop_tx.send(e);
             }
         });
-        let failure = Arc::new(std::sync::Mutex::new(None::<String>));
+        let failure = Arc::new(std::sync::Mutex::new(None::<StartError>));
         let recorded = failure.clone();
         let shutdown = async move {
             tokio::select! {
@@ -324,10 +352,16 @@ pub fn run(config: Config) -> Result<(), String> {
                 }
             }
         };
-        serve(state, Listeners { data, admin, grpc }, shutdown).await?;
+        serve(state, Listeners { data, admin, grpc }, shutdown).await;
         match failure.lock().unwrap_or_else(|e| e.into_inner()).take() {
             Some(reason) => Err(reason),
             None => Ok(()),
         }
     })
+}
+
+async fn bind(address: SocketAddr) -> Result<tokio::net::TcpListener, StartError> {
+    tokio::net::TcpListener::bind(address)
+        .await
+        .map_err(|source| StartError::Listen { address, source })
 }

@@ -43,12 +43,14 @@ pub struct CpuPool {
 }
 
 impl CpuPool {
-    pub fn new(threads: usize, max_inflight: usize) -> Result<CpuPool, String> {
+    pub fn new(
+        threads: usize,
+        max_inflight: usize,
+    ) -> Result<CpuPool, rayon::ThreadPoolBuildError> {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .thread_name(|i| format!("reflectance-cpu-{i}"))
-            .build()
-            .map_err(|e| format!("cannot start the CPU pool: {e}"))?;
+            .build()?;
         Ok(CpuPool {
             pool,
             admission: Arc::new(Semaphore::new(max_inflight)),

@@ -651,6 +651,14 @@ fn start_up_falls_back_to_the_newest_version_that_loads() {
     config.cpu_threads = 1;
     let state = build_state(config).unwrap();
     let error = load_models(&state).unwrap_err();
+    assert!(
+        matches!(
+            error,
+            reflectance::server::StartError::DefaultNotServed { .. }
+        ),
+        "{error:?}"
+    );
+    let error = error.to_string();
     assert!(error.contains("\"broken\""), "{error}");
     assert!(error.contains("no other version loads"), "{error}");
 }

@@ -203,6 +203,11 @@ pub struct Sample {
     pub values: Vec<f64>,
 }
 
+/// A feature the table has no column for.
+#[derive(Debug, thiserror::Error)]
+#[error("no column {0}")]
+pub struct MissingColumn(pub String);
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct FeatureTable {
     pub names: Vec<String>,
@@ -392,10 +397,8 @@ impl FeatureTable {
     }
 
     /// The table restricted to the given columns (which must exist), in that order.
-    pub fn with_columns(&self, names: &[String]) -> Result<FeatureTable, String> {
-        let idx = self
-            .columns(names)
-            .map_err(|missing| format!("no column {missing}"))?;
+    pub fn with_columns(&self, names: &[String]) -> Result<FeatureTable, MissingColumn> {
+        let idx = self.columns(names)?;
         let samples = self
             .samples
             .iter()
@@ -433,7 +436,7 @@ impl FeatureTable {
     }
 
     /// Column index of every name, or the first unknown name.
-    pub fn columns(&self, wanted: &[String]) -> Result<Vec<usize>, String> {
+    pub fn columns(&self, wanted: &[String]) -> Result<Vec<usize>, MissingColumn> {
         let index: HashMap<&str, usize> = self
             .names
             .iter()
@@ -442,7 +445,12 @@ impl FeatureTable {
             .collect();
         wanted
             .iter()
-            .map(|w| index.get(w.as_str()).copied().ok_or_else(|| w.clone()))
+            .map(|w| {
+                index
+                    .get(w.as_str())
+                    .copied()
+                    .ok_or_else(|| MissingColumn(w.clone()))
+            })
             .collect()
     }
 }

@@ -15,7 +15,7 @@ use std::convert::Infallible;
 use std::future::Future;
 use std::pin::Pin;
 use std::task::{Context, Poll};
-use tensor::{Datatype, Elements, Tensor};
+use tensor::{Datatype, Elements, Tensor, TensorError};
 use tonic::{Code, Status};
 
 /// The service's name, the first part of every method's path.
@@ -204,7 +204,7 @@ fn invalid(detail: String) -> Status {
 }
 
 /// An input's elements from the typed field of its datatype.
-fn typed_elements(datatype: Datatype, c: InferTensorContents) -> Result<Elements, String> {
+fn typed_elements(datatype: Datatype, c: InferTensorContents) -> Result<Elements, TensorError> {
     let numbers = |v: Vec<f64>| Ok(Elements::Numbers(v));
     match datatype {
         Datatype::Bool => Ok(Elements::Bool(c.bool_contents)),
@@ -219,7 +219,7 @@ fn typed_elements(datatype: Datatype, c: InferTensorContents) -> Result<Elements
         Datatype::Uint64 => numbers(c.uint64_contents.into_iter().map(|v| v as f64).collect()),
         Datatype::Fp32 => numbers(c.fp32_contents.into_iter().map(f64::from).collect()),
         Datatype::Fp64 => numbers(c.fp64_contents),
-        Datatype::Fp16 => Err("FP16 travels as raw contents only".into()),
+        Datatype::Fp16 => Err(TensorError::TypedFp16),
     }
 }
 
@@ -251,7 +251,7 @@ fn tensors(inputs: Vec<InferInputTensor>, raw: Vec<bytes::Bytes>) -> Result<Vec<
             }
             (Some(bytes), None) => Elements::from_raw(datatype, &bytes),
             (None, Some(contents)) => typed_elements(datatype, contents),
-            (None, None) => Err("no contents".to_string()),
+            (None, None) => Err(TensorError::Empty),
         }
         .map_err(|e| invalid(format!("input {name:?}: {e}")))?;
         if tensor::Tensor::announced(&input.shape) != Some(elements.len()) {
@@ -308,12 +308,11 @@ pub async fn serve(
     state: SharedState,
     listener: tokio::net::TcpListener,
     shutdown: impl Future<Output = ()> + Send + 'static,
-) -> Result<(), String> {
+) -> Result<(), tonic::transport::Error> {
     let timeout = state.config.request_timeout;
     let incoming = tonic::transport::server::TcpIncoming::from(listener);
     tonic::transport::Server::builder()
         .timeout(timeout)
         .serve_with_incoming_shutdown(InferenceService::new(state), incoming, shutdown)
         .await
-        .map_err(|e| format!("gRPC server: {e}"))
 }

@@ -177,7 +177,7 @@ impl RawInput {
         let coverage = parse("coverage", &self.coverage)?
             .map(|c| {
                 crate::learn::conformal::check_coverage(c)
-                    .map_err(|detail| ApiError::new(Kind::InvalidField, detail))
+                    .map_err(|e| ApiError::new(Kind::InvalidField, e.to_string()))
             })
             .transpose()?;
         Ok(Input {

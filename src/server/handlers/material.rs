@@ -78,7 +78,9 @@ pub async fn gltf(
     let colour = q
         .colour
         .as_deref()
-        .map(|text| parse_colour(text).map_err(|e| ApiError::new(Kind::InvalidField, e)))
+        .map(|text| {
+            parse_colour(text).map_err(|e| ApiError::new(Kind::InvalidField, e.to_string()))
+        })
         .transpose()?;
     let material = Material {
         name,

@@ -411,9 +411,11 @@ impl JobManager {
         workers: usize,
         capacity: usize,
         history: usize,
-    ) -> Result<Arc<JobManager>, String> {
-        std::fs::create_dir_all(jobs_dir)
-            .map_err(|e| format!("jobs directory {}: {e}", jobs_dir.display()))?;
+    ) -> Result<Arc<JobManager>, OpenError> {
+        std::fs::create_dir_all(jobs_dir).map_err(|source| OpenError::JobsDir {
+            dir: jobs_dir.display().to_string(),
+            source,
+        })?;
         let data = DataDir::new(data_dir)?;
         let records = load_records(jobs_dir)?;
         let manager = Arc::new(JobManager {
@@ -442,7 +444,7 @@ impl JobManager {
             let handle = std::thread::Builder::new()
                 .name(format!("reflectance-job-{i}"))
                 .spawn(move || worker(weak))
-                .map_err(|e| format!("cannot start a job worker: {e}"))?;
+                .map_err(OpenError::Worker)?;
             handles.push(handle);
         }
         *manager.workers.lock().unwrap_or_else(|e| e.into_inner()) = handles;
@@ -933,9 +935,23 @@ impl Observer for JobObserver {
     }
 }
 
-fn load_records(dir: &Path) -> Result<BTreeMap<String, JobRecord>, String> {
+/// Why the job system cannot start: its folders, or its workers.
+#[derive(Debug, thiserror::Error)]
+pub enum OpenError {
+    #[error("jobs directory {dir}: {source}")]
+    JobsDir { dir: String, source: std::io::Error },
+    #[error(transparent)]
+    DataDir(#[from] paths::PathError),
+    #[error("cannot start a job worker: {0}")]
+    Worker(std::io::Error),
+}
+
+fn load_records(dir: &Path) -> Result<BTreeMap<String, JobRecord>, OpenError> {
     let mut records = BTreeMap::new();
-    let entries = std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let entries = std::fs::read_dir(dir).map_err(|source| OpenError::JobsDir {
+        dir: dir.display().to_string(),
+        source,
+    })?;
     for entry in entries.filter_map(|e| e.ok()) {
         let path = entry.path();
         let name = entry.file_name().to_string_lossy().into_owned();

@@ -4,6 +4,42 @@
 
 use std::path::{Component, Path, PathBuf};
 
+/// A job's path refused, or the data directory unusable: the message names the job's field
+/// and its path as given.
+#[derive(Debug, thiserror::Error)]
+pub enum PathError {
+    #[error("data directory {dir}: {source}")]
+    DataDir { dir: String, source: std::io::Error },
+    #[error("{what} {rel:?}: {why}")]
+    Refused {
+        what: String,
+        rel: String,
+        why: &'static str,
+    },
+    #[error("{what} {rel:?}: {source}")]
+    Unreadable {
+        what: String,
+        rel: String,
+        source: std::io::Error,
+    },
+    /// A path found inside a dataset, shown as it resolved.
+    #[error("{what} {path}: {source}")]
+    Unresolved {
+        what: String,
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{what} {rel:?}: not a directory")]
+    NotADirectory { what: String, rel: String },
+    #[error("{what} {rel:?} resolves outside the data directory")]
+    Outside { what: String, rel: String },
+}
+
+fn unreadable(what: &str, rel: &str) -> impl FnOnce(std::io::Error) -> PathError {
+    let (what, rel) = (what.to_string(), rel.to_string());
+    move |source| PathError::Unreadable { what, rel, source }
+}
+
 #[derive(Debug, Clone)]
 pub struct DataDir {
     /// Canonical (symlinks resolved) absolute path.
@@ -11,11 +47,14 @@ pub struct DataDir {
 }
 
 impl DataDir {
-    pub fn new(dir: &Path) -> Result<DataDir, String> {
+    pub fn new(dir: &Path) -> Result<DataDir, PathError> {
         std::fs::create_dir_all(dir)
             .and_then(|()| dir.canonicalize())
             .map(|root| DataDir { root })
-            .map_err(|e| format!("data directory {}: {e}", dir.display()))
+            .map_err(|source| PathError::DataDir {
+                dir: dir.display().to_string(),
+                source,
+            })
     }
 
     pub fn root(&self) -> &Path {
@@ -23,8 +62,14 @@ impl DataDir {
     }
 
     /// Syntactic checks: non-empty, relative, no `..`, not a URL.
-    fn relative<'a>(&self, what: &str, rel: &'a str) -> Result<&'a Path, String> {
-        let refuse = |why: &str| Err(format!("{what} {rel:?}: {why}"));
+    fn relative<'a>(&self, what: &str, rel: &'a str) -> Result<&'a Path, PathError> {
+        let refuse = |why: &'static str| {
+            Err(PathError::Refused {
+                what: what.to_string(),
+                rel: rel.to_string(),
+                why,
+            })
+        };
         if rel.trim().is_empty() {
             return refuse("empty path");
         }
@@ -47,25 +92,24 @@ impl DataDir {
     }
 
     /// An existing file or directory inside the data directory (after resolving symlinks).
-    pub fn existing(&self, what: &str, rel: &str) -> Result<PathBuf, String> {
+    pub fn existing(&self, what: &str, rel: &str) -> Result<PathBuf, PathError> {
         let path = self.relative(what, rel)?;
         let full = self.root.join(path);
-        let canonical = full
-            .canonicalize()
-            .map_err(|e| format!("{what} {rel:?}: {e}"))?;
+        let canonical = full.canonicalize().map_err(unreadable(what, rel))?;
         self.inside(what, rel, canonical)
     }
 
     /// A directory inside the data directory, created if missing.
-    pub fn output_dir(&self, what: &str, rel: &str) -> Result<PathBuf, String> {
+    pub fn output_dir(&self, what: &str, rel: &str) -> Result<PathBuf, PathError> {
         self.check_output(what, rel)?;
         let full = self.root.join(rel);
-        std::fs::create_dir_all(&full).map_err(|e| format!("{what} {rel:?}: {e}"))?;
-        let canonical = full
-            .canonicalize()
-            .map_err(|e| format!("{what} {rel:?}: {e}"))?;
+        std::fs::create_dir_all(&full).map_err(unreadable(what, rel))?;
+        let canonical = full.canonicalize().map_err(unreadable(what, rel))?;
         if !canonical.is_dir() {
-            return Err(format!("{what} {rel:?}: not a directory"));
+            return Err(PathError::NotADirectory {
+                what: what.to_string(),
+                rel: rel.to_string(),
+            });
         }
         self.inside(what, rel, canonical)
     }
@@ -73,7 +117,7 @@ impl DataDir {
     /// Whether [`DataDir::output_dir`] may create (or reuse) `rel`, without creating it:
     /// the deepest existing ancestor must resolve inside the data directory, so that
     /// creating the rest cannot follow a symlink out of it.
-    pub fn check_output(&self, what: &str, rel: &str) -> Result<(), String> {
+    pub fn check_output(&self, what: &str, rel: &str) -> Result<(), PathError> {
         let path = self.relative(what, rel)?;
         let mut existing = self.root.join(path);
         while !existing.exists() {
@@ -82,33 +126,39 @@ impl DataDir {
                 None => break,
             }
         }
-        let canonical = existing
-            .canonicalize()
-            .map_err(|e| format!("{what} {rel:?}: {e}"))?;
+        let canonical = existing.canonicalize().map_err(unreadable(what, rel))?;
         let canonical = self.inside(what, rel, canonical)?;
         if canonical == self.root.join(path) && !canonical.is_dir() {
-            return Err(format!("{what} {rel:?}: not a directory"));
+            return Err(PathError::NotADirectory {
+                what: what.to_string(),
+                rel: rel.to_string(),
+            });
         }
         Ok(())
     }
 
     /// A path found inside a dataset (a manifest row, a probe list entry) must also stay
     /// inside the data directory.
-    pub fn check_resolved(&self, what: &str, path: &Path) -> Result<(), String> {
+    pub fn check_resolved(&self, what: &str, path: &Path) -> Result<(), PathError> {
         let canonical = path
             .canonicalize()
-            .map_err(|e| format!("{what} {}: {e}", path.display()))?;
+            .map_err(|source| PathError::Unresolved {
+                what: what.to_string(),
+                path: path.display().to_string(),
+                source,
+            })?;
         self.inside(what, &path.display().to_string(), canonical)
             .map(|_| ())
     }
 
-    fn inside(&self, what: &str, rel: &str, canonical: PathBuf) -> Result<PathBuf, String> {
+    fn inside(&self, what: &str, rel: &str, canonical: PathBuf) -> Result<PathBuf, PathError> {
         if canonical.starts_with(&self.root) {
             Ok(canonical)
         } else {
-            Err(format!(
-                "{what} {rel:?} resolves outside the data directory"
-            ))
+            Err(PathError::Outside {
+                what: what.to_string(),
+                rel: rel.to_string(),
+            })
         }
     }
 
@@ -150,11 +200,10 @@ mod tests {
             assert!(dir.existing("dataset", bad).is_err(), "{bad}");
         }
         #[cfg(unix)]
-        assert!(
-            dir.existing("dataset", "link.csv")
-                .unwrap_err()
-                .contains("outside")
-        );
+        assert!(matches!(
+            dir.existing("dataset", "link.csv"),
+            Err(PathError::Outside { .. })
+        ));
         assert!(dir.check_output("out", "renders/a").is_ok());
         assert!(!data.join("renders").exists(), "checking creates nothing");
         assert!(dir.check_output("out", "sets/m.csv").is_err());

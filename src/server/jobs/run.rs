@@ -1,7 +1,7 @@
 //! What the jobs do: validation at submission (so that mistakes are 422 at once), then
 //! execution on a worker thread with progress and cancellation.
 
-use super::paths::DataDir;
+use super::paths::{DataDir, PathError};
 use super::{JobRequest, LearnParams};
 use crate::dataset::{self, DatasetError, FeatureTable, Manifest};
 use crate::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
@@ -166,6 +166,12 @@ macro_rules! failure_from {
 
 failure_from!(DatasetError, LearnError, RenderError);
 
+impl From<PathError> for Failure {
+    fn from(e: PathError) -> Failure {
+        Failure::Error(e.to_string())
+    }
+}
+
 impl From<ClassFileError> for Failure {
     fn from(e: ClassFileError) -> Failure {
         Failure::Error(e.to_string())
@@ -192,8 +198,8 @@ fn invalid(detail: impl Into<String>) -> ApiError {
     ApiError::new(Kind::InvalidJob, detail)
 }
 
-fn path_error(detail: String) -> ApiError {
-    ApiError::new(Kind::InvalidPath, detail)
+fn path_error(e: PathError) -> ApiError {
+    ApiError::new(Kind::InvalidPath, e.to_string())
 }
 
 /// The extraction configuration of a learning job (as `reflectance train` chooses it).
@@ -321,12 +327,8 @@ fn estimator_data(
     let (Some(table), Some(classes)) = (table, classes) else {
         return Ok(None);
     };
-    let table_path = data
-        .existing("estimator_table", table)
-        .map_err(Failure::Error)?;
-    let classes_path = data
-        .existing("estimator_classes", classes)
-        .map_err(Failure::Error)?;
+    let table_path = data.existing("estimator_table", table)?;
+    let classes_path = data.existing("estimator_classes", classes)?;
     Ok(Some(train::EstimatorData {
         table: FeatureTable::read(&table_path)?,
         label: table.clone(),
@@ -346,17 +348,16 @@ fn load_table(
     observer: &dyn Observer,
 ) -> Result<(FeatureTable, String, Option<Manifest>), Failure> {
     if let Some(t) = &p.table {
-        let path = data.existing("table", t).map_err(Failure::Error)?;
+        let path = data.existing("table", t)?;
         let table = FeatureTable::read(&path)?;
         return Ok((table, t.clone(), None));
     }
     let rel = p.dataset.as_deref().unwrap_or_default();
-    let path = data.existing("dataset", rel).map_err(Failure::Error)?;
+    let path = data.existing("dataset", rel)?;
     let manifest = dataset::read_manifest(&path)?;
     manifest.require_labels()?;
     for entry in &manifest.entries {
-        data.check_resolved(&format!("manifest line {} image", entry.line), &entry.file)
-            .map_err(Failure::Error)?;
+        data.check_resolved(&format!("manifest line {} image", entry.line), &entry.file)?;
     }
     let config = config_of(p).map_err(|e| Failure::Error(e.detail))?;
     let extractor = Extractor::new(config).map_err(|e| Failure::Error(e.to_string()))?;
@@ -391,7 +392,7 @@ pub fn execute(
             let spec = spec_of(p).map_err(|e| Failure::Error(e.detail))?;
             let classes = match classes {
                 Some(c) => {
-                    let path = data.existing("classes", c).map_err(Failure::Error)?;
+                    let path = data.existing("classes", c)?;
                     Some(load_classes(&path)?)
                 }
                 None => None,
@@ -459,8 +460,10 @@ pub fn execute(
                 version: m.version(),
                 accuracy: m.file.training.cv.as_ref().map(|cv| cv.accuracy),
             });
-            match activate.decide(new_accuracy, current) {
-                Ok(reason) => {
+            let decision = activate.decide(new_accuracy, current);
+            let reason = decision.to_string();
+            match decision.activates() {
+                true => {
                     observer.stage("activate");
                     match models.activate(name, version) {
                         Ok(done) => {
@@ -483,7 +486,7 @@ pub fn execute(
                         }
                     }
                 }
-                Err(reason) => {
+                false => {
                     result.activated = Some(false);
                     result.activation = Some(reason);
                 }
@@ -495,9 +498,7 @@ pub fn execute(
             ward_classes: Some(classes),
         } => {
             let spec = spec_of(p).map_err(|e| Failure::Error(e.detail))?;
-            let path = data
-                .existing("ward_classes", classes)
-                .map_err(Failure::Error)?;
+            let path = data.existing("ward_classes", classes)?;
             let materials = load_classes(&path)?;
             let (table, label, _) = load_table(p, data, limits, observer)?;
             let ds = Dataset::from_table(&table)?;
@@ -545,13 +546,12 @@ pub fn execute(
             seed,
             captures,
         } => {
-            let probes_path = data.existing("probes", probes).map_err(Failure::Error)?;
-            let classes_path = data.existing("classes", classes).map_err(Failure::Error)?;
-            let out_path = data.output_dir("out", out).map_err(Failure::Error)?;
+            let probes_path = data.existing("probes", probes)?;
+            let classes_path = data.existing("classes", classes)?;
+            let out_path = data.output_dir("out", out)?;
             let probe_files = batch::probe_list(&probes_path)?;
             for probe in &probe_files {
-                data.check_resolved("probe", probe)
-                    .map_err(Failure::Error)?;
+                data.check_resolved("probe", probe)?;
             }
             let spec = BatchSpec {
                 probes: probe_files,

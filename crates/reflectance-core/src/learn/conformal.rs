@@ -11,6 +11,8 @@
 //! class with probability ≥ c (if the new image is exchangeable with them; the fold models
 //! saw fewer illuminations than the final one, so the sets lean large).
 
+use super::Inconsistent;
+
 use super::svm::argmax;
 use serde::{Deserialize, Serialize};
 
@@ -24,13 +26,11 @@ pub const K_REG: usize = 1;
 pub const MEASURED_COVERAGES: [f64; 3] = [0.9, 0.95, 0.99];
 
 /// A coverage a request may ask for: within [0.5, 0.999].
-pub fn check_coverage(coverage: f64) -> Result<f64, String> {
+pub fn check_coverage(coverage: f64) -> Result<f64, super::LearnError> {
     if coverage.is_finite() && (0.5..=0.999).contains(&coverage) {
         Ok(coverage)
     } else {
-        Err(format!(
-            "coverage must be a number from 0.5 to 0.999, not {coverage}"
-        ))
+        Err(super::LearnError::BadCoverage(coverage))
     }
 }
 
@@ -170,14 +170,18 @@ impl PredictionSets {
     }
 
     /// Checks the stored calibration (after deserializing a model file).
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Inconsistent> {
         let ordered = self.positive.windows(2).all(|w| w[0] <= w[1]);
         let finite = self.positive.iter().all(|s| s.is_finite() && *s > 0.0);
         if self.positive.len() > self.n || !ordered || !finite {
-            return Err("prediction-set scores must be positive, ascending and at most n".into());
+            return Err(Inconsistent(
+                "prediction-set scores must be positive, ascending and at most n".into(),
+            ));
         }
         if !(self.lambda.is_finite() && self.lambda >= 0.0) {
-            return Err("prediction-set λ must be finite and ≥ 0".into());
+            return Err(Inconsistent(
+                "prediction-set λ must be finite and ≥ 0".into(),
+            ));
         }
         Ok(())
     }

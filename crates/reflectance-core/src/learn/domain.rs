@@ -20,6 +20,8 @@
 //! sphere brighter than any reflectance can be; a brighter light than any training probe's
 //! only comes near.
 
+use super::Inconsistent;
+
 use super::svm::squared_distance;
 use crate::util::rng::Rng;
 use serde::{Deserialize, Serialize};
@@ -366,34 +368,39 @@ impl DomainCheck {
 
     /// Checks the stored calibration (after deserializing a model file) against the
     /// classifier's input dimension and the row length.
-    pub fn validate(&self, dim: usize, row_len: usize) -> Result<(), String> {
+    pub fn validate(&self, dim: usize, row_len: usize) -> Result<(), Inconsistent> {
         if self.reference.is_empty() || self.reference.iter().any(|r| r.len() != dim) {
-            return Err(format!(
+            return Err(Inconsistent(format!(
                 "domain reference rows must have the classifier's {dim} inputs"
-            ));
+            )));
         }
         if self.reference.iter().flatten().any(|v| !v.is_finite()) || self.k == 0 {
-            return Err("domain reference must be finite, with k ≥ 1".into());
+            return Err(Inconsistent(
+                "domain reference must be finite, with k ≥ 1".into(),
+            ));
         }
         for check in &self.checks {
             let sorted = check.quantiles.windows(2).all(|w| w[0] <= w[1]);
             let statistical = check.quantiles.len() == LEVELS.len() && sorted;
             let bound = check.quantiles.is_empty() && check.limit.is_some_and(f64::is_finite);
             if statistical == bound {
-                return Err(format!(
+                return Err(Inconsistent(format!(
                     "domain check {:?}: quantiles must be {} ascending values",
                     check.kind,
                     LEVELS.len()
-                ));
+                )));
             }
             if check.index.is_some_and(|i| i >= row_len)
                 || check.index.is_some() == (check.kind == CheckKind::Typicality)
             {
-                return Err(format!("domain check {:?}: bad feature index", check.kind));
+                return Err(Inconsistent(format!(
+                    "domain check {:?}: bad feature index",
+                    check.kind
+                )));
             }
         }
         if self.threshold.is_nan() {
-            return Err("domain threshold is not a number".into());
+            return Err(Inconsistent("domain threshold is not a number".into()));
         }
         Ok(())
     }

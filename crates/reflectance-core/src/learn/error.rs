@@ -1,5 +1,11 @@
 //! The one error type of the learning layer.
 
+/// A learned part whose pieces disagree (a model file edited, cut short or of another
+/// version): what disagrees.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[error("{0}")]
+pub struct Inconsistent(pub String);
+
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
 pub enum LearnError {
     #[error("the feature table has no rows")]
@@ -32,6 +38,8 @@ pub enum LearnError {
     UnknownFeatures(Vec<String>),
     #[error("{0}")]
     InvalidParameter(String),
+    #[error("coverage must be a number from 0.5 to 0.999, not {0}")]
+    BadCoverage(f64),
     #[error("the training data has {0} class(es) with rows; at least 2 are needed")]
     TooFewTrainingClasses(usize),
     #[error("cross-validation needs at least 2 illuminations, found {0}")]

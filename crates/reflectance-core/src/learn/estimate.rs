@@ -12,6 +12,8 @@
 //! their half-widths are quantiles of the leave-one-illumination-out errors of ρd, ρs and
 //! log10 α, so they hold for illuminations the model never saw.
 
+use super::Inconsistent;
+
 use super::boost::{self, BoostSpec, Boosted};
 use super::error::LearnError;
 use super::feature_set::FeatureSet;
@@ -289,13 +291,17 @@ struct WardRegressorFields {
 }
 
 impl TryFrom<WardRegressorFields> for WardRegressor {
-    type Error = String;
+    type Error = Inconsistent;
 
-    fn try_from(f: WardRegressorFields) -> Result<Self, String> {
+    fn try_from(f: WardRegressorFields) -> Result<Self, Inconsistent> {
         let regression = match (f.boost, f.trees, f.spec, f.ridge) {
             (Some(boost), Some(trees), None, None) => Regression::Boost { boost, trees },
             (None, None, Some(spec), Some(ridge)) => Regression::Ridge { spec, ridge },
-            _ => return Err("an estimator holds either boost and trees or spec and ridge".into()),
+            _ => {
+                return Err(Inconsistent(
+                    "an estimator holds either boost and trees or spec and ridge".into(),
+                ));
+            }
         };
         Ok(WardRegressor {
             inputs: f.inputs,
@@ -312,13 +318,15 @@ impl TryFrom<WardRegressorFields> for WardRegressor {
 
 impl WardRegressor {
     /// Check the parts against each other and against the model's feature `names`.
-    pub fn validate(&self, names: &[String]) -> Result<(), String> {
+    pub fn validate(&self, names: &[String]) -> Result<(), Inconsistent> {
         let d = self.input_indices.len();
         let consistent = self.inputs.len() == d
             && self.scaler.dim() == d
             && self.total_anchor.is_none_or(|k| k < d);
         if !consistent || !self.regression.is_consistent(d) {
-            return Err("the estimator's parts do not fit together".into());
+            return Err(Inconsistent(
+                "the estimator's parts do not fit together".into(),
+            ));
         }
         let named = self
             .input_indices
@@ -326,7 +334,9 @@ impl WardRegressor {
             .zip(&self.inputs)
             .all(|(&i, name)| names.get(i) == Some(name));
         if !named {
-            return Err("the estimator's inputs are not this configuration's features".into());
+            return Err(Inconsistent(
+                "the estimator's inputs are not this configuration's features".into(),
+            ));
         }
         let w = &self.half_widths;
         let widths = [w.rho_d, w.rho_s, w.log10_alpha];
@@ -335,7 +345,9 @@ impl WardRegressor {
             .chain(&self.scaler.mean)
             .any(|v| !v.is_finite())
         {
-            return Err("the estimator holds a number that is not finite".into());
+            return Err(Inconsistent(
+                "the estimator holds a number that is not finite".into(),
+            ));
         }
         Ok(())
     }

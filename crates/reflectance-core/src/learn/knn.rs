@@ -9,6 +9,8 @@
 //! its probabilities are the training class frequencies. The expected accuracy of guessing
 //! uniformly at random, 1/K, is reported separately by cross-validation.
 
+use super::Inconsistent;
+
 use super::svm::squared_distance;
 use serde::{Deserialize, Serialize};
 
@@ -74,14 +76,16 @@ impl KnnModel {
         }
     }
 
-    pub(crate) fn check(&self, dim: usize) -> Result<(), String> {
+    pub(crate) fn check(&self, dim: usize) -> Result<(), Inconsistent> {
         if self.k == 0 || self.train.is_empty() || self.train.len() != self.labels.len() {
-            return Err("k-NN training data is empty or inconsistent".into());
+            return Err(Inconsistent(
+                "k-NN training data is empty or inconsistent".into(),
+            ));
         }
         if self.train.iter().any(|t| t.len() != dim)
             || self.labels.iter().any(|&l| l >= self.n_classes)
         {
-            return Err("k-NN dimensions disagree".into());
+            return Err(Inconsistent("k-NN dimensions disagree".into()));
         }
         Ok(())
     }

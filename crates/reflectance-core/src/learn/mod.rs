@@ -25,7 +25,7 @@ pub mod select;
 pub mod svm;
 
 pub use cv::{CvReport, cross_validate, cross_validate_with};
-pub use error::LearnError;
+pub use error::{Inconsistent, LearnError};
 pub use feature_set::FeatureSet;
 pub use matrix::Dataset;
 pub use pipeline::{Classifier, ClassifierKind, DEFAULT_C, Grid, SpecText, TrainSpec, fit};

@@ -7,6 +7,8 @@
 //! on ties). A component whose eigenvalue is ≤ 1e-12 × the largest (the data has fewer
 //! dimensions than N) is not scaled: its scores are ~0 and stay so.
 
+use super::Inconsistent;
+
 use super::error::LearnError;
 use super::scaler::Scaler;
 use nalgebra::{DMatrix, SymmetricEigen};
@@ -117,14 +119,14 @@ impl Pca {
             .collect()
     }
 
-    pub(crate) fn check(&self) -> Result<(), String> {
+    pub(crate) fn check(&self) -> Result<(), Inconsistent> {
         let d = self.input_dim();
         if self.scaler.std.len() != d
             || self.components.iter().any(|c| c.len() != d)
             || self.scale.len() != self.components.len()
             || self.eigenvalues.len() != self.components.len()
         {
-            return Err("PCA dimensions disagree".into());
+            return Err(Inconsistent("PCA dimensions disagree".into()));
         }
         Ok(())
     }

@@ -766,7 +766,7 @@ impl Classifier {
         let picked = self.selected_indices.len();
         let dim = match &self.pca {
             Some(p) => {
-                p.check().map_err(LearnError::InvalidModel)?;
+                p.check().map_err(|e| LearnError::InvalidModel(e.0))?;
                 if p.input_dim() != picked {
                     return bad("PCA input dimension disagrees".into());
                 }
@@ -785,7 +785,7 @@ impl Classifier {
         }
         match &self.model {
             Model::Svm(m) => {
-                m.check(dim).map_err(LearnError::InvalidModel)?;
+                m.check(dim).map_err(|e| LearnError::InvalidModel(e.0))?;
                 if m.n_classes() != k {
                     return bad("SVM class count disagrees".into());
                 }
@@ -799,7 +799,7 @@ impl Classifier {
                 }
             }
             Model::Knn(m) => {
-                m.check(dim).map_err(LearnError::InvalidModel)?;
+                m.check(dim).map_err(|e| LearnError::InvalidModel(e.0))?;
                 if m.n_classes != k {
                     return bad("k-NN class count disagrees".into());
                 }

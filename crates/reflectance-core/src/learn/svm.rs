@@ -11,6 +11,8 @@
 //! in memory, f32 saves memory bandwidth only, and the difference is within noise at these
 //! sizes, while f64 makes training and prediction use identical kernel values).
 
+use super::Inconsistent;
+
 use ndarray::ArrayView2;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -670,29 +672,37 @@ impl SvmModel {
             .collect()
     }
 
-    pub(crate) fn check(&self, dim: usize) -> Result<(), String> {
+    pub(crate) fn check(&self, dim: usize) -> Result<(), Inconsistent> {
         let k = self.rho.len();
         let n_sv = self.support_vectors.len();
         if self.kernel != "rbf" {
-            return Err(format!("unsupported kernel {:?}", self.kernel));
+            return Err(Inconsistent(format!(
+                "unsupported kernel {:?}",
+                self.kernel
+            )));
         }
         if !(self.gamma.is_finite() && self.gamma > 0.0) {
-            return Err(format!("gamma {} is not positive", self.gamma));
+            return Err(Inconsistent(format!(
+                "gamma {} is not positive",
+                self.gamma
+            )));
         }
         if self.coef.len() != k || self.trained.len() != k {
-            return Err("SVM class counts disagree".into());
+            return Err(Inconsistent("SVM class counts disagree".into()));
         }
         if self.coef.iter().any(|c| c.len() != n_sv)
             || self.support_vectors.iter().any(|s| s.len() != dim)
         {
-            return Err("SVM support vector dimensions disagree".into());
+            return Err(Inconsistent(
+                "SVM support vector dimensions disagree".into(),
+            ));
         }
         let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
         if !finite(&self.rho)
             || !self.coef.iter().all(|c| finite(c))
             || !self.support_vectors.iter().all(|s| finite(s))
         {
-            return Err("SVM has non-finite values".into());
+            return Err(Inconsistent("SVM has non-finite values".into()));
         }
         Ok(())
     }

@@ -186,10 +186,15 @@ fn le_bytes(values: impl Iterator<Item = f32>) -> Vec<u8> {
 /// material's diffuse albedo (or a metal's F0) is its grey value times this.
 pub use crate::image::colour::{Rgb, luminance};
 
+/// A text that is not a colour.
+#[derive(Debug, thiserror::Error)]
+#[error("a colour is three numbers r,g,b ≥ 0, not all 0, not {0:?}")]
+pub struct ColourError(String);
+
 /// `r,g,b` (linear, any scale) as a colour of luminance 1: three finite numbers ≥ 0 of a
 /// luminance above 0.
-pub fn parse_colour(text: &str) -> Result<Rgb, String> {
-    let bad = || format!("a colour is three numbers r,g,b ≥ 0, not all 0, not {text:?}");
+pub fn parse_colour(text: &str) -> Result<Rgb, ColourError> {
+    let bad = || ColourError(text.to_string());
     let values: Vec<f64> = text
         .split(',')
         .map(|v| v.trim().parse::<f64>().map_err(|_| bad()))

@@ -380,12 +380,12 @@ impl ModelFile {
         self.classifier.validate()?;
         let row_len = names.len();
         if let Some(sets) = &self.prediction_sets {
-            sets.validate().map_err(ModelError::Inconsistent)?;
+            sets.validate().map_err(|e| ModelError::Inconsistent(e.0))?;
         }
         if let Some(domain) = &self.domain {
             domain
                 .validate(self.classifier.dim(), row_len)
-                .map_err(ModelError::Inconsistent)?;
+                .map_err(|e| ModelError::Inconsistent(e.0))?;
         }
         if let Some(no_white) = &self.no_white {
             let c = &no_white.classifier;
@@ -396,18 +396,18 @@ impl ModelFile {
                 );
             }
             if let Some(sets) = &no_white.prediction_sets {
-                sets.validate().map_err(ModelError::Inconsistent)?;
+                sets.validate().map_err(|e| ModelError::Inconsistent(e.0))?;
             }
             if let Some(domain) = &no_white.domain {
                 domain
                     .validate(c.dim(), row_len)
-                    .map_err(ModelError::Inconsistent)?;
+                    .map_err(|e| ModelError::Inconsistent(e.0))?;
             }
         }
         if let Some(estimator) = &self.estimator {
             estimator
                 .validate(&names)
-                .map_err(ModelError::Inconsistent)?;
+                .map_err(|e| ModelError::Inconsistent(e.0))?;
         }
         let dim = self.classifier.selected.len();
         if let Some(bad) = self

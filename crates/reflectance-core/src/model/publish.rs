@@ -29,30 +29,73 @@ pub struct Current {
     pub accuracy: Option<f64>,
 }
 
+/// What [`Activate::decide`] found: whether to activate, and why (its `Display`, the
+/// reason a job reports).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Decision {
+    Always,
+    NoActiveVersion,
+    Better { new: f64, old: f64, version: u32 },
+    Never,
+    NotBetter { new: f64, old: f64, version: u32 },
+    NoStoredAccuracy { version: u32 },
+    NoAccuracy,
+}
+
+impl Decision {
+    /// Whether the new version is to be activated.
+    pub fn activates(self) -> bool {
+        matches!(
+            self,
+            Decision::Always | Decision::NoActiveVersion | Decision::Better { .. }
+        )
+    }
+}
+
+impl std::fmt::Display for Decision {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            Decision::Always => f.write_str("activate: always"),
+            Decision::Never => f.write_str("activate: never"),
+            Decision::NoActiveVersion => f.write_str("no active version"),
+            Decision::Better { new, old, version } => {
+                write!(f, "CV accuracy {new:.4} > {old:.4} of version {version}")
+            }
+            Decision::NotBetter { new, old, version } => {
+                write!(f, "CV accuracy {new:.4} ≤ {old:.4} of version {version}")
+            }
+            Decision::NoStoredAccuracy { version } => write!(
+                f,
+                "active version {version} has no stored CV accuracy to compare with"
+            ),
+            Decision::NoAccuracy => f.write_str("no CV accuracy"),
+        }
+    }
+}
+
 impl Activate {
     /// Whether a new version of cross-validated accuracy `new` is to be activated in place
-    /// of `current`: `Ok(why)` to activate, `Err(why not)`.
-    pub fn decide(self, new: Option<f64>, current: Option<Current>) -> Result<String, String> {
+    /// of `current`, and why.
+    pub fn decide(self, new: Option<f64>, current: Option<Current>) -> Decision {
         match self {
-            Activate::Never => Err("activate: never".to_string()),
-            Activate::Always => Ok("activate: always".to_string()),
+            Activate::Never => Decision::Never,
+            Activate::Always => Decision::Always,
             Activate::IfBetter => match (current, new) {
-                (None, _) => Ok("no active version".to_string()),
+                (None, _) => Decision::NoActiveVersion,
                 (Some(c), Some(new)) => match c.accuracy {
-                    Some(old) if new > old => Ok(format!(
-                        "CV accuracy {new:.4} > {old:.4} of version {}",
-                        c.version
-                    )),
-                    Some(old) => Err(format!(
-                        "CV accuracy {new:.4} ≤ {old:.4} of version {}",
-                        c.version
-                    )),
-                    None => Err(format!(
-                        "active version {} has no stored CV accuracy to compare with",
-                        c.version
-                    )),
+                    Some(old) if new > old => Decision::Better {
+                        new,
+                        old,
+                        version: c.version,
+                    },
+                    Some(old) => Decision::NotBetter {
+                        new,
+                        old,
+                        version: c.version,
+                    },
+                    None => Decision::NoStoredAccuracy { version: c.version },
                 },
-                (Some(_), None) => Err("no CV accuracy".to_string()),
+                (Some(_), None) => Decision::NoAccuracy,
             },
         }
     }
@@ -87,25 +130,32 @@ mod tests {
                 accuracy,
             })
         };
-        assert_eq!(
-            Activate::Never.decide(Some(1.0), None),
-            Err("activate: never".into())
+        let never = Activate::Never.decide(Some(1.0), None);
+        assert!(!never.activates());
+        assert_eq!(never.to_string(), "activate: never");
+        assert!(
+            Activate::Always
+                .decide(None, current(Some(0.9)))
+                .activates()
         );
-        assert!(Activate::Always.decide(None, current(Some(0.9))).is_ok());
         let if_better = |new, cur| Activate::IfBetter.decide(new, cur);
-        assert_eq!(if_better(None, None), Ok("no active version".into()));
+        assert_eq!(if_better(None, None), Decision::NoActiveVersion);
+        assert!(if_better(None, None).activates());
+        let better = if_better(Some(0.95), current(Some(0.9)));
+        assert!(better.activates());
         assert_eq!(
-            if_better(Some(0.95), current(Some(0.9))),
-            Ok("CV accuracy 0.9500 > 0.9000 of version 3".into())
+            better.to_string(),
+            "CV accuracy 0.9500 > 0.9000 of version 3"
         );
+        let equal = if_better(Some(0.9), current(Some(0.9)));
+        assert!(!equal.activates());
         assert_eq!(
-            if_better(Some(0.9), current(Some(0.9))),
-            Err("CV accuracy 0.9000 ≤ 0.9000 of version 3".into())
+            equal.to_string(),
+            "CV accuracy 0.9000 ≤ 0.9000 of version 3"
         );
-        assert!(if_better(Some(0.9), current(None)).is_err());
-        assert_eq!(
-            if_better(None, current(Some(0.5))),
-            Err("no CV accuracy".into())
-        );
+        assert!(!if_better(Some(0.9), current(None)).activates());
+        let unknown = if_better(None, current(Some(0.5)));
+        assert!(!unknown.activates());
+        assert_eq!(unknown.to_string(), "no CV accuracy");
     }
 }

@@ -116,16 +116,15 @@ impl Elements {
     }
 
     /// Elements of `datatype` from their raw form (see [`Elements::to_raw`]).
-    pub fn from_raw(datatype: Datatype, raw: &Bytes) -> Result<Elements, String> {
+    pub fn from_raw(datatype: Datatype, raw: &Bytes) -> Result<Elements, TensorError> {
         let Some(size) = datatype.size() else {
             return bytes_elements(raw).map(Elements::Bytes);
         };
         if !raw.len().is_multiple_of(size) {
-            return Err(format!(
-                "{} bytes are not a whole number of {} elements",
-                raw.len(),
-                datatype.name()
-            ));
+            return Err(TensorError::Ragged {
+                bytes: raw.len(),
+                datatype: datatype.name(),
+            });
         }
         let chunks = raw.chunks_exact(size);
         Ok(match datatype {
@@ -135,20 +134,38 @@ impl Elements {
     }
 }
 
-fn bytes_elements(raw: &Bytes) -> Result<Vec<Bytes>, String> {
+/// Raw tensor contents that do not hold whole elements of their datatype.
+#[derive(Debug, thiserror::Error)]
+pub enum TensorError {
+    #[error("{bytes} bytes are not a whole number of {datatype} elements")]
+    Ragged {
+        bytes: usize,
+        datatype: &'static str,
+    },
+    #[error("a BYTES element's 4-byte length is cut short")]
+    LengthCut,
+    #[error("a BYTES element says {length} bytes, but {remain} remain")]
+    ElementCut { length: usize, remain: usize },
+    #[error("FP16 travels as raw contents only")]
+    TypedFp16,
+    #[error("no contents")]
+    Empty,
+}
+
+fn bytes_elements(raw: &Bytes) -> Result<Vec<Bytes>, TensorError> {
     let mut elements = Vec::new();
     let mut at = 0;
     while at < raw.len() {
         let Some(length) = raw.get(at..at + 4) else {
-            return Err("a BYTES element's 4-byte length is cut short".into());
+            return Err(TensorError::LengthCut);
         };
         let length = u32::from_le_bytes([length[0], length[1], length[2], length[3]]) as usize;
         let start = at + 4;
         if raw.len() - start < length {
-            return Err(format!(
-                "a BYTES element says {length} bytes, but {} remain",
-                raw.len() - start
-            ));
+            return Err(TensorError::ElementCut {
+                length,
+                remain: raw.len() - start,
+            });
         }
         elements.push(raw.slice(start..start + length));
         at = start + length;

@@ -95,9 +95,9 @@ impl From<Encoding> for String {
 }
 
 impl TryFrom<String> for Encoding {
-    type Error = String;
-    fn try_from(s: String) -> Result<Self, String> {
-        Encoding::parse(&s).ok_or_else(|| format!("invalid encoding {s:?}"))
+    type Error = super::DecodeError;
+    fn try_from(s: String) -> Result<Self, Self::Error> {
+        s.parse()
     }
 }
 
