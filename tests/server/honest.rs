@@ -545,12 +545,13 @@ async fn calibrated_sets_name_every_class_the_model_cannot_rule_out() {
         "{doc}"
     );
 
-    // A calibration of 20 scores, 15 of them 0 and 5 of 0.9: the 50 % threshold is 0, the
-    // 95 % one 0.9.
+    // A calibration of 20 scores, 15 of them 0, four 0.3 and one 0.9: the 50 % threshold is
+    // the 11th smallest, 0; the 95 % one the ⌈21 · 0.95⌉ = 20th, 0.9 (the 19th, 0.3, would
+    // leave gray_shiny out).
     let forced = shipped_with("honest-sets-forced", |model| {
         let sets = model.prediction_sets.as_mut().unwrap();
         sets.n = 20;
-        sets.positive = vec![0.9; 5];
+        sets.positive = vec![0.3, 0.3, 0.3, 0.3, 0.9];
     });
     for (coverage, labels) in [
         ("0.5", vec!["chrome"]),
