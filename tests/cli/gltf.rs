@@ -2,7 +2,7 @@
 //! checked against known values of the mapping (docs/design.md §8), the material a download
 //! holds, binary glTF, and the colour read against a white card in colour.
 
-use crate::common::{assert_success, fixtures};
+use crate::common::{README_SPHERE_FLAGS, assert_success, fixtures};
 use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Output};
@@ -104,17 +104,10 @@ fn classify_writes_the_material_the_answer_names() {
             image.to_str().unwrap(),
             "--model",
             "models/ward6",
-            "--white",
-            "0.8",
-            "--cx",
-            "96.5",
-            "--cy",
-            "94.25",
-            "--r",
-            "85",
             "--gltf",
             out.to_str().unwrap(),
         ];
+        args.extend_from_slice(&README_SPHERE_FLAGS);
         args.extend_from_slice(extra);
         let output = Command::new(env!("CARGO_BIN_EXE_reflectance"))
             .args(&args)

@@ -3,7 +3,7 @@
 //! a picture of nothing out of domain in `classify --json` and `predict`'s CSV (the same
 //! verdict the service gives, tests/server/honest.rs).
 
-use crate::common::{assert_success, fixtures};
+use crate::common::{README_SPHERE_FLAGS, assert_success, fixtures};
 use reflectance::util::rng::Rng;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -35,16 +35,9 @@ fn classify(model: &str, image: &Path, extra: &[&str]) -> Value {
         image.to_str().unwrap(),
         "--model",
         model,
-        "--white",
-        "0.8",
-        "--cx",
-        "96.5",
-        "--cy",
-        "94.25",
-        "--r",
-        "85",
         "--json",
     ];
+    args.extend_from_slice(&README_SPHERE_FLAGS);
     args.extend_from_slice(extra);
     let out = Command::new(env!("CARGO_BIN_EXE_reflectance"))
         .args(&args)

@@ -13,6 +13,12 @@ pub fn assert_success(out: &std::process::Output) {
     );
 }
 
+/// The README's sphere (`tests/fixtures/features/sphere_rgb8.png`) as command-line flags:
+/// its white reference and its circle.
+pub const README_SPHERE_FLAGS: [&str; 8] = [
+    "--white", "0.8", "--cx", "96.5", "--cy", "94.25", "--r", "85",
+];
+
 pub fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures")
 }
