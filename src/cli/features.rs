@@ -34,7 +34,7 @@ pub struct FeaturesArgs {
     #[arg(long, value_name = "I/N", requires = "manifest")]
     shard: Option<Shard>,
     #[command(flatten)]
-    extensions: super::ExtensionArgs,
+    extensions: crate::features::FeatureOptions,
     #[command(flatten)]
     limits: LimitArgs,
 }

@@ -66,7 +66,7 @@ pub struct SpecArgs {
     /// With --manifest: extensions of the extracted features (implied by sets that name
     /// them, such as hand6+log).
     #[command(flatten)]
-    extensions: super::ExtensionArgs,
+    extensions: crate::features::FeatureOptions,
     /// svm, nn (1-NN), knn5 or chance.
     #[arg(long, default_value = "svm")]
     classifier: String,
@@ -90,7 +90,7 @@ pub struct SpecArgs {
 impl SpecArgs {
     /// The extraction configuration for manifests.
     fn config(&self) -> CliResult<FeatureConfig> {
-        self.extensions.config(&self.features)
+        Ok(self.extensions.config(&self.features)?)
     }
 
     fn spec(&self, names: &[String]) -> CliResult<TrainSpec> {

@@ -15,7 +15,6 @@ mod serve;
 
 pub use error::{CliError, CliResult};
 
-use crate::features::Extensions;
 use crate::image::white::{Rect, WhiteError};
 use clap::{Args, Parser, Subcommand};
 use std::process::ExitCode;
@@ -153,69 +152,6 @@ impl SphereArgs {
         match r > 0.0 && r <= 1.0 {
             true => Ok(r),
             false => Err(WhiteError::BadReflectance(r).into()),
-        }
-    }
-}
-
-/// Extensions of the feature bank beyond the paper's 117 features (docs/design.md §8).
-#[derive(Args, Debug, Clone, Copy)]
-pub struct ExtensionArgs {
-    /// Also compute the log-domain features (`log.*`, 117 more).
-    #[arg(long)]
-    log_features: bool,
-    /// Also compute the radial changes (`radial.*`: each of three rings of the annulus minus
-    /// the one inside it, 28 more per block).
-    #[arg(long)]
-    radial_features: bool,
-    /// Also compute the orientation dependencies (`dep.*`: correlations of subband
-    /// magnitudes between orientations at each scale, 12 more per block).
-    #[arg(long)]
-    dependency_features: bool,
-    /// Also compute the capture measurements (`cap.noise`: the noise at white estimated on
-    /// the sphere, `cap.clipped`: its clipped fraction, `cap.blur`: the blur of its rim).
-    #[arg(long)]
-    capture_features: bool,
-    /// Also measure the sphere's centre against white (`ctr.*`: log10 of the disc inside
-    /// r/√2 over white, its mean, its inner half's mean and three percentiles), a cue to the
-    /// total reflectance that the annulus lacks.
-    #[arg(long)]
-    centre_features: bool,
-    /// Also measure how well the circle follows a sphere's outline (`dom.outline`), which
-    /// the domain check of a model reads (`train` always measures it).
-    #[arg(long)]
-    domain_features: bool,
-    /// Reduce spheres larger than this radius (px) to it before extraction (area
-    /// averaging), as models trained at that radius expect.
-    #[arg(long)]
-    working_radius: Option<f64>,
-    /// Clip the white-normalized sphere at this multiple of white before extraction, as a
-    /// camera clips highlights (models trained so expect it).
-    #[arg(long)]
-    saturation: Option<f64>,
-}
-
-impl ExtensionArgs {
-    /// The configuration, with the extensions the feature-set `spec` names on too.
-    pub fn config(&self, spec: &str) -> CliResult<crate::features::FeatureConfig> {
-        let asked = Extensions {
-            log_domain: self.log_features,
-            radial: self.radial_features,
-            dependencies: self.dependency_features,
-            capture: self.capture_features,
-            centre: self.centre_features,
-            domain: self.domain_features,
-        };
-        Ok(crate::features::FeatureConfig::for_spec(
-            asked,
-            spec,
-            self.preprocessing(),
-        )?)
-    }
-
-    pub fn preprocessing(&self) -> crate::features::Preprocessing {
-        crate::features::Preprocessing {
-            working_radius: self.working_radius,
-            saturation: self.saturation,
         }
     }
 }

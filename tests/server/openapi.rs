@@ -214,3 +214,23 @@ async fn responses_follow_their_schemas() {
         ["schema"];
     check_object(&doc, schema, &detail.json(), "model");
 }
+
+#[test]
+fn the_jobs_feature_set_names_every_named_set() {
+    fn features_description(schema: &Value) -> Option<&str> {
+        if let Some(text) = schema["properties"]["features"]["description"].as_str() {
+            return Some(text);
+        }
+        let parts = schema["allOf"].as_array()?;
+        parts.iter().find_map(features_description)
+    }
+    let doc = document();
+    let text = features_description(&doc["components"]["schemas"]["LearnParams"])
+        .expect("LearnParams documents `features`");
+    for set in reflectance::features::NAMED_SETS {
+        assert!(
+            text.contains(set),
+            "the job's `features` does not name {set}"
+        );
+    }
+}

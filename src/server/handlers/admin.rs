@@ -1,5 +1,6 @@
 //! Admin plane: jobs and the model registry (bearer token required).
 
+use crate::features::FeatureOptions;
 use crate::server::error::{ApiError, Kind, Problem, Unauthorized};
 use crate::server::jobs::{JobManager, JobRecord, JobRequest, JobState};
 use crate::server::state::SharedState;
@@ -39,15 +40,7 @@ const LEARN: &[&str] = &[
     "gamma",
     "grid",
     "seed",
-    "log_features",
-    "radial_features",
-    "dependency_features",
-    "capture_features",
-    "centre_features",
-    "domain_features",
     "calibration_folds",
-    "working_radius",
-    "saturation",
 ];
 
 /// Refuse unknown keys (a typo must not silently fall back to a default).
@@ -82,8 +75,17 @@ fn check_keys(body: &Value) -> Result<(), ApiError> {
             return Err(ApiError::new(Kind::InvalidJob, detail));
         }
     };
-    let learn = if kind == "render" { &[][..] } else { LEARN };
-    let accepted: Vec<&str> = COMMON.iter().chain(extra).chain(learn).copied().collect();
+    let learn = match kind {
+        "render" => Vec::new(),
+        _ => LEARN
+            .iter()
+            .map(|k| k.to_string())
+            .chain(FeatureOptions::keys())
+            .collect(),
+    };
+    let accepted: Vec<&str> = (COMMON.iter().chain(extra).copied())
+        .chain(learn.iter().map(String::as_str))
+        .collect();
     if let Some(key) = map.keys().find(|k| !accepted.contains(&k.as_str())) {
         return Err(ApiError::new(
             Kind::InvalidJob,
@@ -379,8 +381,11 @@ mod tests {
             dataset: Some("m.csv".into()),
             table: Some("t.csv".into()),
             gamma: Some(0.1),
-            working_radius: Some(64.0),
-            saturation: Some(1.25),
+            extraction: FeatureOptions {
+                working_radius: Some(64.0),
+                saturation: Some(1.25),
+                ..FeatureOptions::default()
+            },
             ..LearnParams::default()
         };
         let jobs = [

@@ -15,6 +15,7 @@ mod run;
 
 use super::error::{ApiError, Kind};
 use super::metrics;
+use crate::features::FeatureOptions;
 use crate::image::decode::Limits;
 use crate::server::store::ModelStore;
 use crate::util::durable::write_atomic;
@@ -45,7 +46,8 @@ pub struct LearnParams {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub table: Option<String>,
     /// A named set (hand6, hand2, mean1, hand6+log, hand6+log+radial, hand6+log+radial+dep,
-    /// hand6+cap, hand6+log+cap), all, auto<N>, pca<N>, or a comma-separated list of names.
+    /// hand6+cap, hand6+log+cap, hand6+log+cap+ctr, estimator, scale_free), all, auto<N>,
+    /// pca<N>, or a comma-separated list of names.
     #[serde(default = "default_features")]
     #[schema(default = "hand6")]
     pub features: String,
@@ -71,38 +73,10 @@ pub struct LearnParams {
     #[serde(default = "default_seed")]
     #[schema(default = 1)]
     pub seed: u64,
-    /// With `dataset`: also extract the log-domain features (`log.*`; implied by feature
-    /// sets that name them, such as `hand6+log`).
-    #[serde(default)]
-    pub log_features: bool,
-    /// With `dataset`: also extract the radial changes (`radial.*`; implied by feature sets
-    /// that name them, such as `hand6+log+radial`).
-    #[serde(default)]
-    pub radial_features: bool,
-    /// With `dataset`: also extract the orientation dependencies (`dep.*`; implied by
-    /// feature sets that name them, such as `hand6+log+radial+dep`).
-    #[serde(default)]
-    pub dependency_features: bool,
-    /// With `dataset`: also compute the capture measurements (`cap.*`; implied by feature
-    /// sets that name them).
-    #[serde(default)]
-    pub capture_features: bool,
-    /// With `dataset`: also measure the sphere's centre against white (`ctr.*`; implied by
-    /// feature sets that name them, such as `hand6+log+cap+ctr`).
-    #[serde(default)]
-    pub centre_features: bool,
-    /// With `dataset`: also measure how well each circle follows a sphere's outline
-    /// (`dom.outline`; train jobs always do, for the model's domain check).
-    #[serde(default)]
-    pub domain_features: bool,
-    /// With `dataset`: reduce spheres larger than this radius (px, ≥ 32) before extraction;
-    /// recorded in the model so that serving does the same.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub working_radius: Option<f64>,
-    /// With `dataset`: clip the white-normalized sphere at this multiple of white before
-    /// extraction; recorded in the model so that serving does the same.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub saturation: Option<f64>,
+    /// With `dataset`: the extraction's options (extensions beyond those `features` names,
+    /// preprocessing), as the command line's flags of the same names.
+    #[serde(flatten)]
+    pub extraction: FeatureOptions,
 }
 
 impl LearnParams {

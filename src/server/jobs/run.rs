@@ -4,7 +4,7 @@
 use super::paths::{DataDir, PathError};
 use super::{JobRequest, LearnParams};
 use crate::dataset::{self, DatasetError, FeatureTable, Manifest};
-use crate::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
+use crate::features::{Extractor, FeatureConfig, Preprocessing};
 use crate::image::decode::{DecodeOptions, Limits};
 use crate::learn::estimate::{self, EstimateReport};
 use crate::learn::{self, CvReport, Dataset, LearnError, SpecText, TrainSpec};
@@ -204,19 +204,9 @@ fn path_error(e: PathError) -> ApiError {
 
 /// The extraction configuration of a learning job (as `reflectance train` chooses it).
 fn config_of(p: &LearnParams) -> Result<FeatureConfig, ApiError> {
-    let asked = Extensions {
-        log_domain: p.log_features,
-        radial: p.radial_features,
-        dependencies: p.dependency_features,
-        capture: p.capture_features,
-        centre: p.centre_features,
-        domain: p.domain_features,
-    };
-    let preprocessing = Preprocessing {
-        working_radius: p.working_radius,
-        saturation: p.saturation,
-    };
-    FeatureConfig::for_spec(asked, &p.features, preprocessing).map_err(|e| invalid(e.to_string()))
+    p.extraction
+        .config(&p.features)
+        .map_err(|e| invalid(e.to_string()))
 }
 
 /// The training specification of learning parameters (feature names are those of the
@@ -398,10 +388,9 @@ pub fn execute(
                 None => None,
             };
             // A model's domain check reads how well each circle follows a sphere's outline.
-            let p = &LearnParams {
-                domain_features: true,
-                ..p.clone()
-            };
+            let mut p = p.clone();
+            p.extraction.domain_features = true;
+            let p = &p;
             let (table, label, manifest) = load_table(p, data, limits, observer)?;
             let options = TrainOptions {
                 name: name.clone(),
@@ -411,9 +400,7 @@ pub fn execute(
                 classes,
                 // Recorded only when this job extracted the features itself.
                 preprocessing: match p.dataset {
-                    Some(_) => config_of(p)
-                        .map_err(|e| Failure::Error(e.detail))?
-                        .preprocessing(),
+                    Some(_) => p.extraction.preprocessing(),
                     None => Preprocessing::default(),
                 },
                 images: manifest,

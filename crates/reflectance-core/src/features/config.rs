@@ -81,6 +81,94 @@ impl Extensions {
     }
 }
 
+/// The extraction options a user chooses: the extensions to compute beyond those a feature
+/// set names, and the preprocessing. One definition for the command line (flattened into its
+/// arguments, feature `cli`), the service's learning jobs (JSON keys, feature `openapi` for
+/// the schema) and any other caller.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct FeatureOptions {
+    /// Also compute the log-domain features (`log.*`, 117 more; implied by feature sets that
+    /// name them, such as hand6+log).
+    #[serde(default)]
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub log_features: bool,
+    /// Also compute the radial changes (`radial.*`: each of three rings of the annulus minus
+    /// the one inside it, 28 more per block; implied by sets such as hand6+log+radial).
+    #[serde(default)]
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub radial_features: bool,
+    /// Also compute the orientation dependencies (`dep.*`: correlations of subband
+    /// magnitudes between orientations at each scale, 12 more per block; implied by sets
+    /// such as hand6+log+radial+dep).
+    #[serde(default)]
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub dependency_features: bool,
+    /// Also compute the capture measurements (`cap.noise`: the noise at white estimated on
+    /// the sphere, `cap.clipped`: its clipped fraction, `cap.blur`: the blur of its rim).
+    #[serde(default)]
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub capture_features: bool,
+    /// Also measure the sphere's centre against white (`ctr.*`: log10 of the disc inside
+    /// r/√2 over white, its mean, its inner half's mean and three percentiles), a cue to the
+    /// total reflectance that the annulus lacks.
+    #[serde(default)]
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub centre_features: bool,
+    /// Also measure how well the circle follows a sphere's outline (`dom.outline`), which a
+    /// model's domain check reads (training always measures it).
+    #[serde(default)]
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub domain_features: bool,
+    /// Reduce spheres larger than this radius (px, ≥ 32) to it before extraction (area
+    /// averaging); a model records it so that serving does the same.
+    #[serde(default)]
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub working_radius: Option<f64>,
+    /// Clip the white-normalized sphere at this multiple of white before extraction, as a
+    /// camera clips highlights; a model records it so that serving does the same.
+    #[serde(default)]
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub saturation: Option<f64>,
+}
+
+impl FeatureOptions {
+    /// The extensions asked for.
+    pub fn extensions(&self) -> Extensions {
+        Extensions {
+            log_domain: self.log_features,
+            radial: self.radial_features,
+            dependencies: self.dependency_features,
+            capture: self.capture_features,
+            centre: self.centre_features,
+            domain: self.domain_features,
+        }
+    }
+
+    /// The preprocessing asked for.
+    pub fn preprocessing(&self) -> Preprocessing {
+        Preprocessing {
+            working_radius: self.working_radius,
+            saturation: self.saturation,
+        }
+    }
+
+    /// The configuration that extracts what the feature-set `spec` reads with these options
+    /// (see [`FeatureConfig::for_spec`]); validated.
+    pub fn config(&self, spec: &str) -> Result<FeatureConfig, ConfigError> {
+        FeatureConfig::for_spec(self.extensions(), spec, self.preprocessing())
+    }
+
+    /// The keys of these options in JSON, sorted (for callers that refuse unknown keys).
+    pub fn keys() -> Vec<String> {
+        match serde_json::to_value(FeatureOptions::default()) {
+            Ok(serde_json::Value::Object(map)) => map.keys().cloned().collect(),
+            _ => Vec::new(),
+        }
+    }
+}
+
 /// Everything that determines the feature values: stored in every model file.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FeatureConfig {

@@ -22,7 +22,9 @@ pub(crate) mod sets;
 pub mod spectrum;
 pub mod stats;
 
-pub use config::{ConfigError, Extensions, FeatureConfig, Preprocessing, default_names};
+pub use config::{
+    ConfigError, Extensions, FeatureConfig, FeatureOptions, Preprocessing, default_names,
+};
 pub use extract::{CaptureMeasurements, Extractor, Stages};
 pub use layout::{BlockLayout, Layout};
 pub use sets::{NAMED_SETS, named_set};
