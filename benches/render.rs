@@ -11,7 +11,7 @@ use std::sync::OnceLock;
 
 fn main() {
     // As the binary does: see `reflectance::util::heap`.
-    assert!(reflectance::util::heap::tune(), "heap thresholds refused");
+    assert!(reflectance::heap::tune(), "heap thresholds refused");
     divan::main();
 }
 

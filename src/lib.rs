@@ -6,6 +6,7 @@
 
 pub mod archive;
 pub mod cli;
+pub mod heap;
 pub(crate) mod report;
 pub mod server;
 

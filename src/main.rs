@@ -1,5 +1,5 @@
 fn main() -> std::process::ExitCode {
-    if !reflectance::util::heap::tune() {
+    if !reflectance::heap::tune() {
         eprintln!("warning: the allocator refused the heap thresholds (see src/heap.rs)");
     }
     reflectance::cli::main()

@@ -13,8 +13,8 @@ use pyo3::types::PyDict;
 use reflectance_core::features::analysis::{self, AnalysisError, Locate, WhiteInput};
 use reflectance_core::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
 use reflectance_core::image::decode::LinearImage;
-use reflectance_core::image::geometry::{self, GeometryError};
-use reflectance_core::inference::{self, Answer, InferenceError, LoadedModel};
+use reflectance_core::image::geometry::GeometryError;
+use reflectance_core::inference::{self, Answer, InferenceError, LoadedModel, Placement};
 use reflectance_core::model::registry;
 use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
@@ -56,12 +56,10 @@ fn locate(
     r: Option<f64>,
     mask: Option<MaskArg>,
 ) -> PyResult<Locate> {
-    let circle = geometry::given(cx, cy, r).map_err(error)?;
-    Ok(match (circle, mask) {
-        (Some(_), Some(_)) => return Err(error("give cx, cy and r, or a mask, not both")),
-        (Some(given), None) => Locate::Circle(given.circle()),
-        (None, Some(mask)) => Locate::Mask(mask.into_mask()?),
-        (None, None) => Locate::Auto,
+    Ok(match Placement::new(cx, cy, r, mask).map_err(error)? {
+        Placement::Circle(circle) => Locate::Circle(circle),
+        Placement::Mask(mask) => Locate::Mask(mask.into_mask()?),
+        Placement::Auto => Locate::Auto,
     })
 }
 
@@ -269,14 +267,12 @@ fn classify_with<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let started = Instant::now();
     let sphere = Sphere::new(image, (cx, cy, r), white, None)?;
-    let coverage = coverage
-        .map(reflectance_core::learn::conformal::check_coverage)
-        .transpose()
-        .map_err(error)?;
     let answer = Answer {
         coverage,
         ..Answer::default()
-    };
+    }
+    .checked()
+    .map_err(error)?;
     let model = model.clone();
     let decoding = Instant::now();
     let json = sphere.decoded(py, |decoded, how, white| {

@@ -4,7 +4,6 @@
 
 use super::{CliError, CliResult, LimitArgs, SphereArgs};
 use crate::image::decode::Encoding;
-use crate::image::geometry;
 use crate::inference::{
     self, Answer, ClassifyResponse, InferenceError, Input, LoadedModel, LocateSpec, WhiteSpec,
 };
@@ -73,42 +72,32 @@ fn load_model(path: &Path) -> CliResult<LoadedModel> {
 
 fn input(args: &ClassifyArgs) -> CliResult<Input> {
     let sphere = &args.sphere;
-    let white = match (&sphere.white, &sphere.white_image) {
-        (Some(v), _) => WhiteSpec::value(*v)?,
-        (None, Some(path)) => WhiteSpec::Card {
-            bytes: read(path, "white image")?,
-            reflectance: sphere.card_reflectance()?,
-        },
-        (None, None) => match sphere.white_rect {
-            Some(rect) => WhiteSpec::Rect {
-                rect,
-                reflectance: sphere.card_reflectance()?,
-            },
-            None => WhiteSpec::Missing,
-        },
-    };
-    let circle = geometry::given(sphere.cx, sphere.cy, sphere.r)?;
-    let locate = match (circle, &sphere.mask) {
-        (Some(given), _) => LocateSpec::Circle(given.circle()),
-        (None, Some(mask)) => LocateSpec::Mask(read(mask, "mask")?),
-        (None, None) => LocateSpec::Auto,
-    };
-    let coverage = args
-        .coverage
-        .map(crate::learn::conformal::check_coverage)
+    let card = sphere.white_image.is_some() || sphere.white_rect.is_some();
+    let white = WhiteSpec::new(
+        sphere.white,
+        sphere
+            .white_image
+            .as_deref()
+            .map(|path| read(path, "white image"))
+            .transpose()?,
+        sphere.white_rect,
+        // The flag has a default; it is the card's only when there is a card.
+        card.then_some(sphere.white_reflectance),
+    )?;
+    let mask = sphere
+        .mask
+        .as_deref()
+        .map(|m| read(m, "mask"))
         .transpose()?;
-    Ok(Input {
-        image: read(&args.image, "image")?,
-        white,
-        locate,
-        encoding: args.encoding,
-        answer: Answer {
-            include_features: args.all_features,
-            include_explain: args.explain,
-            include_images: false,
-            coverage,
-        },
-    })
+    let locate = LocateSpec::new(sphere.cx, sphere.cy, sphere.r, mask)?;
+    let answer = Answer {
+        include_features: args.all_features,
+        include_explain: args.explain,
+        include_images: false,
+        coverage: args.coverage,
+    };
+    let image = read(&args.image, "image")?;
+    Ok(Input::new(image, white, locate, args.encoding, answer)?)
 }
 
 pub fn run(args: ClassifyArgs) -> CliResult {

@@ -28,6 +28,8 @@ pub enum CliError {
     #[error(transparent)]
     White(#[from] WhiteError),
     #[error(transparent)]
+    Input(#[from] crate::inference::InputError),
+    #[error(transparent)]
     Learn(#[from] LearnError),
     #[error(transparent)]
     Train(#[from] TrainError),

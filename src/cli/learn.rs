@@ -124,9 +124,9 @@ pub struct CvArgs {
 /// Estimating the Ward parameters instead of naming a class.
 #[derive(Args, Debug)]
 pub struct EstimateArgs {
-    /// Estimate (ρd, ρs, α) with 90 % intervals instead of classifying: a ridge regression on
-    /// random Fourier features of the RBF kernel; the classes must be materials of
-    /// --ward-classes.
+    /// Estimate (ρd, ρs, α) with 90 % intervals instead of classifying, by the regression
+    /// --regressor chooses (gradient-boosted trees by default); the classes must be
+    /// materials of --ward-classes.
     #[arg(long, requires = "ward_classes")]
     estimate: bool,
     /// The class file whose Ward parameters are the targets (e.g. from `materials`).
@@ -146,8 +146,8 @@ pub struct EstimateArgs {
 pub struct RidgeArgs {
     /// The Ward-parameter regression: gradient-boosted trees, or the kernel ridge of the
     /// --ridge-* options (the first estimators').
-    #[arg(long, value_enum, default_value_t = Regressor::Boost)]
-    regressor: Regressor,
+    #[arg(long, value_enum, default_value_t = estimate::Method::Boost)]
+    regressor: estimate::Method,
     /// Random Fourier features of the Ward-parameter regression.
     #[arg(long, default_value_t = estimate::DEFAULT_RIDGE_FEATURES)]
     ridge_features: usize,
@@ -159,18 +159,9 @@ pub struct RidgeArgs {
     ridge_gamma: Option<f64>,
 }
 
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-enum Regressor {
-    Boost,
-    Ridge,
-}
-
 impl RidgeArgs {
     fn method(&self) -> estimate::Method {
-        match self.regressor {
-            Regressor::Boost => estimate::Method::Boost,
-            Regressor::Ridge => estimate::Method::Ridge,
-        }
+        self.regressor
     }
 
     /// The regression of `features` over the table's columns `names` (a ridge's γ:
@@ -286,25 +277,32 @@ pub fn human_report(r: &CvReport, illuminations: usize) -> String {
     let _ = writeln!(
         out,
         "leave-one-illumination-out: {} · {} — {} images, {} illuminations, {} classes",
-        r.features,
-        r.classifier,
-        r.n,
+        r.summary.features,
+        r.summary.classifier,
+        r.summary.n,
         illuminations,
-        r.classes.len()
+        r.summary.classes.len()
     );
     let _ = writeln!(
         out,
         "accuracy {} ({}/{})   chance {}   log-loss {:.3}   ECE {:.3}\n",
-        pct(r.accuracy),
-        r.correct,
-        r.n,
-        pct(r.random_guess_accuracy),
-        r.log_loss,
-        r.ece
+        pct(r.summary.accuracy),
+        r.summary.correct,
+        r.summary.n,
+        pct(r.summary.random_guess_accuracy),
+        r.summary.log_loss,
+        r.summary.ece
     );
-    let width = r.classes.iter().map(String::len).max().unwrap_or(5).max(5);
+    let width = r
+        .summary
+        .classes
+        .iter()
+        .map(String::len)
+        .max()
+        .unwrap_or(5)
+        .max(5);
     let _ = writeln!(out, "{:width$}  accuracy", "class");
-    for c in &r.per_class {
+    for c in &r.summary.per_class {
         let _ = writeln!(
             out,
             "{:width$}  {:>7} ({}/{})",
@@ -318,7 +316,7 @@ pub fn human_report(r: &CvReport, illuminations: usize) -> String {
         out,
         "\nconfusion (rows = truth, columns = predicted, same order):"
     );
-    for (name, row) in r.classes.iter().zip(&r.confusion) {
+    for (name, row) in r.summary.classes.iter().zip(&r.summary.confusion) {
         let cells: Vec<String> = row.iter().map(|n| format!("{n:>4}")).collect();
         let _ = writeln!(out, "{name:width$}  {}", cells.join(""));
     }
@@ -459,9 +457,9 @@ pub fn train(args: TrainArgs) -> CliResult {
     if let Some(r) = &trained.report {
         eprintln!(
             "cross-validated accuracy {:.1} % ({}/{})",
-            100.0 * r.accuracy,
-            r.correct,
-            r.n
+            100.0 * r.summary.accuracy,
+            r.summary.correct,
+            r.summary.n
         );
     }
     println!("{}", dir.display());

@@ -156,18 +156,22 @@ fn cell(dataset: &str, protocol: &str, report: &CvReport) -> Cell {
     Cell {
         dataset: dataset.to_string(),
         protocol: protocol.to_string(),
-        features: report.features.clone(),
-        classifier: report.classifier.clone(),
-        accuracy: report.accuracy,
-        correct: report.correct,
-        n: report.n,
-        log_loss: report.log_loss,
-        ece: report.ece,
-        paper: paper_figure(dataset, &report.features, &report.classifier)
-            .filter(|_| protocol == "paper"),
-        per_class: report.per_class.clone(),
-        confusion: report.confusion.clone(),
-        classes: report.classes.clone(),
+        features: report.summary.features.clone(),
+        classifier: report.summary.classifier.clone(),
+        accuracy: report.summary.accuracy,
+        correct: report.summary.correct,
+        n: report.summary.n,
+        log_loss: report.summary.log_loss,
+        ece: report.summary.ece,
+        paper: paper_figure(
+            dataset,
+            &report.summary.features,
+            &report.summary.classifier,
+        )
+        .filter(|_| protocol == "paper"),
+        per_class: report.summary.per_class.clone(),
+        confusion: report.summary.confusion.clone(),
+        classes: report.summary.classes.clone(),
     }
 }
 

@@ -98,7 +98,7 @@ pub(super) fn render_png(
 
 /// Row-normalized confusion matrix with counts.
 pub fn confusion(report: &CvReport, path: &Path) -> Result<(), ReportError> {
-    let k = report.classes.len();
+    let k = report.summary.classes.len();
     let cell = 56i32;
     let (left, top) = (150i32, 80i32);
     let size = (
@@ -109,9 +109,9 @@ pub fn confusion(report: &CvReport, path: &Path) -> Result<(), ReportError> {
         root.fill(&WHITE).map_err(plot_error)?;
         let title = format!(
             "{} · {} — accuracy {:.1} %",
-            report.features,
-            report.classifier,
-            100.0 * report.accuracy
+            report.summary.features,
+            report.summary.classifier,
+            100.0 * report.summary.accuracy
         );
         root.draw(&Text::new(title, (10, 10), ("sans-serif", 20)))
             .map_err(plot_error)?;
@@ -121,10 +121,10 @@ pub fn confusion(report: &CvReport, path: &Path) -> Result<(), ReportError> {
             ("sans-serif", 14),
         ))
         .map_err(plot_error)?;
-        for (t, row) in report.confusion.iter().enumerate() {
+        for (t, row) in report.summary.confusion.iter().enumerate() {
             let total: usize = row.iter().sum::<usize>().max(1);
             let y = top + cell * t as i32;
-            let label = format!("{}. {}", t + 1, report.classes[t]);
+            let label = format!("{}. {}", t + 1, report.summary.classes[t]);
             root.draw(&Text::new(label, (8, y + cell / 2 - 7), ("sans-serif", 13)))
                 .map_err(plot_error)?;
             let header = (left + cell * t as i32 + cell / 2 - 6, top - 18);

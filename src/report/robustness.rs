@@ -266,17 +266,20 @@ pub fn evaluate(
             let verdicts = models
                 .iter()
                 .map(|(_, model)| {
-                    let input = Input {
-                        image: shot.bytes.clone(),
-                        white: WhiteSpec::Value(shot.white),
-                        locate: LocateSpec::Circle(shot.circle),
-                        encoding: shot.encoding,
-                        answer: Answer::default(),
-                    };
+                    let input = Input::new(
+                        shot.bytes.clone(),
+                        WhiteSpec::Value(shot.white),
+                        LocateSpec::Circle(shot.circle),
+                        shot.encoding,
+                        Answer::default(),
+                    );
                     let classes = model.file.classifier.classes();
                     let truth = classes.iter().position(|c| *c == image.class);
-                    inference::classify(model.clone(), input, Default::default())
+                    let classified = input
                         .ok()
+                        .map(|input| inference::classify(model.clone(), input, Default::default()));
+                    classified
+                        .and_then(Result::ok)
                         .zip(truth)
                         .map(|(c, truth)| {
                             let nearest = c.ward.as_ref().and_then(|e| model.nearest_class(e));

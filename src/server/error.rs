@@ -452,6 +452,21 @@ impl From<GeometryError> for ApiError {
     }
 }
 
+impl From<crate::inference::InputError> for ApiError {
+    fn from(e: crate::inference::InputError) -> ApiError {
+        use crate::inference::InputError as E;
+        let kind = match e {
+            E::Geometry(e) => return e.into(),
+            E::White(e) => return e.into(),
+            E::EmptyImage => Kind::MissingField,
+            E::SeveralWhites | E::ReflectanceWithoutCard => Kind::BadWhite,
+            E::CircleAndMask => Kind::BadGeometry,
+            E::Coverage(_) => Kind::InvalidField,
+        };
+        ApiError::new(kind, e.to_string())
+    }
+}
+
 impl From<crate::archive::ArchiveError> for ApiError {
     fn from(e: crate::archive::ArchiveError) -> ApiError {
         use crate::archive::ArchiveError as E;

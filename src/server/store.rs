@@ -52,8 +52,10 @@ impl ModelStore {
                 metrics::model_load_failure(name);
                 tracing::warn!(model = name, version, error = %e, "model version refused");
             }
-        })?;
-        LoadedModel::new(file)
+        });
+        // Reading a model file takes several times its size, briefly: give that back.
+        crate::heap::release_free();
+        LoadedModel::new(file?)
             .inspect_err(|_| metrics::model_load_failure(name))
             .map_err(ApiError::from)
     }
@@ -164,6 +166,11 @@ impl ModelStore {
 
     fn missing(&self, name: &str) -> ApiError {
         ApiError::new(Kind::ModelNotFound, format!("unknown model {name:?}"))
+    }
+
+    /// The active version of a served model; 404 (`model-not-found`) for any other name.
+    pub fn served(&self, name: &str) -> Result<Arc<LoadedModel>, ApiError> {
+        self.active(name).ok_or_else(|| self.missing(name))
     }
 
     /// Whether a model name is served.

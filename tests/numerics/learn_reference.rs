@@ -97,13 +97,13 @@ fn svm_agreement(set: &str, decision_bound: f64) {
     );
     eprintln!(
         "{set}: log-loss rust {:.4} sklearn {sk_ll:.4}; ECE rust {:.4} sklearn {sk_ece:.4}",
-        report.log_loss, report.ece
+        report.summary.log_loss, report.summary.ece
     );
     assert!(
-        (report.log_loss - sk_ll).abs() <= 0.1 * sk_ll,
+        (report.summary.log_loss - sk_ll).abs() <= 0.1 * sk_ll,
         "{set}: log-loss"
     );
-    assert!((report.ece - sk_ece).abs() <= 0.03, "{set}: ECE");
+    assert!((report.summary.ece - sk_ece).abs() <= 0.03, "{set}: ECE");
 }
 
 #[test]
@@ -135,8 +135,8 @@ fn auto6_matches_reference_selection() {
     let spec = TrainSpec::new(FeatureSet::Auto(6), ClassifierKind::Nn);
     let report = cross_validate(&ds, &spec, 1).unwrap();
     let per_fold = &expected["auto6"]["per_fold"];
-    assert_eq!(report.folds.len(), 12);
-    for fold in &report.folds {
+    assert_eq!(report.summary.folds.len(), 12);
+    for fold in &report.summary.folds {
         assert_eq!(
             fold.selected,
             strings(&per_fold[&fold.illumination]),

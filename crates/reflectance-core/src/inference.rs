@@ -7,14 +7,14 @@ use crate::features::analysis::{self, Analysis, AnalysisError, Locate, WhiteInpu
 use crate::image::colour::{self, Rgb};
 use crate::image::decode::{self, DecodeError, DecodeOptions, Encoding};
 use crate::image::display;
-use crate::image::geometry::{self, Method as GeometryMethod};
+use crate::image::geometry::{self, GeometryError, Method as GeometryMethod};
 use crate::image::white::{Method as WhiteMethod, Rect, WhiteError};
 use crate::learn::LearnError;
 use crate::learn::conformal;
 use crate::learn::domain::Verdict;
 use crate::learn::estimate::{StatedEstimate, WardEstimate};
 use crate::material::gltf::METAL_RATIO;
-use crate::model::{ClassInfo, Head, ModelError, ModelFile};
+use crate::model::{ClassInfo, Head, ModelError, ModelFile, Ward};
 use bytes::Bytes;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -96,6 +96,7 @@ impl LoadedModel {
 }
 
 /// How white is given, before decoding.
+#[derive(Debug)]
 pub enum WhiteSpec {
     Value(f64),
     Card {
@@ -115,22 +116,116 @@ impl WhiteSpec {
     pub fn value(value: f64) -> Result<WhiteSpec, WhiteError> {
         crate::image::white::given(value).map(|_| WhiteSpec::Value(value))
     }
+
+    /// The white reference of a request: at most one of a value, a card's crop and a card
+    /// inside the photograph; the card's reflectance (in (0, 1], default 1) only with a card.
+    pub fn new(
+        value: Option<f64>,
+        card: Option<Bytes>,
+        rect: Option<Rect>,
+        reflectance: Option<f64>,
+    ) -> Result<WhiteSpec, InputError> {
+        let given = [value.is_some(), card.is_some(), rect.is_some()];
+        if given.iter().filter(|&&g| g).count() > 1 {
+            return Err(InputError::SeveralWhites);
+        }
+        if reflectance.is_some() && !(given[1] || given[2]) {
+            return Err(InputError::ReflectanceWithoutCard);
+        }
+        let reflectance = reflectance.unwrap_or(1.0);
+        if !(reflectance > 0.0 && reflectance <= 1.0) {
+            return Err(WhiteError::BadReflectance(reflectance).into());
+        }
+        Ok(match (value, card, rect) {
+            (Some(value), _, _) => WhiteSpec::value(value)?,
+            (_, Some(bytes), _) => WhiteSpec::Card { bytes, reflectance },
+            (_, _, Some(rect)) => WhiteSpec::Rect { rect, reflectance },
+            (None, None, None) => WhiteSpec::Missing,
+        })
+    }
 }
 
-/// Where the sphere is, before decoding.
-pub enum LocateSpec {
+/// Where the sphere is, before decoding: a circle, a mask (`M`: the mask as the caller
+/// holds it, bytes of a file or an array), or found in the image.
+#[derive(Debug)]
+pub enum Placement<M> {
     Circle(geometry::Circle),
-    Mask(Bytes),
+    Mask(M),
     Auto,
 }
 
-/// A validated classification request.
+impl<M> Placement<M> {
+    /// The placement of a request: `cx`, `cy` and `r` all or none (checked as far as they can
+    /// be without the image), or a mask, not both.
+    pub fn new(
+        cx: Option<f64>,
+        cy: Option<f64>,
+        r: Option<f64>,
+        mask: Option<M>,
+    ) -> Result<Placement<M>, InputError> {
+        Ok(match (geometry::given(cx, cy, r)?, mask) {
+            (Some(_), Some(_)) => return Err(InputError::CircleAndMask),
+            (Some(given), None) => Placement::Circle(given.circle()),
+            (None, Some(mask)) => Placement::Mask(mask),
+            (None, None) => Placement::Auto,
+        })
+    }
+}
+
+/// Where the sphere is in an encoded photograph.
+pub type LocateSpec = Placement<Bytes>;
+
+/// A request's input that breaks a rule of the request itself (before any decoding).
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum InputError {
+    #[error("the image is empty")]
+    EmptyImage,
+    #[error("give one of white, white_image and white_rect")]
+    SeveralWhites,
+    #[error("white_reflectance applies to white_image or white_rect only")]
+    ReflectanceWithoutCard,
+    #[error(transparent)]
+    White(#[from] WhiteError),
+    #[error(transparent)]
+    Geometry(#[from] GeometryError),
+    #[error("give cx, cy and r, or a mask, not both")]
+    CircleAndMask,
+    #[error("coverage must be a number from 0.5 to 0.999, not {0}")]
+    Coverage(f64),
+}
+
+/// A validated classification request: [`Input::new`] is the only way to make one.
+#[derive(Debug)]
 pub struct Input {
-    pub image: Bytes,
-    pub white: WhiteSpec,
-    pub locate: LocateSpec,
-    pub encoding: Option<Encoding>,
-    pub answer: Answer,
+    image: Bytes,
+    white: WhiteSpec,
+    locate: LocateSpec,
+    encoding: Option<Encoding>,
+    answer: Answer,
+}
+
+impl Input {
+    /// A request of an encoded photograph: not empty, with a prediction-set coverage (when
+    /// given) in [0.5, 0.999].
+    pub fn new(
+        image: Bytes,
+        white: WhiteSpec,
+        locate: LocateSpec,
+        encoding: Option<Encoding>,
+        answer: Answer,
+    ) -> Result<Input, InputError> {
+        if image.is_empty() {
+            return Err(InputError::EmptyImage);
+        }
+        answer.checked()?;
+        Ok(Input {
+            image,
+            white,
+            locate,
+            encoding,
+            answer,
+        })
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -306,6 +401,16 @@ pub struct Answer {
     pub include_images: bool,
     /// `None`: [`conformal::DEFAULT_COVERAGE`].
     pub coverage: Option<f64>,
+}
+
+impl Answer {
+    /// The answer, if its coverage (when given) is one the prediction sets offer.
+    pub fn checked(self) -> Result<Answer, InputError> {
+        match self.coverage {
+            Some(c) if conformal::check_coverage(c).is_err() => Err(InputError::Coverage(c)),
+            _ => Ok(self),
+        }
+    }
 }
 
 /// Locate, extract and classify an image already decoded (or handed over as an array,
@@ -548,15 +653,6 @@ pub struct LabelProbability {
     pub p: f64,
 }
 
-/// Ward reflectance parameters of a rendered class.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-pub struct WardParams {
-    pub rho_d: f64,
-    pub rho_s: f64,
-    pub alpha: f64,
-}
-
 /// A material a renderer can be given: the class's or the estimate's Ward parameters.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
@@ -565,7 +661,7 @@ pub struct MaterialOut {
     pub source: String,
     /// Its name in an exported file: the class's name, or `estimate`.
     pub name: String,
-    pub ward: WardParams,
+    pub ward: Ward,
     /// For the estimate: the class its parameters are nearest to.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub nearest_class: Option<String>,
@@ -656,7 +752,7 @@ pub struct MaterialsOut {
     pub note: String,
 }
 
-fn name_the(w: &WardParams) -> String {
+fn name_the(w: &Ward) -> String {
     format!("ρd {:.2}, ρs {:.2}, α {:.3}", w.rho_d, w.rho_s, w.alpha)
 }
 
@@ -721,7 +817,7 @@ pub struct ClassOut {
     pub description: String,
     /// Known when the class was rendered from Ward parameters.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub ward: Option<WardParams>,
+    pub ward: Option<Ward>,
 }
 
 impl From<&ClassInfo> for ClassOut {
@@ -729,11 +825,7 @@ impl From<&ClassInfo> for ClassOut {
         ClassOut {
             name: c.name.clone(),
             description: c.description(),
-            ward: c.ward.as_ref().map(|w| WardParams {
-                rho_d: w.rho_d,
-                rho_s: w.rho_s,
-                alpha: w.alpha,
-            }),
+            ward: c.ward.clone(),
         }
     }
 }
@@ -991,7 +1083,7 @@ fn materials(
     let estimate = estimate.filter(|_| white_given).map(|e| MaterialOut {
         source: "estimate".into(),
         name: "estimate".into(),
-        ward: WardParams {
+        ward: Ward {
             rho_d: e.rho_d.value,
             rho_s: e.rho_s.value,
             alpha: e.alpha.value,
@@ -1135,6 +1227,104 @@ impl Classified {
             material,
             colour,
             ward: self.ward.map(|w| w.stated(white_given)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rect() -> Rect {
+        Rect {
+            x: 0.0,
+            y: 0.0,
+            w: 8.0,
+            h: 8.0,
+        }
+    }
+
+    #[test]
+    fn white_is_one_of_a_value_a_card_and_a_rectangle() {
+        let card = || Some(Bytes::from_static(b"card"));
+        assert!(matches!(
+            WhiteSpec::new(Some(0.5), None, None, None),
+            Ok(WhiteSpec::Value(v)) if v == 0.5
+        ));
+        assert!(matches!(
+            WhiteSpec::new(None, card(), None, Some(0.9)),
+            Ok(WhiteSpec::Card { reflectance, .. }) if reflectance == 0.9
+        ));
+        assert!(matches!(
+            WhiteSpec::new(None, None, Some(rect()), None),
+            Ok(WhiteSpec::Rect { reflectance, .. }) if reflectance == 1.0
+        ));
+        assert!(matches!(
+            WhiteSpec::new(None, None, None, None),
+            Ok(WhiteSpec::Missing)
+        ));
+        assert_eq!(
+            WhiteSpec::new(Some(0.5), None, Some(rect()), None).unwrap_err(),
+            InputError::SeveralWhites
+        );
+        assert_eq!(
+            WhiteSpec::new(Some(0.5), None, None, Some(0.9)).unwrap_err(),
+            InputError::ReflectanceWithoutCard
+        );
+        assert_eq!(
+            WhiteSpec::new(None, None, None, Some(0.9)).unwrap_err(),
+            InputError::ReflectanceWithoutCard
+        );
+        assert_eq!(
+            WhiteSpec::new(None, card(), None, Some(1.5)).unwrap_err(),
+            InputError::White(WhiteError::BadReflectance(1.5))
+        );
+        assert!(matches!(
+            WhiteSpec::new(Some(-1.0), None, None, None),
+            Err(InputError::White(_))
+        ));
+    }
+
+    #[test]
+    fn the_sphere_is_a_circle_or_a_mask_not_both() {
+        let circle = Placement::<()>::new(Some(50.0), Some(50.0), Some(40.0), None);
+        assert!(matches!(circle, Ok(Placement::Circle(c)) if c.r == 40.0));
+        assert!(matches!(
+            Placement::new(None, None, None, Some(())),
+            Ok(Placement::Mask(()))
+        ));
+        assert!(matches!(
+            Placement::<()>::new(None, None, None, None),
+            Ok(Placement::Auto)
+        ));
+        assert_eq!(
+            Placement::new(Some(50.0), Some(50.0), Some(40.0), Some(())).unwrap_err(),
+            InputError::CircleAndMask
+        );
+        assert_eq!(
+            Placement::<()>::new(Some(50.0), None, Some(40.0), None).unwrap_err(),
+            InputError::Geometry(GeometryError::Incomplete)
+        );
+    }
+
+    #[test]
+    fn an_input_has_an_image_and_a_coverage_the_sets_offer() {
+        let input = |image: &'static [u8], coverage| {
+            let answer = Answer {
+                coverage,
+                ..Answer::default()
+            };
+            let image = Bytes::from_static(image);
+            Input::new(image, WhiteSpec::Missing, Placement::Auto, None, answer)
+        };
+        assert!(input(b"png", Some(0.9)).is_ok());
+        assert!(input(b"png", None).is_ok());
+        assert_eq!(input(b"", None).unwrap_err(), InputError::EmptyImage);
+        for bad in [0.4, 1.0, f64::NAN] {
+            assert!(matches!(
+                input(b"png", Some(bad)),
+                Err(InputError::Coverage(_))
+            ));
         }
     }
 }

@@ -155,21 +155,23 @@ fn main() -> Result<(), String> {
                     &mut rng,
                 )
                 .expect("valid capture settings");
-                let input = Input {
-                    image: capture.bytes.into(),
-                    white: WhiteSpec::Rect {
-                        rect: Rect {
-                            x: 2.0,
-                            y: 2.0,
-                            w: (side - 2) as f64,
-                            h: (side - 2) as f64,
-                        },
-                        reflectance: CARD_REFLECTANCE,
+                let white = WhiteSpec::Rect {
+                    rect: Rect {
+                        x: 2.0,
+                        y: 2.0,
+                        w: (side - 2) as f64,
+                        h: (side - 2) as f64,
                     },
-                    locate: LocateSpec::Circle(capture.circle),
-                    encoding: Some(capture.quantization.encoding()),
-                    answer: Answer::default(),
+                    reflectance: CARD_REFLECTANCE,
                 };
+                let input = Input::new(
+                    capture.bytes.into(),
+                    white,
+                    LocateSpec::Circle(capture.circle),
+                    Some(capture.quantization.encoding()),
+                    Answer::default(),
+                )
+                .expect("a capture is a valid input");
                 let answer = inference::classify(model.clone(), input, Default::default())
                     .map(|c| c.response(String::new(), 0.0));
                 let error = match answer.ok().and_then(|a| a.colour.rgb) {

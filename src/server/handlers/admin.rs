@@ -289,6 +289,7 @@ pub async fn versions(
                 },
             })
             .collect();
+        crate::heap::release_free();
         Ok(Json(VersionList {
             name,
             active,

@@ -3,8 +3,7 @@
 //! admission semaphore (429 when saturated); the async side only moves bytes.
 
 use crate::image::decode::Encoding;
-use crate::image::geometry;
-use crate::image::white::{Rect, WhiteError};
+use crate::image::white::Rect;
 use crate::inference::{self, Answer, Classified, ClassifyResponse, Input, LocateSpec, WhiteSpec};
 use crate::server::error::{ApiError, ClassificationProblems, Kind, Problem};
 use crate::server::metrics;
@@ -101,72 +100,28 @@ pub struct RawInput {
 }
 
 impl RawInput {
-    /// The white reference: at most one of `white`, `white_image` and `white_rect`, and
-    /// `white_reflectance` only with a card.
-    fn white_spec(&mut self) -> Result<WhiteSpec, ApiError> {
-        let bad = |detail: &str| ApiError::new(Kind::BadWhite, detail.to_string());
-        let given = [
-            self.white.is_some(),
-            self.white_image.is_some(),
-            self.white_rect.is_some(),
-        ];
-        if given.iter().filter(|&&g| g).count() > 1 {
-            return Err(bad("give one of white, white_image and white_rect"));
-        }
-        let reflectance = match &self.white_reflectance {
-            None => 1.0,
-            Some(_) if !(given[1] || given[2]) => {
-                return Err(bad(
-                    "white_reflectance applies to white_image or white_rect only",
-                ));
-            }
-            Some(text) => number("white_reflectance", text)?,
-        };
-        if !(reflectance > 0.0 && reflectance <= 1.0) {
-            return Err(WhiteError::BadReflectance(reflectance).into());
-        }
-        if let Some(text) = self.white.take() {
-            return Ok(WhiteSpec::value(number("white", &text)?)?);
-        }
-        if let Some(bytes) = self.white_image.take() {
-            return Ok(WhiteSpec::Card { bytes, reflectance });
-        }
-        if let Some(text) = self.white_rect.take() {
-            let rect = text.parse::<Rect>()?;
-            return Ok(WhiteSpec::Rect { rect, reflectance });
-        }
-        Ok(WhiteSpec::Missing)
-    }
-
-    /// Check the combination of fields and parse the numbers (before any decoding).
-    pub fn validate(mut self) -> Result<Input, ApiError> {
-        let white = self.white_spec()?;
+    /// Parse the fields' text and check the request's rules ([`Input::new`]), before any
+    /// decoding.
+    pub fn validate(self) -> Result<Input, ApiError> {
         let image = self
             .image
             .ok_or_else(|| ApiError::new(Kind::MissingField, "the image field is required"))?;
-        if image.is_empty() {
-            return Err(ApiError::new(
-                Kind::MissingField,
-                "the image field is empty",
-            ));
-        }
         let parse = |f: &str, t: &Option<String>| t.as_deref().map(|t| number(f, t)).transpose();
-        let circle = geometry::given(
+        let white = WhiteSpec::new(
+            parse("white", &self.white)?,
+            self.white_image,
+            self.white_rect
+                .as_deref()
+                .map(str::parse::<Rect>)
+                .transpose()?,
+            parse("white_reflectance", &self.white_reflectance)?,
+        )?;
+        let locate = LocateSpec::new(
             parse("cx", &self.cx)?,
             parse("cy", &self.cy)?,
             parse("r", &self.r)?,
+            self.mask,
         )?;
-        let locate = match (circle, self.mask) {
-            (Some(_), Some(_)) => {
-                return Err(ApiError::new(
-                    Kind::BadGeometry,
-                    "give cx, cy and r, or a mask, not both",
-                ));
-            }
-            (Some(g), None) => LocateSpec::Circle(g.circle()),
-            (None, Some(bytes)) => LocateSpec::Mask(bytes),
-            (None, None) => LocateSpec::Auto,
-        };
         let encoding = self
             .encoding
             .as_deref()
@@ -174,24 +129,13 @@ impl RawInput {
             .transpose()?;
         let [include_features, include_explain, include_images] =
             includes(&self.include, ["features", "explain", "images"])?;
-        let coverage = parse("coverage", &self.coverage)?
-            .map(|c| {
-                crate::learn::conformal::check_coverage(c)
-                    .map_err(|e| ApiError::new(Kind::InvalidField, e.to_string()))
-            })
-            .transpose()?;
-        Ok(Input {
-            image,
-            white,
-            locate,
-            encoding,
-            answer: Answer {
-                include_features,
-                include_explain,
-                include_images,
-                coverage,
-            },
-        })
+        let answer = Answer {
+            include_features,
+            include_explain,
+            include_images,
+            coverage: parse("coverage", &self.coverage)?,
+        };
+        Ok(Input::new(image, white, locate, encoding, answer)?)
     }
 }
 
@@ -298,12 +242,7 @@ pub async fn run(
     version: Option<u32>,
     input: Input,
 ) -> Result<Classified, ApiError> {
-    if !state.models.is_served(name) {
-        return Err(ApiError::new(
-            Kind::ModelNotFound,
-            format!("unknown model {name:?}"),
-        ));
-    }
+    state.models.served(name)?;
     let permit = state.cpu.admit()?;
     let limits = state.config.limits;
     let worker_state = state.clone();
@@ -346,12 +285,7 @@ async fn handle(
 ) -> Result<Response, ApiError> {
     let started = Instant::now();
     super::health::serving(&state)?;
-    if !state.models.is_served(name) {
-        return Err(ApiError::new(
-            Kind::ModelNotFound,
-            format!("unknown model {name:?}"),
-        ));
-    }
+    state.models.served(name)?;
     let input = read_form(multipart?).await?.validate()?;
     let classified = run(&state, name, version, input).await?;
     Ok(response(classified, started))

@@ -1,7 +1,7 @@
 //! `GET /v1/models` and `GET /v1/models/{name}`.
 
 use crate::inference::ClassOut;
-use crate::server::error::{ApiError, Kind, Problem};
+use crate::server::error::{ApiError, Problem};
 use crate::server::state::{LoadedModel, SharedState};
 use axum::Json;
 use axum::extract::{Path, State};
@@ -44,26 +44,6 @@ pub struct ClassifierOut {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gamma: Option<f64>,
     pub calibrated: bool,
-}
-
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
-pub struct ClassAccuracy {
-    pub class: String,
-    pub n: usize,
-    pub correct: usize,
-    pub accuracy: f64,
-}
-
-/// Leave-one-illumination-out cross-validation stored with the version.
-#[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
-pub struct CvSummaryOut {
-    pub accuracy: f64,
-    pub n: usize,
-    pub log_loss: f64,
-    pub ece: f64,
-    pub per_class: Vec<ClassAccuracy>,
-    /// `confusion[truth][predicted]`, class order.
-    pub confusion: Vec<Vec<usize>>,
 }
 
 /// The prediction sets' calibration.
@@ -150,7 +130,7 @@ pub struct ModelDetail {
     pub classifier: ClassifierOut,
     pub training: TrainingOut,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub cv: Option<CvSummaryOut>,
+    pub cv: Option<crate::model::StoredCv>,
     /// Prediction sets and the domain check, calibrated on held-out illuminations.
     pub calibration: CalibrationOut,
     /// SHA-256 of the active version's model file content.
@@ -186,23 +166,7 @@ pub fn detail(model: &LoadedModel, versions: Vec<u32>) -> ModelDetail {
             illuminations: f.training.illuminations,
             seed: f.training.seed,
         },
-        cv: f.training.cv.as_ref().map(|cv| CvSummaryOut {
-            accuracy: cv.accuracy,
-            n: cv.n,
-            log_loss: cv.log_loss,
-            ece: cv.ece,
-            per_class: cv
-                .per_class
-                .iter()
-                .map(|s| ClassAccuracy {
-                    class: s.class.clone(),
-                    n: s.n,
-                    correct: s.correct,
-                    accuracy: s.accuracy,
-                })
-                .collect(),
-            confusion: cv.confusion.clone(),
-        }),
+        cv: f.training.cv.clone(),
         calibration: CalibrationOut {
             with_white: reliability(f.head(true)),
             without_white: f.no_white.as_ref().map(|_| reliability(f.head(false))),
@@ -252,10 +216,7 @@ pub async fn get(
     State(state): State<SharedState>,
     Path(name): Path<String>,
 ) -> Result<Json<ModelDetail>, ApiError> {
-    let model = state
-        .models
-        .active(&name)
-        .ok_or_else(|| ApiError::new(Kind::ModelNotFound, format!("unknown model {name:?}")))?;
+    let model = state.models.served(&name)?;
     let registry = state.models.registry().clone();
     let versions = tokio::task::spawn_blocking(move || registry.versions(&name))
         .await

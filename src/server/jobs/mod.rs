@@ -639,10 +639,6 @@ impl JobManager {
         }
     }
 
-    pub fn queue_depth(&self) -> usize {
-        self.lock().waiting.len()
-    }
-
     /// The next job, marked running, with its request and cancellation flag; waits for
     /// one; `None` once shut down.
     fn next_job(&self) -> Option<(String, JobRequest, Arc<AtomicBool>)> {

@@ -7,7 +7,7 @@ use crate::dataset::{self, DatasetError, FeatureTable, Manifest};
 use crate::features::{Extractor, FeatureConfig, Preprocessing};
 use crate::image::decode::{DecodeOptions, Limits};
 use crate::learn::estimate::{self, EstimateReport};
-use crate::learn::{self, CvReport, Dataset, LearnError, SpecText, TrainSpec};
+use crate::learn::{self, CvSummary, Dataset, LearnError, SpecText, TrainSpec};
 use crate::material::{ClassFileError, load_classes};
 use crate::model::publish::{Activate, Current};
 use crate::model::registry;
@@ -25,84 +25,6 @@ use utoipa::ToSchema;
 pub struct ModelRef {
     pub name: String,
     pub version: u32,
-}
-
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct FoldResult {
-    /// The held-out illumination.
-    pub illumination: String,
-    pub n_train: usize,
-    pub n_test: usize,
-    pub correct: usize,
-    pub accuracy: f64,
-}
-
-/// Leave-one-illumination-out cross-validation metrics.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct CvResult {
-    pub features: String,
-    pub classifier: String,
-    /// Class order of `per_class` and `confusion`.
-    pub classes: Vec<String>,
-    /// Evaluated images.
-    pub n: usize,
-    pub correct: usize,
-    pub accuracy: f64,
-    pub random_guess_accuracy: f64,
-    pub per_class: Vec<ClassScoreDoc>,
-    /// `confusion[truth][predicted]`, class order.
-    pub confusion: Vec<Vec<usize>>,
-    pub log_loss: f64,
-    /// Expected calibration error (10 bins).
-    pub ece: f64,
-    pub folds: Vec<FoldResult>,
-}
-
-/// Per-class accuracy.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct ClassScoreDoc {
-    pub class: String,
-    pub n: usize,
-    pub correct: usize,
-    pub accuracy: f64,
-}
-
-impl From<&CvReport> for CvResult {
-    fn from(r: &CvReport) -> CvResult {
-        CvResult {
-            features: r.features.clone(),
-            classifier: r.classifier.clone(),
-            classes: r.classes.clone(),
-            n: r.n,
-            correct: r.correct,
-            accuracy: r.accuracy,
-            random_guess_accuracy: r.random_guess_accuracy,
-            per_class: r
-                .per_class
-                .iter()
-                .map(|c| ClassScoreDoc {
-                    class: c.class.clone(),
-                    n: c.n,
-                    correct: c.correct,
-                    accuracy: c.accuracy,
-                })
-                .collect(),
-            confusion: r.confusion.clone(),
-            log_loss: r.log_loss,
-            ece: r.ece,
-            folds: r
-                .folds
-                .iter()
-                .map(|f| FoldResult {
-                    illumination: f.illumination.clone(),
-                    n_train: f.n_train,
-                    n_test: f.n_test,
-                    correct: f.correct,
-                    accuracy: f.accuracy,
-                })
-                .collect(),
-        }
-    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
@@ -129,7 +51,7 @@ pub struct JobResult {
     pub activation: Option<String>,
     /// `train` (unless `cross_validate: false`) and `cross_validate`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub cv: Option<CvResult>,
+    pub cv: Option<CvSummary>,
     /// `cross_validate` with `ward_classes`, and `train` with `estimator_table`: the
     /// Ward-parameter estimate's leave-one-illumination-out errors.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -438,7 +360,7 @@ pub fn execute(
                     name: name.clone(),
                     version,
                 }),
-                cv: trained.report.as_ref().map(CvResult::from),
+                cv: trained.report.as_ref().map(|r| r.summary.clone()),
                 estimate: trained.estimate.take(),
                 images: Some(table.samples.len()),
                 ..JobResult::default()
@@ -520,7 +442,7 @@ pub fn execute(
             observer.stage("cross_validate");
             let report = learn::cross_validate_with(&ds, &spec, p.seed, observer)?;
             Ok(JobResult {
-                cv: Some(CvResult::from(&report)),
+                cv: Some(report.summary),
                 images: Some(table.samples.len()),
                 ..JobResult::default()
             })

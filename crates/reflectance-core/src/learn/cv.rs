@@ -22,7 +22,9 @@ pub const LOG_LOSS_FLOOR: f64 = 1e-15;
 /// Equal-width confidence bins of the expected calibration error.
 pub const ECE_BINS: usize = 10;
 
+/// One class's leave-one-illumination-out accuracy.
 #[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ClassScore {
     pub class: String,
     pub n: usize,
@@ -55,8 +57,11 @@ pub struct PredictionRecord {
     pub nearest: Option<Nearest>,
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize)]
+/// One fold: an illumination held out.
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct FoldReport {
+    /// The held-out illumination.
     pub illumination: String,
     pub n_train: usize,
     pub n_test: usize,
@@ -69,8 +74,20 @@ pub struct FoldReport {
     pub gamma: Option<f64>,
 }
 
+/// Leave-one-illumination-out cross-validation: the summary and every evaluated row.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct CvReport {
+    /// The metrics.
+    #[serde(flatten)]
+    pub summary: CvSummary,
+    /// Evaluated rows, in table order.
+    pub predictions: Vec<PredictionRecord>,
+}
+
+/// Leave-one-illumination-out cross-validation metrics (what the service's jobs report).
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct CvSummary {
     pub features: String,
     pub classifier: String,
     pub seed: u64,
@@ -90,8 +107,6 @@ pub struct CvReport {
     /// its most probable class (first on ties) is the true class.
     pub ece: f64,
     pub folds: Vec<FoldReport>,
-    /// Evaluated rows, in table order.
-    pub predictions: Vec<PredictionRecord>,
 }
 
 struct FoldResult {
@@ -261,7 +276,7 @@ pub fn cross_validate_with(
             }
         })
         .collect();
-    Ok(CvReport {
+    let summary = CvSummary {
         features: spec.features.to_string(),
         classifier: spec.classifier.to_string(),
         seed,
@@ -275,6 +290,9 @@ pub fn cross_validate_with(
         log_loss: log_loss / nf,
         ece,
         folds,
+    };
+    Ok(CvReport {
+        summary,
         predictions: records.into_iter().map(|(_, rec)| rec).collect(),
     })
 }
@@ -303,18 +321,28 @@ mod tests {
     fn report_is_consistent() {
         let ds = Dataset::from_table(&base()).unwrap();
         let r = cross_validate(&ds, &spec("all", ClassifierKind::Svm), 5).unwrap();
-        assert_eq!(r.n, ds.n_rows());
-        assert_eq!(r.folds.len(), 5);
-        assert_eq!(r.confusion.iter().flatten().sum::<usize>(), r.n);
+        assert_eq!(r.summary.n, ds.n_rows());
+        assert_eq!(r.summary.folds.len(), 5);
+        assert_eq!(
+            r.summary.confusion.iter().flatten().sum::<usize>(),
+            r.summary.n
+        );
         let correct = r.predictions.iter().filter(|p| p.correct).count();
-        assert_eq!(correct, r.correct);
-        assert_eq!(r.folds.iter().map(|f| f.correct).sum::<usize>(), r.correct);
-        assert!((r.accuracy - correct as f64 / r.n as f64).abs() < 1e-15);
-        assert!(r.accuracy > 0.5 && r.accuracy < 1.0, "{}", r.accuracy);
-        assert_eq!(r.random_guess_accuracy, 1.0 / 3.0);
-        for (c, s) in r.per_class.iter().enumerate() {
+        assert_eq!(correct, r.summary.correct);
+        assert_eq!(
+            r.summary.folds.iter().map(|f| f.correct).sum::<usize>(),
+            r.summary.correct
+        );
+        assert!((r.summary.accuracy - correct as f64 / r.summary.n as f64).abs() < 1e-15);
+        assert!(
+            r.summary.accuracy > 0.5 && r.summary.accuracy < 1.0,
+            "{}",
+            r.summary.accuracy
+        );
+        assert_eq!(r.summary.random_guess_accuracy, 1.0 / 3.0);
+        for (c, s) in r.summary.per_class.iter().enumerate() {
             assert_eq!(s.n, 20);
-            assert_eq!(s.correct, r.confusion[c][c]);
+            assert_eq!(s.correct, r.summary.confusion[c][c]);
         }
         // Log-loss and ECE recomputed from the records.
         let ll: f64 = r
@@ -325,9 +353,9 @@ mod tests {
                 -p.probabilities[t].max(1e-15).ln()
             })
             .sum::<f64>()
-            / r.n as f64;
-        assert!((ll - r.log_loss).abs() < 1e-12);
-        assert!(r.ece >= 0.0 && r.ece <= 1.0);
+            / r.summary.n as f64;
+        assert!((ll - r.summary.log_loss).abs() < 1e-12);
+        assert!(r.summary.ece >= 0.0 && r.summary.ece <= 1.0);
         for (i, p) in r.predictions.iter().enumerate() {
             assert_eq!(p.path, ds.paths[i]);
             assert_eq!(p.nearest.is_some(), !p.correct);
@@ -338,7 +366,8 @@ mod tests {
             }
         }
         assert!(
-            r.folds
+            r.summary
+                .folds
                 .iter()
                 .all(|f| f.c == Some(100.0) && f.gamma == Some(0.25))
         );
@@ -375,8 +404,8 @@ mod tests {
         let r = cross_validate(&ds, &spec("all", ClassifierKind::Chance), 1).unwrap();
         // Balanced classes: always the first class, accuracy 1/3, log-loss ln 3.
         assert!(r.predictions.iter().all(|p| p.predicted == "c0"));
-        assert!((r.accuracy - 1.0 / 3.0).abs() < 1e-15);
-        assert!((r.log_loss - 3f64.ln()).abs() < 1e-12);
+        assert!((r.summary.accuracy - 1.0 / 3.0).abs() < 1e-15);
+        assert!((r.summary.log_loss - 3f64.ln()).abs() < 1e-12);
     }
 
     #[test]
@@ -398,9 +427,9 @@ mod tests {
         let ds = Dataset::from_table(&t).unwrap();
         assert_eq!(ds.group_names.len(), 5);
         let r = cross_validate(&ds, &spec("all", ClassifierKind::Nn), 1).unwrap();
-        assert_eq!(r.n, originals);
+        assert_eq!(r.summary.n, originals);
         assert!(r.predictions.iter().all(|p| !p.illumination.contains('@')));
-        for f in &r.folds {
+        for f in &r.summary.folds {
             // 2 × (4 other groups × 12 rows): the held-out probe's copies left with it.
             assert_eq!((f.n_train, f.n_test), (96, 12));
         }
@@ -416,8 +445,8 @@ mod tests {
         }
         let ds2 = Dataset::from_table(&t2).unwrap();
         let r2 = cross_validate(&ds2, &spec("all", ClassifierKind::Nn), 1).unwrap();
-        assert_eq!(r2.folds.len(), 4);
-        assert!(r2.folds.iter().all(|f| f.n_train == 48));
+        assert_eq!(r2.summary.folds.len(), 4);
+        assert!(r2.summary.folds.iter().all(|f| f.n_train == 48));
     }
 
     #[test]

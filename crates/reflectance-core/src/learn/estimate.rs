@@ -45,9 +45,10 @@ const TOTAL_FLOOR: f64 = 1e-4;
 
 /// Which regression an estimator uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Method {
-    /// Gradient-boosted trees ([`BoostSpec::default`]).
+    /// Gradient-boosted trees (with `BoostSpec::default`).
     #[default]
     Boost,
     /// Kernel ridge on random Fourier features (the first estimators').

@@ -24,7 +24,7 @@ pub mod scaler;
 pub mod select;
 pub mod svm;
 
-pub use cv::{CvReport, cross_validate, cross_validate_with};
+pub use cv::{CvReport, CvSummary, cross_validate, cross_validate_with};
 pub use error::{Inconsistent, LearnError};
 pub use feature_set::FeatureSet;
 pub use matrix::Dataset;

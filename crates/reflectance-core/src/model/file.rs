@@ -22,8 +22,10 @@ pub const SCHEMA_VERSION: u32 = 1;
 /// The self-test must reproduce the stored probabilities to this precision.
 const SELF_TEST_TOLERANCE: f64 = 1e-9;
 
-/// Ward parameters of a class, when the class was rendered from them.
+/// Ward reflectance parameters (of a class rendered from them, or estimated).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[cfg_attr(feature = "openapi", schema(as = WardParams))]
 pub struct Ward {
     pub rho_d: f64,
     pub rho_s: f64,
@@ -103,15 +105,31 @@ pub struct FeatureSpec {
     pub selected: Vec<String>,
 }
 
-/// Cross-validation summary stored with a model.
+/// The part of a leave-one-illumination-out [`crate::learn::CvSummary`] a model file keeps
+/// (and the service shows with the version).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct CvSummary {
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct StoredCv {
     pub accuracy: f64,
     pub n: usize,
     pub log_loss: f64,
     pub ece: f64,
     pub per_class: Vec<crate::learn::cv::ClassScore>,
+    /// `confusion[truth][predicted]`, class order.
     pub confusion: Vec<Vec<usize>>,
+}
+
+impl From<&crate::learn::CvSummary> for StoredCv {
+    fn from(cv: &crate::learn::CvSummary) -> Self {
+        StoredCv {
+            accuracy: cv.accuracy,
+            n: cv.n,
+            log_loss: cv.log_loss,
+            ece: cv.ece,
+            per_class: cv.per_class.clone(),
+            confusion: cv.confusion.clone(),
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -126,7 +144,7 @@ pub struct Provenance {
     /// Training options as given (classifier, C, γ, grid, augmentation handling).
     pub options: Value,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub cv: Option<CvSummary>,
+    pub cv: Option<StoredCv>,
 }
 
 /// A training image in the classifier's (standardized) input space, for explanations.

@@ -162,7 +162,6 @@ impl Registry {
             source,
         });
         drop(bytes);
-        crate::util::heap::release_free();
         let model = model?;
         if model.name != name || model.version != version {
             return Err(RegistryError::Model {

@@ -14,8 +14,8 @@ use crate::learn::{self, Classifier, CvReport, Dataset, FeatureSet, LearnError, 
 use crate::material::Material;
 use crate::material::{CaptureEnvelope, CaptureRanges, VIEW_TAG};
 use crate::model::{
-    self, ClassInfo, CvSummary, Exemplar, FeatureSpec, ModelError, ModelFile, NoWhite, Provenance,
-    SelfTest, Ward,
+    self, ClassInfo, Exemplar, FeatureSpec, ModelError, ModelFile, NoWhite, Provenance, SelfTest,
+    StoredCv, Ward,
 };
 use crate::util::progress::{Observer, Silent};
 use rayon::prelude::*;
@@ -309,14 +309,7 @@ pub fn train_with(
                 "gamma": spec.gamma,
                 "grid": spec.grid,
             }),
-            cv: report.as_ref().map(|r| CvSummary {
-                accuracy: r.accuracy,
-                n: r.n,
-                log_loss: r.log_loss,
-                ece: r.ece,
-                per_class: r.per_class.clone(),
-                confusion: r.confusion.clone(),
-            }),
+            cv: report.as_ref().map(|r| StoredCv::from(&r.summary)),
         },
         classifier,
         self_test: SelfTest {

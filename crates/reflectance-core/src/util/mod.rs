@@ -2,7 +2,6 @@
 //! seeded random number generator and sharding (`--shard I/N`, `merge`).
 
 pub mod durable;
-pub mod heap;
 pub mod progress;
 pub mod rng;
 pub mod shard;

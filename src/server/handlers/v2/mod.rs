@@ -209,12 +209,7 @@ pub async fn model(
     name: &str,
     version: Option<&str>,
 ) -> Result<Arc<LoadedModel>, ApiError> {
-    if !state.models.is_served(name) {
-        return Err(ApiError::new(
-            Kind::ModelNotFound,
-            format!("unknown model {name:?}"),
-        ));
-    }
+    state.models.served(name)?;
     let Some(version) = version.map(|v| parse_version(name, v)).transpose()? else {
         return state.models.get(name, None);
     };
