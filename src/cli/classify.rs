@@ -105,7 +105,7 @@ pub fn run(args: ClassifyArgs) -> CliResult {
     let model = Arc::new(load_model(&args.model)?);
     let input = input(&args)?;
     let classified = inference::classify(model, input, args.limits.limits())
-        .map_err(|e| error_text(&e, &args))?;
+        .map_err(|e| CliError::Invalid(error_text(&e, &args)))?;
     let answer = classified.response(String::new(), started.elapsed().as_secs_f64() * 1e3);
     if let Some(path) = &args.gltf {
         write_gltf(path, &answer, args.gltf_material)?;

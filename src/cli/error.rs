@@ -74,12 +74,6 @@ impl CliError {
     }
 }
 
-impl From<String> for CliError {
-    fn from(message: String) -> CliError {
-        CliError::Invalid(message)
-    }
-}
-
 impl From<&str> for CliError {
     fn from(message: &str) -> CliError {
         CliError::Invalid(message.to_string())

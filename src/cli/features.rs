@@ -123,7 +123,7 @@ fn single(args: &FeaturesArgs, extractor: &Extractor, options: &DecodeOptions) -
         },
     };
     let result = analysis::analyze(extractor, &image, &locate, &white)
-        .map_err(|e| super::analysis_error(&e))?;
+        .map_err(|e| CliError::Invalid(super::analysis_error(&e)))?;
     let output = Output {
         names: extractor.config().names(),
         values: &result.values,

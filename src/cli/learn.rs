@@ -2,11 +2,12 @@
 
 use super::{CliError, CliResult, LimitArgs};
 use crate::dataset::{self, FeatureTable, Manifest};
-use crate::features::{CaptureMeasurements, Extensions, Extractor, FeatureConfig};
+use crate::features::{CaptureMeasurements, Extractor, FeatureConfig};
 use crate::inference;
 use crate::learn::estimate;
 use crate::learn::{CvReport, DEFAULT_C, Dataset, FeatureSet, SpecText, TrainSpec};
 use crate::material::load_classes;
+use crate::model::publish::{Activate, Current};
 use crate::model::registry::{self, Registry};
 use crate::model::train::{self, TrainOptions};
 use crate::report::estimate::Protocol;
@@ -138,52 +139,7 @@ pub struct EstimateArgs {
     #[arg(long, requires = "estimate")]
     out: Option<PathBuf>,
     #[command(flatten)]
-    ridge: RidgeArgs,
-}
-
-/// The regression behind the Ward-parameter estimate.
-#[derive(Args, Debug)]
-pub struct RidgeArgs {
-    /// The Ward-parameter regression: gradient-boosted trees, or the kernel ridge of the
-    /// --ridge-* options (the first estimators').
-    #[arg(long, value_enum, default_value_t = estimate::Method::Boost)]
-    regressor: estimate::Method,
-    /// Random Fourier features of the Ward-parameter regression.
-    #[arg(long, default_value_t = estimate::DEFAULT_RIDGE_FEATURES)]
-    ridge_features: usize,
-    /// Ridge penalty of the Ward-parameter regression.
-    #[arg(long, default_value_t = estimate::DEFAULT_RIDGE_LAMBDA)]
-    ridge_lambda: f64,
-    /// RBF γ of the Ward-parameter regression (default: --gamma, else 1 / number of inputs).
-    #[arg(long)]
-    ridge_gamma: Option<f64>,
-}
-
-impl RidgeArgs {
-    fn method(&self) -> estimate::Method {
-        self.regressor
-    }
-
-    /// The regression of `features` over the table's columns `names` (a ridge's γ:
-    /// --ridge-gamma, else `gamma` (--gamma, as before --ridge-gamma existed), else 1 / number
-    /// of inputs).
-    fn spec(
-        &self,
-        features: &FeatureSet,
-        names: &[String],
-        gamma: Option<f64>,
-        seed: u64,
-    ) -> CliResult<estimate::RegressionSpec> {
-        let size = (self.ridge_features, self.ridge_lambda);
-        Ok(estimate::regression_spec(
-            self.method(),
-            features,
-            names,
-            size,
-            self.ridge_gamma.or(gamma),
-            seed,
-        )?)
-    }
+    ridge: estimate::EstimatorOptions,
 }
 
 /// Printed after an estimator is fitted.
@@ -226,10 +182,12 @@ fn cv_estimate(args: &CvArgs, table: &FeatureTable, label: &str) -> CliResult {
     let materials = load_classes(path)?;
     let features = args.spec.spec(&table.names)?.features;
     let ds = Dataset::from_table(table)?;
-    let spec = args
-        .estimate
-        .ridge
-        .spec(&features, &ds.names, args.spec.gamma, args.spec.seed)?;
+    let spec = (args.estimate.ridge).regression_spec(
+        &features,
+        &ds.names,
+        args.spec.gamma,
+        args.spec.seed,
+    )?;
     let bar = progress::bar(0, "estimate");
     let fit = estimate::fit_observed(&ds, "", &materials, &features, &spec, &bar)?;
     bar.finish();
@@ -358,6 +316,12 @@ pub struct TrainArgs {
     /// Skip the cross-validation report stored with the model.
     #[arg(long)]
     no_cv: bool,
+    /// Whether the new version becomes the active one: never, always, or if-better (its
+    /// cross-validated accuracy beats the active version's, or there is none). The version
+    /// active before is pinned in the registry's ACTIVE file either way, as the service's
+    /// train jobs do (whose default is never).
+    #[arg(long, value_enum, default_value_t = Activate::IfBetter)]
+    activate: Activate,
     #[command(flatten)]
     estimator: EstimatorArgs,
     #[command(flatten)]
@@ -379,17 +343,16 @@ pub struct EstimatorArgs {
     #[arg(long, requires = "estimator_table")]
     estimator_features: Option<String>,
     #[command(flatten)]
-    ridge: RidgeArgs,
+    ridge: estimate::EstimatorOptions,
 }
 
 impl EstimatorArgs {
     /// `config` with the families the estimator's features name.
     fn config(&self, config: FeatureConfig) -> FeatureConfig {
-        let Some(features) = &self.estimator_features else {
-            return config;
-        };
-        let extensions = config.extensions().union(Extensions::of_spec(features));
-        FeatureConfig::extended(extensions, config.preprocessing())
+        match &self.estimator_features {
+            Some(features) => config.with_families_of(features),
+            None => config,
+        }
     }
 
     /// What the estimator is fitted on, when asked for (γ: --ridge-gamma, else `gamma`),
@@ -412,9 +375,8 @@ impl EstimatorArgs {
             label: table.display().to_string(),
             materials: load_classes(classes)?,
             features,
-            method: self.ridge.method(),
-            size: (self.ridge.ridge_features, self.ridge.ridge_lambda),
-            gamma: self.ridge.ridge_gamma.or(gamma),
+            regression: self.ridge,
+            gamma,
         }))
     }
 }
@@ -453,7 +415,27 @@ pub fn train(args: TrainArgs) -> CliResult {
             estimate_summary(report, Protocol::CrossValidated)
         );
     }
-    let (_, dir) = trained.publish(&Registry::new(&args.models))?;
+    let registry = Registry::new(&args.models);
+    let current = Current::in_registry(&registry, &args.name);
+    let published = trained.publish_by(&registry, current, args.activate)?;
+    if let Some(e) = &published.pin_failed {
+        eprintln!("warning: could not pin the version active before: {e}");
+    }
+    let activated = published.decision.activates();
+    if activated {
+        registry.set_active(&args.name, published.version)?;
+    }
+    eprintln!(
+        "version {} {} ({})",
+        published.version,
+        if activated {
+            "activated"
+        } else {
+            "published, not activated"
+        },
+        published.decision
+    );
+    let dir = published.dir;
     if let Some(r) = &trained.report {
         eprintln!(
             "cross-validated accuracy {:.1} % ({}/{})",

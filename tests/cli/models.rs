@@ -170,6 +170,47 @@ fn train_and_cross_validate_through_the_binary() {
     assert_eq!(nearest[0].0.path, row.path);
     assert!(nearest[0].1 < 1e-9 && nearest[1].1 >= nearest[0].1);
 
+    // Every new version goes through the activation policy, as a train job's does; the
+    // version active before stays pinned.
+    let registry = Registry::new(&models);
+    assert_eq!(registry.active("demo").unwrap(), 1);
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("version 1 activated (no active version)")
+    );
+    let again = |policy: &str, extra: &[&str]| {
+        let mut args = vec![
+            "train",
+            "--table",
+            table.to_str().unwrap(),
+            "--features",
+            "hand6",
+            "--models",
+            models.to_str().unwrap(),
+            "--name",
+            "demo",
+            "--activate",
+            policy,
+        ];
+        args.extend_from_slice(extra);
+        let out = Command::new(bin).args(&args).output().unwrap();
+        common::assert_success(&out);
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let same = again("if-better", &[]);
+    assert!(
+        same.contains("version 2 published, not activated (CV accuracy"),
+        "{same}"
+    );
+    assert_eq!(registry.active("demo").unwrap(), 1);
+    again("always", &[]);
+    assert_eq!(registry.active("demo").unwrap(), 3);
+    let never = again("never", &["--no-cv"]);
+    assert!(
+        never.contains("version 4 published, not activated (activate: never)"),
+        "{never}"
+    );
+    assert_eq!(registry.active("demo").unwrap(), 3);
+
     let cv_json = Command::new(bin)
         .args([
             "cv",

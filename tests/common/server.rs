@@ -141,8 +141,12 @@ pub fn fixture() -> &'static Fixture {
                 label: "train/features.csv".into(),
                 materials: classes,
                 features: None,
-                method: reflectance::learn::estimate::Method::Ridge,
-                size: (50, 1e-2),
+                regression: reflectance::learn::estimate::EstimatorOptions {
+                    regressor: reflectance::learn::estimate::Method::Ridge,
+                    ridge_features: 50,
+                    ridge_lambda: 1e-2,
+                    ridge_gamma: None,
+                },
                 gamma: Some(1.0 / 6.0),
             }),
         };

@@ -344,6 +344,50 @@ async fn render_train_activate_roll_back_and_delete() {
         "{done}"
     );
     assert!(done["result"].get("cv").is_none());
+    // The regression's options are the command line's, with the same figures.
+    let ridge = submit(
+        &server,
+        json!({"type": "cross_validate", "table": "table.csv", "ward_classes": "classes.json",
+               "regressor": "ridge", "ridge_features": 40, "ridge_lambda": 0.1}),
+    )
+    .await;
+    let done = wait_for(&server, ridge["id"].as_str().unwrap(), TERMINAL).await;
+    assert_eq!(done["state"], "succeeded", "{done}");
+    let cli = std::process::Command::new(env!("CARGO_BIN_EXE_reflectance"))
+        .args(["cv", "--features", "hand6", "--table"])
+        .arg(data.join("table.csv"))
+        .args(["--estimate", "--ward-classes"])
+        .arg(data.join("classes.json"))
+        .args([
+            "--regressor",
+            "ridge",
+            "--ridge-features",
+            "40",
+            "--ridge-lambda",
+            "0.1",
+        ])
+        .arg("--json")
+        .output()
+        .unwrap();
+    let cli: Value = serde_json::from_slice(&cli.stdout).unwrap();
+    assert_eq!(done["result"]["estimate"], cli);
+    assert_ne!(
+        done["result"]["estimate"], *report,
+        "the ridge is not the trees"
+    );
+    for bad in [
+        json!({"type": "cross_validate", "table": "table.csv", "ward_classes": "classes.json",
+               "ridge_lambda": 0}),
+        json!({"type": "train", "name": "ward6", "table": "table.csv",
+               "estimator_features": "hand6"}),
+        json!({"type": "train", "name": "ward6", "table": "table.csv",
+               "estimator_table": "table.csv", "estimator_classes": "classes.json",
+               "estimator_features": "hand7"}),
+    ] {
+        send(&server.admin, authed(post_json("/admin/v1/jobs", &bad)))
+            .await
+            .problem(422, "invalid-job");
+    }
     let missing =
         json!({"type": "cross_validate", "table": "table.csv", "ward_classes": "none.json"});
     send(&server.admin, authed(post_json("/admin/v1/jobs", &missing)))
@@ -394,7 +438,7 @@ async fn render_train_activate_roll_back_and_delete() {
     let list = send(&server.admin, authed(get("/admin/v1/jobs?state=succeeded")))
         .await
         .json();
-    assert_eq!(list["jobs"].as_array().unwrap().len(), 7);
+    assert_eq!(list["jobs"].as_array().unwrap().len(), 8);
     assert_eq!(list["jobs"][0]["id"], log["id"], "newest first");
     let list = send(&server.admin, authed(get("/admin/v1/jobs?state=failed")))
         .await

@@ -262,7 +262,7 @@ const MAX_SYNTHETIC: usize = 9999;
 pub const MAX_CAPTURES: usize = 64;
 
 fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
-    super::check_size(spec.size).map_err(RenderError::Options)?;
+    super::check_size(spec.size).map_err(|e| RenderError::Options(e.to_string()))?;
     let q = &spec.quality;
     if !(1..=16).contains(&q.pixel_samples)
         || !(1..=16).contains(&q.lobe_pixel_samples)

@@ -141,18 +141,23 @@ pub struct Rendering {
 /// be extracted from (r ≥ 32 px) to a sane maximum.
 pub const SIZES: std::ops::RangeInclusive<usize> = 71..=4096;
 
-/// Why `size` is not in [`SIZES`].
-pub fn check_size(size: usize) -> Result<(), String> {
-    if SIZES.contains(&size) {
-        return Ok(());
+/// An image size outside [`SIZES`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "size {0} must be between {min} (a sphere of radius {radius} px, the least that features \
+     can be extracted from) and {max}",
+    min = SIZES.start(),
+    radius = crate::image::geometry::MIN_RADIUS,
+    max = SIZES.end()
+)]
+pub struct SizeError(pub usize);
+
+/// Whether `size` is in [`SIZES`].
+pub fn check_size(size: usize) -> Result<(), SizeError> {
+    match SIZES.contains(&size) {
+        true => Ok(()),
+        false => Err(SizeError(size)),
     }
-    Err(format!(
-        "size {size} must be between {} (a sphere of radius {} px, the least that features \
-         can be extracted from) and {}",
-        SIZES.start(),
-        crate::image::geometry::MIN_RADIUS,
-        SIZES.end()
-    ))
 }
 
 /// The sphere's circle in an N×N rendering.

@@ -1,6 +1,7 @@
 //! Admin plane: jobs and the model registry (bearer token required).
 
 use crate::features::FeatureOptions;
+use crate::learn::estimate::EstimatorOptions;
 use crate::server::error::{ApiError, Kind, Problem, Unauthorized};
 use crate::server::jobs::{JobManager, JobRecord, JobRequest, JobState};
 use crate::server::state::SharedState;
@@ -60,6 +61,7 @@ fn check_keys(body: &Value) -> Result<(), ApiError> {
             "cross_validate",
             "estimator_table",
             "estimator_classes",
+            "estimator_features",
         ],
         "cross_validate" => &["ward_classes"],
         "render" => &["probes", "classes", "out", "size", "seed", "captures"],
@@ -77,10 +79,9 @@ fn check_keys(body: &Value) -> Result<(), ApiError> {
     };
     let learn = match kind {
         "render" => Vec::new(),
-        _ => LEARN
-            .iter()
-            .map(|k| k.to_string())
+        _ => (LEARN.iter().map(|k| k.to_string()))
             .chain(FeatureOptions::keys())
+            .chain(EstimatorOptions::keys())
             .collect(),
     };
     let accepted: Vec<&str> = (COMMON.iter().chain(extra).copied())
@@ -398,6 +399,7 @@ mod tests {
                 cross_validate: true,
                 estimator_table: Some("materials.csv".into()),
                 estimator_classes: Some("materials.json".into()),
+                estimator_features: Some("hand6+log+cap+ctr".into()),
             },
             JobRequest::CrossValidate {
                 data,

@@ -27,20 +27,13 @@ pub struct VersionQuery {
     pub version: Option<u32>,
 }
 
-/// Parse a finite number field.
-fn number(field: &str, text: &str) -> Result<f64, ApiError> {
+/// Parse a finite number field; a failure is a problem of `kind` (the field's subject).
+fn number(kind: Kind, field: &str, text: &str) -> Result<f64, ApiError> {
     text.trim()
         .parse::<f64>()
         .ok()
         .filter(|v| v.is_finite())
         .ok_or_else(|| {
-            let kind = if field.starts_with("white") {
-                Kind::BadWhite
-            } else if matches!(field, "cx" | "cy" | "r") {
-                Kind::BadGeometry
-            } else {
-                Kind::InvalidField
-            };
             ApiError::new(
                 kind,
                 format!("{field} must be a finite number, not {text:?}"),
@@ -106,20 +99,24 @@ impl RawInput {
         let image = self
             .image
             .ok_or_else(|| ApiError::new(Kind::MissingField, "the image field is required"))?;
-        let parse = |f: &str, t: &Option<String>| t.as_deref().map(|t| number(f, t)).transpose();
+        let parse_as = |kind: Kind, f: &str, t: &Option<String>| {
+            t.as_deref().map(|t| number(kind, f, t)).transpose()
+        };
+        let white_number = |f: &str, t: &Option<String>| parse_as(Kind::BadWhite, f, t);
+        let circle_number = |f: &str, t: &Option<String>| parse_as(Kind::BadGeometry, f, t);
         let white = WhiteSpec::new(
-            parse("white", &self.white)?,
+            white_number("white", &self.white)?,
             self.white_image,
             self.white_rect
                 .as_deref()
                 .map(str::parse::<Rect>)
                 .transpose()?,
-            parse("white_reflectance", &self.white_reflectance)?,
+            white_number("white_reflectance", &self.white_reflectance)?,
         )?;
         let locate = LocateSpec::new(
-            parse("cx", &self.cx)?,
-            parse("cy", &self.cy)?,
-            parse("r", &self.r)?,
+            circle_number("cx", &self.cx)?,
+            circle_number("cy", &self.cy)?,
+            circle_number("r", &self.r)?,
             self.mask,
         )?;
         let encoding = self
@@ -133,7 +130,7 @@ impl RawInput {
             include_features,
             include_explain,
             include_images,
-            coverage: parse("coverage", &self.coverage)?,
+            coverage: parse_as(Kind::InvalidField, "coverage", &self.coverage)?,
         };
         Ok(Input::new(image, white, locate, encoding, answer)?)
     }

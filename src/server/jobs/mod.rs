@@ -17,6 +17,7 @@ use super::error::{ApiError, Kind};
 use super::metrics;
 use crate::features::FeatureOptions;
 use crate::image::decode::Limits;
+use crate::learn::estimate::EstimatorOptions;
 use crate::server::store::ModelStore;
 use crate::util::durable::write_atomic;
 use crate::util::progress::Observer;
@@ -77,6 +78,10 @@ pub struct LearnParams {
     /// preprocessing), as the command line's flags of the same names.
     #[serde(flatten)]
     pub extraction: FeatureOptions,
+    /// With `estimator_table` (train) or `ward_classes` (cross_validate): the Ward-parameter
+    /// regression, as the command line's `--regressor` and `--ridge-*` options.
+    #[serde(flatten)]
+    pub estimator: EstimatorOptions,
 }
 
 impl LearnParams {
@@ -137,6 +142,11 @@ pub enum JobRequest {
         /// relative to the data directory; required with `estimator_table`.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         estimator_classes: Option<String>,
+        /// With `estimator_table`: the estimator's features (a named set or a list of names;
+        /// default: `features`); the extraction computes the families both sets name, as
+        /// `train --estimator-features` does.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        estimator_features: Option<String>,
     },
     /// Leave-one-illumination-out cross-validation.
     CrossValidate {

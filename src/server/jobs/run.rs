@@ -7,7 +7,7 @@ use crate::dataset::{self, DatasetError, FeatureTable, Manifest};
 use crate::features::{Extractor, FeatureConfig, Preprocessing};
 use crate::image::decode::{DecodeOptions, Limits};
 use crate::learn::estimate::{self, EstimateReport};
-use crate::learn::{self, CvSummary, Dataset, LearnError, SpecText, TrainSpec};
+use crate::learn::{self, CvSummary, Dataset, FeatureSet, LearnError, SpecText, TrainSpec};
 use crate::material::{ClassFileError, load_classes};
 use crate::model::publish::{Activate, Current};
 use crate::model::registry;
@@ -109,13 +109,6 @@ impl From<TrainError> for Failure {
     }
 }
 
-/// Random Fourier features and ridge penalty of the jobs' Ward-parameter estimators, were they
-/// ridges (they are `estimate::Method::default()`, boosted trees).
-const RIDGE_SIZE: (usize, f64) = (
-    estimate::DEFAULT_RIDGE_FEATURES,
-    estimate::DEFAULT_RIDGE_LAMBDA,
-);
-
 fn invalid(detail: impl Into<String>) -> ApiError {
     ApiError::new(Kind::InvalidJob, detail)
 }
@@ -154,6 +147,16 @@ fn check_data(p: &LearnParams, data: &DataDir) -> Result<(), ApiError> {
     }
 }
 
+/// An estimator's options, and its features among the columns the job extracts.
+fn check_estimator(p: &LearnParams, features: Option<&str>) -> Result<(), ApiError> {
+    p.estimator.check().map_err(|e| invalid(e.to_string()))?;
+    if let Some(spec) = features {
+        let names = train_config(p, features)?.names();
+        FeatureSet::parse_with(spec, &names).map_err(|e| invalid(e.to_string()))?;
+    }
+    Ok(())
+}
+
 /// Checks at submission: parameters, and that every path exists inside the data directory.
 pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
     match request {
@@ -165,6 +168,7 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
             cross_validate,
             estimator_table,
             estimator_classes,
+            estimator_features,
         } => {
             if !registry::valid_name(name) {
                 return Err(invalid(format!(
@@ -185,6 +189,10 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
                 (Some(t), Some(c)) => {
                     data.existing("estimator_table", t).map_err(path_error)?;
                     data.existing("estimator_classes", c).map_err(path_error)?;
+                    check_estimator(p, estimator_features.as_deref())?;
+                }
+                (None, None) if estimator_features.is_some() => {
+                    return Err(invalid("estimator_features needs estimator_table"));
                 }
                 (None, None) => {}
                 _ => {
@@ -203,6 +211,7 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
             check_data(p, data)?;
             if let Some(c) = ward_classes {
                 data.existing("ward_classes", c).map_err(path_error)?;
+                check_estimator(p, None)?;
             }
             Ok(())
         }
@@ -214,7 +223,7 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
             captures,
             ..
         } => {
-            crate::render::check_size(*size).map_err(invalid)?;
+            crate::render::check_size(*size).map_err(|e| invalid(e.to_string()))?;
             if *captures > batch::MAX_CAPTURES {
                 return Err(invalid(format!(
                     "captures must be at most {}",
@@ -229,11 +238,29 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
     }
 }
 
-/// What a `train` job fits its Ward-parameter estimator on, when it asks for one.
+/// What a `train` job extracts (as `reflectance train`): the families its features and its
+/// estimator's name, and the outline, which a model's domain check reads.
+fn train_config(
+    p: &LearnParams,
+    estimator_features: Option<&str>,
+) -> Result<FeatureConfig, ApiError> {
+    let config = config_of(p)?;
+    let config = match estimator_features {
+        Some(features) => config.with_families_of(features),
+        None => config,
+    };
+    Ok(FeatureConfig {
+        domain: true,
+        ..config
+    })
+}
+
+/// What a `train` job fits its Ward-parameter estimator on, when it asks for one, for a
+/// model of the columns `names`.
 fn estimator_data(
     p: &LearnParams,
-    table: &Option<String>,
-    classes: &Option<String>,
+    (table, classes, features): (&Option<String>, &Option<String>, &Option<String>),
+    names: &[String],
     data: &DataDir,
 ) -> Result<Option<train::EstimatorData>, Failure> {
     let (Some(table), Some(classes)) = (table, classes) else {
@@ -241,13 +268,16 @@ fn estimator_data(
     };
     let table_path = data.existing("estimator_table", table)?;
     let classes_path = data.existing("estimator_classes", classes)?;
+    let features = features
+        .as_deref()
+        .map(|spec| FeatureSet::parse_with(spec, names))
+        .transpose()?;
     Ok(Some(train::EstimatorData {
         table: FeatureTable::read(&table_path)?,
         label: table.clone(),
         materials: load_classes(&classes_path)?,
-        features: None,
-        method: estimate::Method::default(),
-        size: RIDGE_SIZE,
+        features,
+        regression: p.estimator,
         gamma: p.gamma,
     }))
 }
@@ -255,6 +285,7 @@ fn estimator_data(
 /// The feature table of a learning job (extracting features from a manifest's images).
 fn load_table(
     p: &LearnParams,
+    config: FeatureConfig,
     data: &DataDir,
     limits: &Limits,
     observer: &dyn Observer,
@@ -271,7 +302,6 @@ fn load_table(
     for entry in &manifest.entries {
         data.check_resolved(&format!("manifest line {} image", entry.line), &entry.file)?;
     }
-    let config = config_of(p).map_err(|e| Failure::Error(e.detail))?;
     let extractor = Extractor::new(config).map_err(|e| Failure::Error(e.to_string()))?;
     let options = DecodeOptions {
         encoding: None,
@@ -300,6 +330,7 @@ pub fn execute(
             cross_validate,
             estimator_table,
             estimator_classes,
+            estimator_features,
         } => {
             let spec = spec_of(p).map_err(|e| Failure::Error(e.detail))?;
             let classes = match classes {
@@ -309,11 +340,9 @@ pub fn execute(
                 }
                 None => None,
             };
-            // A model's domain check reads how well each circle follows a sphere's outline.
-            let mut p = p.clone();
-            p.extraction.domain_features = true;
-            let p = &p;
-            let (table, label, manifest) = load_table(p, data, limits, observer)?;
+            let config = train_config(p, estimator_features.as_deref())
+                .map_err(|e| Failure::Error(e.detail))?;
+            let (table, label, manifest) = load_table(p, config, data, limits, observer)?;
             let options = TrainOptions {
                 name: name.clone(),
                 spec,
@@ -331,30 +360,32 @@ pub fn execute(
                     limits: *limits,
                     colour: false,
                 },
-                estimator: estimator_data(p, estimator_table, estimator_classes, data)?,
+                estimator: estimator_data(
+                    p,
+                    (estimator_table, estimator_classes, estimator_features),
+                    &table.names,
+                    data,
+                )?,
             };
             let mut trained = train::train_with(&table, &label, &options, observer)?;
             if observer.cancelled() {
                 return Err(Failure::Cancelled);
             }
             observer.stage("publish");
-            let version = {
+            let published = {
                 let _serial = models.lock_registry();
                 let registry = models.registry();
-                // Pin the version being served, so that publishing does not make the new
-                // version active implicitly (the registry's default is the latest).
-                let served = models
-                    .active(name)
-                    .map(|m| m.version())
-                    .or_else(|| registry.active(name).ok());
-                if let Some(v) = served
-                    && let Err(e) = registry.set_active(name, v)
-                {
-                    tracing::warn!(model = %name, error = %e, "could not pin the active version");
-                }
-                trained.publish(registry)?.0
+                let served = models.active(name).map(|m| Current {
+                    version: m.version(),
+                    accuracy: m.file.training.cv.as_ref().map(|cv| cv.accuracy),
+                });
+                let current = served.or_else(|| Current::in_registry(registry, name));
+                trained.publish_by(registry, current, *activate)?
             };
-            let new_accuracy = trained.model.training.cv.as_ref().map(|c| c.accuracy);
+            if let Some(e) = &published.pin_failed {
+                tracing::warn!(model = %name, error = %e, "could not pin the active version");
+            }
+            let (version, decision) = (published.version, published.decision);
             let mut result = JobResult {
                 model: Some(ModelRef {
                     name: name.clone(),
@@ -365,11 +396,6 @@ pub fn execute(
                 images: Some(table.samples.len()),
                 ..JobResult::default()
             };
-            let current = models.active(name).map(|m| Current {
-                version: m.version(),
-                accuracy: m.file.training.cv.as_ref().map(|cv| cv.accuracy),
-            });
-            let decision = activate.decide(new_accuracy, current);
             let reason = decision.to_string();
             match decision.activates() {
                 true => {
@@ -409,18 +435,12 @@ pub fn execute(
             let spec = spec_of(p).map_err(|e| Failure::Error(e.detail))?;
             let path = data.existing("ward_classes", classes)?;
             let materials = load_classes(&path)?;
-            let (table, label, _) = load_table(p, data, limits, observer)?;
+            let config = config_of(p).map_err(|e| Failure::Error(e.detail))?;
+            let (table, label, _) = load_table(p, config, data, limits, observer)?;
             let ds = Dataset::from_table(&table)?;
             observer.stage("cross_validate");
-            let method = estimate::Method::default();
-            let regression = estimate::regression_spec(
-                method,
-                &spec.features,
-                &ds.names,
-                RIDGE_SIZE,
-                p.gamma,
-                p.seed,
-            )?;
+            let regression =
+                (p.estimator).regression_spec(&spec.features, &ds.names, p.gamma, p.seed)?;
             let fit = estimate::fit_observed(
                 &ds,
                 &label,
@@ -437,7 +457,8 @@ pub fn execute(
         }
         JobRequest::CrossValidate { data: p, .. } => {
             let spec = spec_of(p).map_err(|e| Failure::Error(e.detail))?;
-            let (table, _, _) = load_table(p, data, limits, observer)?;
+            let config = config_of(p).map_err(|e| Failure::Error(e.detail))?;
+            let (table, _, _) = load_table(p, config, data, limits, observer)?;
             let ds = Dataset::from_table(&table)?;
             observer.stage("cross_validate");
             let report = learn::cross_validate_with(&ds, &spec, p.seed, observer)?;

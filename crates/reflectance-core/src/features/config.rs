@@ -162,17 +162,16 @@ impl FeatureOptions {
 
     /// The keys of these options in JSON, sorted (for callers that refuse unknown keys).
     pub fn keys() -> Vec<String> {
-        match serde_json::to_value(FeatureOptions::default()) {
-            Ok(serde_json::Value::Object(map)) => map.keys().cloned().collect(),
-            _ => Vec::new(),
-        }
+        crate::util::json_keys::<Self>()
     }
 }
 
 /// Everything that determines the feature values: stored in every model file.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FeatureConfig {
+    /// The annulus and the grid it is unwrapped to (docs/design.md §3 "Canonical unwrap").
     pub unwrap: UnwrapConfig,
+    /// Pyramid levels, 2 to 8 ([`super::LEVELS`] by default).
     pub levels: usize,
     /// Also compute every feature on log10(max(U, 1e-4)) of the unwrapped, white-normalized
     /// image U, named with the `log.` prefix (an extension of the paper; docs/design.md §8).
@@ -260,30 +259,55 @@ fn is_false(b: &bool) -> bool {
     !*b
 }
 
+/// A feature configuration that cannot be extracted (a model file's, or one built by hand).
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ConfigError {
+    /// The unwrapped width cannot be halved `levels` times.
     #[error("unwrap width {cols} is not divisible by 2^{levels}")]
-    WidthNotDivisible { cols: usize, levels: usize },
+    WidthNotDivisible {
+        /// Unwrapped columns.
+        cols: usize,
+        /// Pyramid levels.
+        levels: usize,
+    },
+    /// A level's subbands would have fewer than 9 rows.
     #[error(
         "unwrap height {rows} is too small for {levels} levels (level {level} would have {band_rows} < 9 rows)"
     )]
     HeightTooSmall {
+        /// Unwrapped rows.
         rows: usize,
+        /// Pyramid levels.
         levels: usize,
+        /// The first level too small (0: the finest).
         level: usize,
+        /// Its subbands' rows.
         band_rows: usize,
     },
+    /// The annulus is not 0 ≤ inner < outer ≤ 1, or r0 ≤ 0.
     #[error("invalid annulus [{inner}, {outer}]·r (need 0 ≤ inner < outer ≤ 1) or r0 {r0} ≤ 0")]
-    BadAnnulus { inner: f64, outer: f64, r0: f64 },
+    BadAnnulus {
+        /// Inner radius, a fraction of r.
+        inner: f64,
+        /// Outer radius, a fraction of r.
+        outer: f64,
+        /// Radius (px) up to which one sample per cell is taken.
+        r0: f64,
+    },
+    /// Pyramid levels outside 2–8.
     #[error("levels must be between 2 and 8, not {0}")]
     BadLevels(usize),
+    /// A working radius that is not a finite number ≥ 32 px.
     #[error("working radius {0} must be a finite number of pixels ≥ 32")]
     BadWorkingRadius(f64),
+    /// A saturation that is not a finite multiple of white > 0.
     #[error("saturation {0} must be a finite multiple of white > 0")]
     BadSaturation(f64),
 }
 
 impl FeatureConfig {
+    /// Check that the configuration can be extracted: levels in 2–8, a working radius ≥ 32
+    /// px, a positive saturation, a valid annulus and a grid every level can halve.
     pub fn validate(&self) -> Result<(), ConfigError> {
         let u = &self.unwrap;
         if !(2..=8).contains(&self.levels) {
@@ -354,6 +378,13 @@ impl FeatureConfig {
         Ok(config)
     }
 
+    /// This configuration with the families the feature-set `spec` names computed too (an
+    /// estimator's features beside a classifier's, e.g. the centre for hand6+log+cap+ctr).
+    pub fn with_families_of(&self, spec: &str) -> FeatureConfig {
+        let extensions = self.extensions().union(Extensions::of_spec(spec));
+        FeatureConfig::extended(extensions, self.preprocessing())
+    }
+
     /// The preprocessing this configuration does.
     pub fn preprocessing(&self) -> Preprocessing {
         Preprocessing {
@@ -400,6 +431,23 @@ impl FeatureConfig {
     }
 
     /// Canonical feature names for this configuration.
+    ///
+    /// ```
+    /// use reflectance_core::FeatureConfig;
+    /// use reflectance_core::features::{Extensions, Preprocessing};
+    ///
+    /// let names = FeatureConfig::default().names();
+    /// assert_eq!(names.len(), 117);
+    /// assert_eq!(names[..3], ["pix.mean", "pix.var", "pix.skew"]);
+    /// assert!(names.iter().any(|n| n == "wav.s1.h.var"));
+    /// assert!(names.iter().any(|n| n == "fft.b2.f45.pow"));
+    ///
+    /// // An extension appends its family: the capture measurements come last here.
+    /// let extensions = Extensions { capture: true, ..Extensions::default() };
+    /// let extended = FeatureConfig::extended(extensions, Preprocessing::default()).names();
+    /// assert_eq!(extended[..117], names[..]);
+    /// assert_eq!(extended[117..], ["cap.noise", "cap.clipped", "cap.blur"]);
+    /// ```
     pub fn names(&self) -> Vec<String> {
         self.layout().names()
     }

@@ -46,6 +46,7 @@ const TOTAL_FLOOR: f64 = 1e-4;
 /// Which regression an estimator uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum Method {
     /// Gradient-boosted trees (with `BoostSpec::default`).
@@ -55,10 +56,109 @@ pub enum Method {
     Ridge,
 }
 
+/// How a Ward-parameter estimator regresses, as a user chooses it: one definition for the
+/// command line (flattened into its arguments, feature `cli`) and the service's jobs (JSON
+/// keys, feature `openapi` for the schema).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct EstimatorOptions {
+    /// The Ward-parameter regression: gradient-boosted trees, or the kernel ridge of the
+    /// ridge options (the first estimators').
+    #[serde(default)]
+    #[cfg_attr(feature = "cli", arg(long, value_enum, default_value_t = Method::Boost))]
+    pub regressor: Method,
+    /// Random Fourier features of a ridge regression (≥ 1).
+    #[serde(default = "default_ridge_features")]
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = DEFAULT_RIDGE_FEATURES))]
+    pub ridge_features: usize,
+    /// Ridge penalty λ of a ridge regression (> 0).
+    #[serde(default = "default_ridge_lambda")]
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = DEFAULT_RIDGE_LAMBDA))]
+    pub ridge_lambda: f64,
+    /// RBF γ of a ridge regression (> 0; default: the classifier's γ, else 1 / number of
+    /// inputs).
+    #[serde(default)]
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub ridge_gamma: Option<f64>,
+}
+
+fn default_ridge_features() -> usize {
+    DEFAULT_RIDGE_FEATURES
+}
+
+fn default_ridge_lambda() -> f64 {
+    DEFAULT_RIDGE_LAMBDA
+}
+
+impl Default for EstimatorOptions {
+    fn default() -> Self {
+        EstimatorOptions {
+            regressor: Method::default(),
+            ridge_features: DEFAULT_RIDGE_FEATURES,
+            ridge_lambda: DEFAULT_RIDGE_LAMBDA,
+            ridge_gamma: None,
+        }
+    }
+}
+
+impl EstimatorOptions {
+    /// The keys of these options in JSON, sorted (for callers that refuse unknown keys).
+    pub fn keys() -> Vec<String> {
+        crate::util::json_keys::<Self>()
+    }
+
+    /// Whether the ridge's numbers are usable (checked whatever the regressor, so that a
+    /// mistake is caught before a long run).
+    pub fn check(&self) -> Result<(), LearnError> {
+        let positive = |x: f64| x.is_finite() && x > 0.0;
+        if self.ridge_features == 0 {
+            return Err(LearnError::InvalidParameter(
+                "ridge_features must be at least 1".into(),
+            ));
+        }
+        if !positive(self.ridge_lambda) {
+            return Err(LearnError::InvalidParameter(format!(
+                "ridge_lambda must be a finite number > 0, not {}",
+                self.ridge_lambda
+            )));
+        }
+        match self.ridge_gamma {
+            Some(g) if !positive(g) => Err(LearnError::InvalidParameter(format!(
+                "ridge_gamma must be a finite number > 0, not {g}"
+            ))),
+            _ => Ok(()),
+        }
+    }
+
+    /// The regression of `features` over the table's columns `names` (a ridge's γ: the
+    /// ridge's own, else `gamma`, else 1 / number of inputs).
+    pub fn regression_spec(
+        &self,
+        features: &FeatureSet,
+        names: &[String],
+        gamma: Option<f64>,
+        seed: u64,
+    ) -> Result<RegressionSpec, LearnError> {
+        self.check()?;
+        let size = (self.ridge_features, self.ridge_lambda);
+        regression_spec(
+            self.regressor,
+            features,
+            names,
+            size,
+            self.ridge_gamma.or(gamma),
+            seed,
+        )
+    }
+}
+
 /// How to fit an estimator's regression.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RegressionSpec {
+    /// Gradient-boosted trees.
     Boost(BoostSpec),
+    /// Kernel ridge regression on random Fourier features.
     Ridge(RidgeSpec),
 }
 
@@ -66,8 +166,20 @@ pub enum RegressionSpec {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum Regression {
-    Boost { boost: BoostSpec, trees: Boosted },
-    Ridge { spec: RidgeSpec, ridge: Ridge },
+    /// Gradient-boosted trees.
+    Boost {
+        /// How they were fitted.
+        boost: BoostSpec,
+        /// The fitted ensembles, one per output.
+        trees: Boosted,
+    },
+    /// Kernel ridge regression on random Fourier features.
+    Ridge {
+        /// How it was fitted.
+        spec: RidgeSpec,
+        /// The fitted regression.
+        ridge: Ridge,
+    },
 }
 
 impl Regression {
@@ -162,8 +274,11 @@ pub fn parameters(prediction: &[f64]) -> (f64, f64, f64, f64) {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Interval {
+    /// The estimate, between `low` and `high`.
     pub value: f64,
+    /// The interval's lower end (clamped to the parameter's range).
     pub low: f64,
+    /// The interval's upper end (clamped to the parameter's range).
     pub high: f64,
 }
 
@@ -172,8 +287,11 @@ pub struct Interval {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct WardEstimate {
+    /// Diffuse reflectance ρd, in [0, 1].
     pub rho_d: Interval,
+    /// Specular reflectance ρs, in [0, 1].
     pub rho_s: Interval,
+    /// Roughness α (0: an ideal mirror).
     pub alpha: Interval,
 }
 
@@ -193,6 +311,7 @@ pub struct StatedEstimate {
     /// Absent without a white reference (see `unknown`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rho_s: Option<Interval>,
+    /// Roughness α (0: an ideal mirror).
     pub alpha: Interval,
     /// ρs / (ρd + ρs), 0 for a black surface; its interval holds every ratio the intervals
     /// of ρd and ρs allow.
@@ -246,8 +365,11 @@ impl WardEstimate {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct HalfWidths {
+    /// Of ρd (absolute).
     pub rho_d: f64,
+    /// Of ρs (absolute).
     pub rho_s: f64,
+    /// Of log10 α (decades).
     pub log10_alpha: f64,
 }
 
@@ -256,15 +378,20 @@ pub struct HalfWidths {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "WardRegressorFields")]
 pub struct WardRegressor {
+    /// The feature names it reads, in its input order.
     pub inputs: Vec<String>,
+    /// Their indices in the model's full feature row.
     pub input_indices: Vec<usize>,
+    /// The standardization of its inputs.
     pub scaler: Scaler,
+    /// The fitted regression.
     #[serde(flatten)]
     pub regression: Regression,
     /// Which input (of `inputs`) the total reflectance is predicted relative to
     /// ([`TOTAL_ANCHOR`]); none in estimators fitted before it existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub total_anchor: Option<usize>,
+    /// The intervals' half-widths at [`COVERAGE`].
     pub half_widths: HalfWidths,
     /// Its leave-one-illumination-out accuracy, on the data it was fitted to.
     pub cv: EstimateReport,
@@ -448,8 +575,11 @@ pub struct EstimateReport {
 pub struct Errors {
     /// Rows evaluated.
     pub n: usize,
+    /// Mean absolute error of the total reflectance ρd + ρs.
     pub mae_total: f64,
+    /// Mean absolute error of ρd.
     pub mae_rho_d: f64,
+    /// Mean absolute error of ρs.
     pub mae_rho_s: f64,
     /// Mirror (α = 0) or not, right.
     pub mirror_accuracy: f64,
@@ -459,15 +589,20 @@ pub struct Errors {
     /// Coverage of the 90 % intervals (in cross-validation each illumination's with
     /// half-widths from the others' errors only).
     pub coverage_rho_d: f64,
+    /// Coverage of the ρs intervals.
     pub coverage_rho_s: f64,
+    /// Coverage of the α intervals.
     pub coverage_alpha: f64,
 }
 
 /// The true Ward parameters of a row.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Truth {
+    /// Diffuse reflectance ρd.
     pub rho_d: f64,
+    /// Specular reflectance ρs.
     pub rho_s: f64,
+    /// Roughness α (0: an ideal mirror).
     pub alpha: f64,
 }
 
@@ -475,17 +610,22 @@ pub struct Truth {
 /// illuminations' errors (the ones its coverage counts).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct HeldOut {
+    /// The image's path, as the table gives it.
     pub path: String,
     /// As written in the table (an augmented view keeps its `@suffix`).
     pub illumination: String,
+    /// Its true parameters.
     pub truth: Truth,
+    /// The estimate, with its intervals.
     pub estimate: WardEstimate,
 }
 
 /// One illumination's errors.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct IlluminationErrors {
+    /// The illumination, as written in the table.
     pub illumination: String,
+    /// The measures over its rows.
     #[serde(flatten)]
     pub errors: Errors,
 }
@@ -494,16 +634,23 @@ pub struct IlluminationErrors {
 /// every illumination, every row.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EstimateDetails {
+    /// The measures over the original rows, when there are any.
     pub originals: Option<Errors>,
+    /// The measures over the augmented views, when there are any.
     pub augmented: Option<Errors>,
+    /// Each illumination's measures.
     pub illuminations: Vec<IlluminationErrors>,
+    /// Every row's held-out estimate, in table order.
     pub rows: Vec<HeldOut>,
 }
 
 /// A fitted estimator with its leave-one-illumination-out report and details.
 pub struct Fit {
+    /// The estimator fitted on every row.
     pub regressor: WardRegressor,
+    /// Its leave-one-illumination-out report.
     pub report: EstimateReport,
+    /// The report's details.
     pub details: EstimateDetails,
 }
 

@@ -2,7 +2,7 @@
 //! that decides whether the new version replaces the active one. The command line and the
 //! service's training jobs both go through here.
 
-use crate::model::registry::Registry;
+use crate::model::registry::{Registry, RegistryError};
 use crate::model::train::{TrainError, Trained};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -10,6 +10,7 @@ use std::path::PathBuf;
 /// What to do with a trained version.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Activate {
     /// Publish only (the active version stays).
@@ -19,26 +20,66 @@ pub enum Activate {
     Always,
     /// Activate when its cross-validated accuracy is higher than the active version's
     /// stored one (or when the model has no active version).
+    #[cfg_attr(feature = "cli", value(alias = "if_better"))]
     IfBetter,
 }
 
 /// The version a new one would replace: its number and its stored CV accuracy.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Current {
+    /// The active version's number.
     pub version: u32,
+    /// Its stored cross-validated accuracy, in [0, 1] (absent in models trained without CV).
     pub accuracy: Option<f64>,
+}
+
+impl Current {
+    /// The active version of `name` in `registry` and its stored accuracy (read from its
+    /// file), when it has one that loads.
+    pub fn in_registry(registry: &Registry, name: &str) -> Option<Current> {
+        let version = registry.active(name).ok()?;
+        let model = registry.load(name, version).ok()?;
+        Some(Current {
+            version,
+            accuracy: model.training.cv.as_ref().map(|cv| cv.accuracy),
+        })
+    }
 }
 
 /// What [`Activate::decide`] found: whether to activate, and why (its `Display`, the
 /// reason a job reports).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Decision {
+    /// Activate: always.
     Always,
+    /// Activate: the model had no active version (`if_better`).
     NoActiveVersion,
-    Better { new: f64, old: f64, version: u32 },
+    /// Activate: better than the active version (`if_better`).
+    Better {
+        /// The new version's CV accuracy.
+        new: f64,
+        /// The active version's.
+        old: f64,
+        /// The active version.
+        version: u32,
+    },
+    /// Do not activate: never.
     Never,
-    NotBetter { new: f64, old: f64, version: u32 },
-    NoStoredAccuracy { version: u32 },
+    /// Do not activate: not better than the active version (`if_better`).
+    NotBetter {
+        /// The new version's CV accuracy.
+        new: f64,
+        /// The active version's.
+        old: f64,
+        /// The active version.
+        version: u32,
+    },
+    /// Do not activate: the active version has no stored accuracy to compare with.
+    NoStoredAccuracy {
+        /// The active version.
+        version: u32,
+    },
+    /// Do not activate: the new version has no CV accuracy (`if_better`).
     NoAccuracy,
 }
 
@@ -101,10 +142,47 @@ impl Activate {
     }
 }
 
+/// A version published by [`Trained::publish_by`], and what its policy decided.
+#[derive(Debug)]
+pub struct Published {
+    /// The new version.
+    pub version: u32,
+    /// Its folder.
+    pub dir: PathBuf,
+    /// Whether it is to be activated, and why. The caller activates it (the command line
+    /// in the registry, the service in memory and in the registry).
+    pub decision: Decision,
+    /// Why the version active before could not be pinned, when it could not (the new
+    /// version may then be active by the registry's rule, the latest).
+    pub pin_failed: Option<RegistryError>,
+}
+
 impl Trained {
+    /// The one way from a trained model to a version, for the command line and the jobs
+    /// alike: pin the version active before (`current`: the one served, else the
+    /// registry's), so that publication never activates the new one implicitly; publish;
+    /// decide by `policy` against `current`.
+    pub fn publish_by(
+        &mut self,
+        registry: &Registry,
+        current: Option<Current>,
+        policy: Activate,
+    ) -> Result<Published, TrainError> {
+        let name = self.model.name.clone();
+        let pin_failed = current.and_then(|c| registry.set_active(&name, c.version).err());
+        let (version, dir) = self.publish(registry)?;
+        let accuracy = self.model.training.cv.as_ref().map(|cv| cv.accuracy);
+        Ok(Published {
+            version,
+            dir,
+            decision: policy.decide(accuracy, current),
+            pin_failed,
+        })
+    }
+
     /// Publish the model as the next version of its name in `registry`, with its
     /// cross-validation report beside it (`report.json`): its version and folder.
-    pub fn publish(&mut self, registry: &Registry) -> Result<(u32, PathBuf), TrainError> {
+    fn publish(&mut self, registry: &Registry) -> Result<(u32, PathBuf), TrainError> {
         let report = self
             .report
             .as_ref()

@@ -23,32 +23,44 @@ use serde_json::json;
 use std::collections::BTreeMap;
 use std::collections::HashMap;
 
+/// Why a model cannot be trained, checked or published.
 #[derive(Debug, thiserror::Error)]
 pub enum TrainError {
+    /// Training or cross-validation failed.
     #[error(transparent)]
     Learn(#[from] LearnError),
+    /// The trained model fails its own checks.
     #[error(transparent)]
     Model(#[from] ModelError),
+    /// A feature table whose columns are not the configuration's canonical features.
     #[error(
         "the feature table's columns are not the canonical features of the extraction configuration"
     )]
     Columns,
+    /// An estimator table whose columns are not the model's features: the table.
     #[error(
         "{0}: its columns are not the model's features (extract it with the same flags; \
          --domain-features may be left out)"
     )]
     EstimatorColumns(String),
+    /// A manifest or table cannot be read.
     #[error(transparent)]
     Dataset(#[from] crate::dataset::DatasetError),
+    /// The registry refuses the new version.
     #[error("cannot publish a new version: {0}")]
     Publish(#[from] crate::model::registry::RegistryError),
+    /// The cross-validation report cannot be written.
     #[error("cannot write the cross-validation report: {0}")]
     Report(#[from] serde_json::Error),
 }
 
+/// What to train: the model's name, its classifier, seed and options.
 pub struct TrainOptions {
+    /// The model's name in its registry (see [`crate::model::registry::valid_name`]).
     pub name: String,
+    /// The features, the classifier and its hyper-parameters.
     pub spec: TrainSpec,
+    /// The seed of every random choice (reproducible training).
     pub seed: u64,
     /// Run leave-one-illumination-out CV and store its summary (and return the report).
     pub cross_validate: bool,
@@ -77,16 +89,18 @@ pub struct EstimatorData {
     pub materials: Vec<Material>,
     /// The estimator's inputs (`None`: the classifier's feature set).
     pub features: Option<FeatureSet>,
-    /// The regression (boosted trees, or the ridge of `size` and `gamma`).
-    pub method: estimate::Method,
-    /// Random Fourier features and ridge penalty (the ridge).
-    pub size: (usize, f64),
-    /// RBF γ (`None`: 1 / number of inputs).
+    /// The regression.
+    pub regression: estimate::EstimatorOptions,
+    /// A ridge's RBF γ when the options give none (the classifier's; `None`: 1 / number of
+    /// inputs).
     pub gamma: Option<f64>,
 }
 
+/// A trained model, before publication: the file, and the reports of its cross-validation.
 pub struct Trained {
+    /// The model file, checksummed and self-tested.
     pub model: ModelFile,
+    /// The leave-one-illumination-out report, when `cross_validate` was asked for.
     pub report: Option<CvReport>,
     /// The estimator's leave-one-illumination-out errors, when one was fitted.
     pub estimate: Option<EstimateReport>,
@@ -459,14 +473,7 @@ fn fit_estimator(
     observer.stage("estimate");
     let ds = Dataset::from_table(&data.table)?;
     let features = data.features.as_ref().unwrap_or(&options.spec.features);
-    let spec = estimate::regression_spec(
-        data.method,
-        features,
-        &ds.names,
-        data.size,
-        data.gamma,
-        options.seed,
-    )?;
+    let spec = (data.regression).regression_spec(features, &ds.names, data.gamma, options.seed)?;
     let fit = estimate::fit_observed(&ds, &data.label, &data.materials, features, &spec, observer)?;
     Ok((fit.regressor, fit.report))
 }

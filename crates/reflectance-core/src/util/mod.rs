@@ -6,6 +6,15 @@ pub mod progress;
 pub mod rng;
 pub mod shard;
 
+/// The JSON keys of an options type's default value, sorted: the keys a caller that refuses
+/// unknown ones accepts (the type must serialize every field, `None` included).
+pub fn json_keys<T: serde::Serialize + Default>() -> Vec<String> {
+    match serde_json::to_value(T::default()) {
+        Ok(serde_json::Value::Object(map)) => map.keys().cloned().collect(),
+        _ => Vec::new(),
+    }
+}
+
 /// For the tests that compare a SIMD kernel with its portable twin: whether this CPU runs
 /// the kernel's instruction sets (`"avx"`, `"avx2"` or `"avx2,fma"`), said in the test's
 /// output. With `REFLECTANCE_REQUIRE_SIMD` set (CI sets it where the CPU has AVX2), a CPU
