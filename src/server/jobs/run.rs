@@ -9,7 +9,7 @@ use crate::image::decode::{DecodeOptions, Limits};
 use crate::learn::estimate::{self, EstimateReport};
 use crate::learn::{self, CvSummary, Dataset, FeatureSet, LearnError, SpecText, TrainSpec};
 use crate::material::{ClassFileError, load_classes};
-use crate::model::publish::{Activate, Current};
+use crate::model::publish::{Activate, Current, Published};
 use crate::model::registry;
 use crate::model::train::{self, TrainError, TrainOptions};
 use crate::render::Quality;
@@ -313,6 +313,14 @@ fn load_table(
     Ok((table, rel.to_string(), Some(manifest)))
 }
 
+/// What a running job works with.
+struct Context<'a> {
+    data: &'a DataDir,
+    limits: &'a Limits,
+    models: &'a ModelStore,
+    observer: &'a dyn Observer,
+}
+
 /// Run a job to completion (or cancellation).
 pub fn execute(
     request: &JobRequest,
@@ -321,8 +329,38 @@ pub fn execute(
     models: &ModelStore,
     observer: &dyn Observer,
 ) -> Result<JobResult, Failure> {
+    let job = Context {
+        data,
+        limits,
+        models,
+        observer,
+    };
     match request {
-        JobRequest::Train {
+        JobRequest::Train { .. } => job.train(request),
+        JobRequest::CrossValidate {
+            data: p,
+            ward_classes: Some(classes),
+        } => job.cross_validate_estimate(p, classes),
+        JobRequest::CrossValidate { data: p, .. } => job.cross_validate(p),
+        JobRequest::Render {
+            probes,
+            classes,
+            out,
+            size,
+            seed,
+            captures,
+        } => job.render(probes, classes, out, (*size, *seed, *captures)),
+    }
+}
+
+fn detail(e: ApiError) -> Failure {
+    Failure::Error(e.detail)
+}
+
+impl Context<'_> {
+    /// Fit, publish and activate by policy.
+    fn train(&self, request: &JobRequest) -> Result<JobResult, Failure> {
+        let JobRequest::Train {
             name,
             data: p,
             activate,
@@ -331,182 +369,199 @@ pub fn execute(
             estimator_table,
             estimator_classes,
             estimator_features,
-        } => {
-            let spec = spec_of(p).map_err(|e| Failure::Error(e.detail))?;
-            let classes = match classes {
-                Some(c) => {
-                    let path = data.existing("classes", c)?;
-                    Some(load_classes(&path)?)
-                }
-                None => None,
-            };
-            let config = train_config(p, estimator_features.as_deref())
-                .map_err(|e| Failure::Error(e.detail))?;
-            let (table, label, manifest) = load_table(p, config, data, limits, observer)?;
-            let options = TrainOptions {
-                name: name.clone(),
-                spec,
-                seed: p.seed,
-                cross_validate: *cross_validate,
-                classes,
-                // Recorded only when this job extracted the features itself.
-                preprocessing: match p.dataset {
-                    Some(_) => p.extraction.preprocessing(),
-                    None => Preprocessing::default(),
-                },
-                images: manifest,
-                decode: DecodeOptions {
-                    encoding: None,
-                    limits: *limits,
-                    colour: false,
-                },
-                estimator: estimator_data(
-                    p,
-                    (estimator_table, estimator_classes, estimator_features),
-                    &table.names,
-                    data,
-                )?,
-            };
-            let mut trained = train::train_with(&table, &label, &options, observer)?;
-            if observer.cancelled() {
-                return Err(Failure::Cancelled);
-            }
-            observer.stage("publish");
-            let published = {
-                let _serial = models.lock_registry();
-                let registry = models.registry();
-                let served = models.active(name).map(|m| Current {
-                    version: m.version(),
-                    accuracy: m.file.training.cv.as_ref().map(|cv| cv.accuracy),
-                });
-                let current = served.or_else(|| Current::in_registry(registry, name));
-                trained.publish_by(registry, current, *activate)?
-            };
-            if let Some(e) = &published.pin_failed {
-                tracing::warn!(model = %name, error = %e, "could not pin the active version");
-            }
-            let (version, decision) = (published.version, published.decision);
-            let mut result = JobResult {
-                model: Some(ModelRef {
-                    name: name.clone(),
-                    version,
-                }),
-                cv: trained.report.as_ref().map(|r| r.summary.clone()),
-                estimate: trained.estimate.take(),
-                images: Some(table.samples.len()),
-                ..JobResult::default()
-            };
-            let reason = decision.to_string();
-            match decision.activates() {
-                true => {
-                    observer.stage("activate");
-                    match models.activate(name, version) {
-                        Ok(done) => {
-                            result.activated = Some(true);
-                            result.activation = Some(match done.warning {
-                                Some(w) => format!("{reason}; {w}"),
-                                None => reason,
-                            });
-                        }
-                        Err(e) => {
-                            result.activated = Some(false);
-                            result.activation = Some(e.detail.clone());
-                            return Err(Failure::Partial(
-                                format!(
-                                    "version {version} was published but its activation failed: {}",
-                                    e.detail
-                                ),
-                                Box::new(result),
-                            ));
-                        }
-                    }
-                }
-                false => {
-                    result.activated = Some(false);
-                    result.activation = Some(reason);
-                }
-            }
-            Ok(result)
-        }
-        JobRequest::CrossValidate {
-            data: p,
-            ward_classes: Some(classes),
-        } => {
-            let spec = spec_of(p).map_err(|e| Failure::Error(e.detail))?;
-            let path = data.existing("ward_classes", classes)?;
-            let materials = load_classes(&path)?;
-            let config = config_of(p).map_err(|e| Failure::Error(e.detail))?;
-            let (table, label, _) = load_table(p, config, data, limits, observer)?;
-            let ds = Dataset::from_table(&table)?;
-            observer.stage("cross_validate");
-            let regression =
-                (p.estimator).regression_spec(&spec.features, &ds.names, p.gamma, p.seed)?;
-            let fit = estimate::fit_observed(
-                &ds,
-                &label,
-                &materials,
-                &spec.features,
-                &regression,
-                observer,
-            )?;
-            Ok(JobResult {
-                estimate: Some(fit.report),
-                images: Some(table.samples.len()),
-                ..JobResult::default()
-            })
-        }
-        JobRequest::CrossValidate { data: p, .. } => {
-            let spec = spec_of(p).map_err(|e| Failure::Error(e.detail))?;
-            let config = config_of(p).map_err(|e| Failure::Error(e.detail))?;
-            let (table, _, _) = load_table(p, config, data, limits, observer)?;
-            let ds = Dataset::from_table(&table)?;
-            observer.stage("cross_validate");
-            let report = learn::cross_validate_with(&ds, &spec, p.seed, observer)?;
-            Ok(JobResult {
-                cv: Some(report.summary),
-                images: Some(table.samples.len()),
-                ..JobResult::default()
-            })
-        }
-        JobRequest::Render {
-            probes,
+        } = request
+        else {
+            return Err(Failure::Error("not a train job".into()));
+        };
+        let (data, observer) = (self.data, self.observer);
+        let spec = spec_of(p).map_err(detail)?;
+        let classes = match classes {
+            Some(c) => Some(load_classes(&data.existing("classes", c)?)?),
+            None => None,
+        };
+        let config = train_config(p, estimator_features.as_deref()).map_err(detail)?;
+        let (table, label, manifest) = load_table(p, config, data, self.limits, observer)?;
+        let options = TrainOptions {
+            name: name.clone(),
+            spec,
+            seed: p.seed,
+            cross_validate: *cross_validate,
             classes,
-            out,
+            // Recorded only when this job extracted the features itself.
+            preprocessing: match p.dataset {
+                Some(_) => p.extraction.preprocessing(),
+                None => Preprocessing::default(),
+            },
+            images: manifest,
+            decode: DecodeOptions {
+                encoding: None,
+                limits: *self.limits,
+                colour: false,
+            },
+            estimator: estimator_data(
+                p,
+                (estimator_table, estimator_classes, estimator_features),
+                &table.names,
+                data,
+            )?,
+        };
+        let mut trained = train::train_with(&table, &label, &options, observer)?;
+        if observer.cancelled() {
+            return Err(Failure::Cancelled);
+        }
+        observer.stage("publish");
+        let published = self.publish(name, &mut trained, *activate)?;
+        let result = JobResult {
+            model: Some(ModelRef {
+                name: name.clone(),
+                version: published.version,
+            }),
+            cv: trained.report.as_ref().map(|r| r.summary.clone()),
+            estimate: trained.estimate.take(),
+            images: Some(table.samples.len()),
+            ..JobResult::default()
+        };
+        self.activate(name, &published, result)
+    }
+
+    /// Publish under the registry's lock, against the version served (else the registry's).
+    fn publish(
+        &self,
+        name: &str,
+        trained: &mut train::Trained,
+        activate: Activate,
+    ) -> Result<Published, Failure> {
+        let _serial = self.models.lock_registry();
+        let registry = self.models.registry();
+        let served = self.models.active(name).map(|m| Current {
+            version: m.version(),
+            accuracy: m.file.training.cv.as_ref().map(|cv| cv.accuracy),
+        });
+        let current = served.or_else(|| Current::in_registry(registry, name));
+        let published = trained.publish_by(registry, current, activate)?;
+        if let Some(e) = &published.pin_failed {
+            tracing::warn!(model = %name, error = %e, "could not pin the active version");
+        }
+        Ok(published)
+    }
+
+    /// Activate a published version when its policy says so; `result` records what happened.
+    fn activate(
+        &self,
+        name: &str,
+        published: &Published,
+        mut result: JobResult,
+    ) -> Result<JobResult, Failure> {
+        let reason = published.decision.to_string();
+        result.activated = Some(false);
+        if !published.decision.activates() {
+            result.activation = Some(reason);
+            return Ok(result);
+        }
+        self.observer.stage("activate");
+        match self.models.activate(name, published.version) {
+            Ok(done) => {
+                result.activated = Some(true);
+                result.activation = Some(match done.warning {
+                    Some(w) => format!("{reason}; {w}"),
+                    None => reason,
+                });
+                Ok(result)
+            }
+            Err(e) => {
+                result.activation = Some(e.detail.clone());
+                let message = format!(
+                    "version {} was published but its activation failed: {}",
+                    published.version, e.detail
+                );
+                Err(Failure::Partial(message, Box::new(result)))
+            }
+        }
+    }
+
+    /// The Ward-parameter estimate, leave-one-illumination-out.
+    fn cross_validate_estimate(
+        &self,
+        p: &LearnParams,
+        classes: &str,
+    ) -> Result<JobResult, Failure> {
+        let spec = spec_of(p).map_err(detail)?;
+        let materials = load_classes(&self.data.existing("ward_classes", classes)?)?;
+        let config = config_of(p).map_err(detail)?;
+        let (table, label, _) = load_table(p, config, self.data, self.limits, self.observer)?;
+        let ds = Dataset::from_table(&table)?;
+        self.observer.stage("cross_validate");
+        let regression =
+            (p.estimator).regression_spec(&spec.features, &ds.names, p.gamma, p.seed)?;
+        let fit = estimate::fit_observed(
+            &ds,
+            &label,
+            &materials,
+            &spec.features,
+            &regression,
+            self.observer,
+        )?;
+        Ok(JobResult {
+            estimate: Some(fit.report),
+            images: Some(table.samples.len()),
+            ..JobResult::default()
+        })
+    }
+
+    /// The classifier, leave-one-illumination-out.
+    fn cross_validate(&self, p: &LearnParams) -> Result<JobResult, Failure> {
+        let spec = spec_of(p).map_err(detail)?;
+        let config = config_of(p).map_err(detail)?;
+        let (table, _, _) = load_table(p, config, self.data, self.limits, self.observer)?;
+        let ds = Dataset::from_table(&table)?;
+        self.observer.stage("cross_validate");
+        let report = learn::cross_validate_with(&ds, &spec, p.seed, self.observer)?;
+        Ok(JobResult {
+            cv: Some(report.summary),
+            images: Some(table.samples.len()),
+            ..JobResult::default()
+        })
+    }
+
+    /// Ward spheres under the probes, into a dataset with a manifest.
+    fn render(
+        &self,
+        probes: &str,
+        classes: &str,
+        out: &str,
+        (size, seed, captures): (usize, u64, usize),
+    ) -> Result<JobResult, Failure> {
+        let data = self.data;
+        let probes_path = data.existing("probes", probes)?;
+        let classes_path = data.existing("classes", classes)?;
+        let out_path = data.output_dir("out", out)?;
+        let probe_files = batch::probe_list(&probes_path)?;
+        for probe in &probe_files {
+            data.check_resolved("probe", probe)?;
+        }
+        let spec = BatchSpec {
+            probes: probe_files,
+            classes: load_classes(&classes_path)?,
+            out: out_path,
             size,
             seed,
-            captures,
-        } => {
-            let probes_path = data.existing("probes", probes)?;
-            let classes_path = data.existing("classes", classes)?;
-            let out_path = data.output_dir("out", out)?;
-            let probe_files = batch::probe_list(&probes_path)?;
-            for probe in &probe_files {
-                data.check_resolved("probe", probe)?;
-            }
-            let spec = BatchSpec {
-                probes: probe_files,
-                classes: load_classes(&classes_path)?,
-                out: out_path,
-                size: *size,
-                seed: *seed,
-                quality: Quality::default(),
-                augment: Augment {
-                    captures: *captures,
-                    ..Augment::default()
-                },
-                shard: None,
-            };
-            observer.stage("render");
-            let summary = batch::render_dataset_with(&spec, observer)?;
-            Ok(JobResult {
-                render: Some(RenderResult {
-                    manifest: data.display(&summary.manifest),
-                    images: summary.images,
-                    rendered: summary.rendered,
-                    skipped: summary.skipped,
-                }),
-                ..JobResult::default()
-            })
-        }
+            quality: Quality::default(),
+            augment: Augment {
+                captures,
+                ..Augment::default()
+            },
+            shard: None,
+        };
+        self.observer.stage("render");
+        let summary = batch::render_dataset_with(&spec, self.observer)?;
+        Ok(JobResult {
+            render: Some(RenderResult {
+                manifest: data.display(&summary.manifest),
+                images: summary.images,
+                rendered: summary.rendered,
+                skipped: summary.skipped,
+            }),
+            ..JobResult::default()
+        })
     }
 }
