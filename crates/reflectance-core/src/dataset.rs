@@ -13,32 +13,64 @@ use std::path::{Path, PathBuf};
 
 pub mod ingest;
 
+/// Why a manifest, a feature table or one of their images cannot be read.
 #[derive(Debug, thiserror::Error)]
 pub enum DatasetError {
+    /// A file cannot be read or written.
     #[error("{path}: {source}")]
     Io {
+        /// The file, as given.
         path: String,
+        /// The operating system's error.
         source: std::io::Error,
     },
+    /// A CSV file is malformed.
     #[error("{path}: {detail}")]
-    Csv { path: String, detail: String },
-    #[error("{path}: missing required column {column:?}")]
-    MissingColumn { path: String, column: String },
-    #[error("{path} line {line}: {detail}")]
-    Row {
+    Csv {
+        /// The file, as given.
         path: String,
-        line: u64,
+        /// The CSV reader's message.
         detail: String,
     },
+    /// A manifest lacks its required `path` column.
+    #[error("{path}: missing required column {column:?}")]
+    MissingColumn {
+        /// The manifest, as given.
+        path: String,
+        /// The column's name.
+        column: String,
+    },
+    /// A row breaks a rule (a value that is not a number, a bad circle, white or encoding).
+    #[error("{path} line {line}: {detail}")]
+    Row {
+        /// The manifest or table, as given.
+        path: String,
+        /// The row's 1-based line number (the header is line 1).
+        line: u64,
+        /// What is wrong.
+        detail: String,
+    },
+    /// A manifest row's image gives no features.
     #[error("{path} line {line} ({image}): {source}")]
     Image {
+        /// The manifest, as given.
         path: String,
+        /// The row's 1-based line number (the header is line 1).
         line: u64,
+        /// The image's path, as the row gives it.
         image: String,
+        /// Why it gives no features.
         source: AnalysisError,
     },
+    /// A feature table does not start with the `path,class,illumination` columns.
     #[error("{path}: {detail}")]
-    Table { path: String, detail: String },
+    Table {
+        /// The table, as given.
+        path: String,
+        /// What is wrong.
+        detail: String,
+    },
+    /// The caller cancelled the work.
     #[error("cancelled")]
     Cancelled,
 }
@@ -52,18 +84,25 @@ pub struct Entry {
     pub path: String,
     /// Resolved against the manifest's folder.
     pub file: PathBuf,
+    /// The class label, when the manifest has the column (required for training).
     pub class: Option<String>,
+    /// The illumination (light probe) label: cross-validation holds out one at a time.
     pub illumination: Option<String>,
+    /// The sphere's circle in the image's pixels; `None`: found by detection.
     pub circle: Option<Circle>,
+    /// The white reference of the image (linear luminance, > 0); `None`: white = 1.
     pub white: Option<f64>,
     /// How the file's integer samples decode (`srgb`, `linear`, `gamma:<g>`); unset: the
     /// extraction's default.
     pub encoding: Option<decode::Encoding>,
 }
 
+/// A manifest's rows, as read: which images, their labels and how to read them.
 #[derive(Clone, Debug)]
 pub struct Manifest {
+    /// The manifest file, as given.
     pub source: PathBuf,
+    /// The rows, in file order.
     pub entries: Vec<Entry>,
 }
 
@@ -197,9 +236,13 @@ impl Manifest {
 /// One row of a feature table.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Sample {
+    /// The image's path, as its manifest gives it.
     pub path: String,
+    /// Its class.
     pub class: String,
+    /// Its illumination (light probe).
     pub illumination: String,
+    /// Its features, in the table's column order.
     pub values: Vec<f64>,
 }
 
@@ -208,9 +251,13 @@ pub struct Sample {
 #[error("no column {0}")]
 pub struct MissingColumn(pub String);
 
+/// Features of many images as a table: one row per image, one column per feature (CSV as
+/// `reflectance features --out` writes it).
 #[derive(Clone, Debug, PartialEq)]
 pub struct FeatureTable {
+    /// Feature names, in column order (canonical order when written by extraction).
     pub names: Vec<String>,
+    /// The rows, in file order.
     pub samples: Vec<Sample>,
 }
 
@@ -344,6 +391,7 @@ impl FeatureTable {
         out.into_inner().unwrap_or_default()
     }
 
+    /// Write the table as CSV, atomically (a reader never sees half a file).
     pub fn write(&self, path: &Path) -> Result<(), DatasetError> {
         crate::util::durable::write_atomic(path, &self.to_csv()).map_err(|source| {
             DatasetError::Io {
@@ -353,6 +401,7 @@ impl FeatureTable {
         })
     }
 
+    /// Read a table written by [`FeatureTable::write`].
     pub fn read(path: &Path) -> Result<FeatureTable, DatasetError> {
         let mut reader = open_csv(path)?;
         let header = reader.headers().map_err(|e| csv_error(path, e))?.clone();

@@ -23,7 +23,9 @@ use std::time::Instant;
 /// A verified model version, ready to classify: the file and its feature extractor.
 #[derive(Debug)]
 pub struct LoadedModel {
+    /// The model file, its checksum and self-test passed.
     pub file: ModelFile,
+    /// The feature extractor of the file's extraction configuration.
     pub extractor: Extractor,
     /// The canonical feature names of the model's extraction configuration.
     pub feature_names: Vec<String>,
@@ -69,10 +71,12 @@ impl LoadedModel {
         })
     }
 
+    /// The model's name, e.g. `ward11`.
     pub fn name(&self) -> &str {
         &self.file.name
     }
 
+    /// The model's version in its registry (1, 2, …).
     pub fn version(&self) -> u32 {
         self.file.version
     }
@@ -98,16 +102,23 @@ impl LoadedModel {
 /// How white is given, before decoding.
 #[derive(Debug)]
 pub enum WhiteSpec {
+    /// A number: the linear luminance of white at the sphere (finite, > 0).
     Value(f64),
+    /// A separate photograph of a white card (its encoded bytes).
     Card {
+        /// The card's encoded photograph, decoded like the image.
         bytes: Bytes,
+        /// The card's reflectance, in (0, 1].
         reflectance: f64,
     },
     /// A white card inside the photograph.
     Rect {
+        /// The card's rectangle, in the photograph's pixels.
         rect: Rect,
+        /// The card's reflectance, in (0, 1].
         reflectance: f64,
     },
+    /// No white reference: the image is taken as normalized (white = 1).
     Missing,
 }
 
@@ -149,8 +160,12 @@ impl WhiteSpec {
 /// holds it, bytes of a file or an array), or found in the image.
 #[derive(Debug)]
 pub enum Placement<M> {
+    /// A circle given in the image's pixels.
     Circle(geometry::Circle),
+    /// A mask image of the sphere (its alpha, else luminance ≥ 0.5); the circle is fitted to
+    /// its edge.
     Mask(M),
+    /// Found by detection (or the image's alpha channel).
     Auto,
 }
 
@@ -178,18 +193,25 @@ pub type LocateSpec = Placement<Bytes>;
 /// A request's input that breaks a rule of the request itself (before any decoding).
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum InputError {
+    /// The image has no bytes.
     #[error("the image is empty")]
     EmptyImage,
+    /// More than one white reference was given.
     #[error("give one of white, white_image and white_rect")]
     SeveralWhites,
+    /// A card's reflectance without a card.
     #[error("white_reflectance applies to white_image or white_rect only")]
     ReflectanceWithoutCard,
+    /// The white reference breaks its own rule (not positive, reflectance outside (0, 1]).
     #[error(transparent)]
     White(#[from] WhiteError),
+    /// The circle is incomplete or not a circle (non-finite, r ≤ 0).
     #[error(transparent)]
     Geometry(#[from] GeometryError),
+    /// Both a circle and a mask were given.
     #[error("give cx, cy and r, or a mask, not both")]
     CircleAndMask,
+    /// A prediction-set coverage outside [0.5, 0.999].
     #[error("coverage must be a number from 0.5 to 0.999, not {0}")]
     Coverage(f64),
 }
@@ -207,6 +229,35 @@ pub struct Input {
 impl Input {
     /// A request of an encoded photograph: not empty, with a prediction-set coverage (when
     /// given) in [0.5, 0.999].
+    ///
+    /// The request's rules are checked here, before any decoding: its parts are built by
+    /// [`WhiteSpec::new`] and [`Placement::new`], which hold their own rules.
+    ///
+    /// ```
+    /// use bytes::Bytes;
+    /// use reflectance_core::inference::{Answer, Input, InputError, LocateSpec, WhiteSpec};
+    ///
+    /// let photo = Bytes::from_static(b"the bytes of a PNG, JPEG, HDR, PFM, EXR or TIFF");
+    /// // White measured beside the sphere: a number, and the circle given.
+    /// let white = WhiteSpec::new(Some(0.8), None, None, None)?;
+    /// let locate = LocateSpec::new(Some(120.0), Some(110.0), Some(90.0), None)?;
+    /// let answer = Answer { coverage: Some(0.9), ..Answer::default() };
+    /// let input = Input::new(photo, white, locate, None, answer)?;
+    /// # drop(input);
+    ///
+    /// // The rules: an image, a coverage the prediction sets offer, one white, …
+    /// let empty = Input::new(Bytes::new(), WhiteSpec::Missing, LocateSpec::Auto, None, answer);
+    /// assert_eq!(empty.unwrap_err(), InputError::EmptyImage);
+    /// let loose = Answer { coverage: Some(0.3), ..Answer::default() };
+    /// let photo = Bytes::from_static(b"...");
+    /// let refused = Input::new(photo, WhiteSpec::Missing, LocateSpec::Auto, None, loose);
+    /// assert_eq!(refused.unwrap_err(), InputError::Coverage(0.3));
+    /// let two = WhiteSpec::new(Some(0.8), None, Some("10,10,20,20".parse()?), None);
+    /// assert_eq!(two.unwrap_err(), InputError::SeveralWhites);
+    /// let partial = LocateSpec::new(Some(120.0), None, Some(90.0), None);
+    /// assert!(matches!(partial, Err(InputError::Geometry(_))));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn new(
         image: Bytes,
         white: WhiteSpec,
@@ -228,19 +279,26 @@ impl Input {
     }
 }
 
+/// Why a validated request gives no answer: a part that does not decode, no usable sphere
+/// or white in the image, a model that cannot be read or a classifier that refuses the row.
 #[derive(Debug, thiserror::Error)]
 pub enum InferenceError {
     /// A file of the request does not decode; `part` is empty for the image, else
     /// `"white_image: "` or `"mask: "`.
     #[error("{part}{source}")]
     Decode {
+        /// Which part: `""` (the image), `"white_image: "` or `"mask: "`, prefixed to the message.
         part: &'static str,
+        /// Why it does not decode.
         source: DecodeError,
     },
+    /// The image decoded but gave no features: no sphere found, a bad white or circle.
     #[error(transparent)]
     Analysis(#[from] AnalysisError),
+    /// The model file's configuration or consistency.
     #[error(transparent)]
     Model(#[from] ModelError),
+    /// The classifier or estimator refused the feature row.
     #[error(transparent)]
     Learn(#[from] LearnError),
 }
@@ -258,6 +316,7 @@ pub struct Decision {
     /// The prediction set (class indices, most probable first) at `coverage`, when the
     /// classifier has a calibration.
     pub set: Option<Vec<usize>>,
+    /// The prediction set's target coverage, in [0.5, 0.999].
     pub coverage: f64,
     /// The domain check's verdict, when calibrated.
     pub verdict: Option<Verdict>,
@@ -280,10 +339,14 @@ impl Decision {
 /// What the decision needs besides the feature row.
 #[derive(Clone, Copy, Debug)]
 pub struct Context<'a> {
+    /// Whether the request gave a white reference (else the classifier without white answers,
+    /// when the model has one).
     pub white_given: bool,
     /// The sphere's radius as given (px).
     pub radius: f64,
+    /// The capture measurements (size, exposure), for the capture-envelope check; `None` skips it.
     pub measured: Option<&'a crate::features::CaptureMeasurements>,
+    /// The prediction set's target coverage, in [0.5, 0.999].
     pub coverage: f64,
 }
 
@@ -325,17 +388,27 @@ pub fn decide(model: &ModelFile, values: &[f64], context: Context) -> Result<Dec
 
 /// What the CPU work produced.
 pub struct Classified {
+    /// The model that classified.
     pub model: Arc<LoadedModel>,
+    /// The class, probabilities, prediction set and domain verdict.
     pub decision: Decision,
+    /// The features, the located circle and the white reference used.
     pub analysis: analysis::Analysis,
     /// The classifier's inputs (the selected features, or the principal components).
     pub selected: Vec<f64>,
+    /// The nearest training images, with `include=explain`.
     pub explain: Option<Vec<Neighbour>>,
+    /// The annulus and the pyramid's subbands, with `include=images`.
     pub images: Option<ImagesOut>,
+    /// The Ward parameters estimated directly, when the model has an estimator.
     pub ward: Option<WardEstimate>,
+    /// Whether the answer lists every extracted feature (`include=features`).
     pub include_features: bool,
+    /// Decoding time (ms).
     pub decode_ms: f64,
+    /// Locating, white, feature extraction and the `include=images` pictures (ms).
     pub features_ms: f64,
+    /// Classification, estimation and explanation time (ms).
     pub predict_ms: f64,
 }
 
@@ -396,8 +469,11 @@ pub fn classify(
 /// What an answer includes beyond the class, and the prediction set's coverage.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Answer {
+    /// List every extracted feature, not only the classifier's inputs.
     pub include_features: bool,
+    /// List the nearest training images.
     pub include_explain: bool,
+    /// Include the unwrapped annulus and the subbands as PNG data URLs.
     pub include_images: bool,
     /// `None`: [`conformal::DEFAULT_COVERAGE`].
     pub coverage: Option<f64>,
@@ -561,9 +637,11 @@ fn prediction_set(
 #[derive(Clone, Debug, Serialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct LocateResponse {
+    /// The request's id (empty here: the service fills it in).
     pub request_id: String,
     /// The image's size in pixels (after its EXIF orientation), the circle's coordinate frame.
     pub width: usize,
+    /// The image's height in pixels (after its EXIF orientation).
     pub height: usize,
     /// The detected sphere (or the image's alpha channel's); absent when none was found or
     /// its annulus would not fit the image (a warning says why).
@@ -572,6 +650,7 @@ pub struct LocateResponse {
     /// `geometry` among them when there is one): what to offer when the first is not the
     /// sphere. Empty for an image with an alpha channel.
     pub candidates: Vec<CandidateOut>,
+    /// Why the sphere may be missing or unusable, and what decoding noticed.
     pub warnings: Vec<String>,
     /// With `include=preview`: the image as a grey PNG data URL (longest side at most
     /// 1024 px, brightest 1 % clipped), for formats a browser cannot show (HDR, PFM, EXR,
@@ -584,6 +663,7 @@ pub struct LocateResponse {
 #[derive(Clone, Debug, Serialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct CandidateOut {
+    /// The circle.
     #[serde(flatten)]
     pub geometry: GeometryOut,
     /// The fraction of the circle's circumference inside the image (1: the whole rim).
@@ -642,14 +722,19 @@ pub fn locate(
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ModelId {
+    /// The model's name, e.g. `ward11`.
     pub name: String,
+    /// Its version in the registry (1, 2, …).
     pub version: u32,
 }
 
+/// A class and its probability.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct LabelProbability {
+    /// The class's name.
     pub label: String,
+    /// Its probability, in [0, 1]; an answer's sum to 1.
     pub p: f64,
 }
 
@@ -661,6 +746,7 @@ pub struct MaterialOut {
     pub source: String,
     /// Its name in an exported file: the class's name, or `estimate`.
     pub name: String,
+    /// ρd, ρs and α.
     pub ward: Ward,
     /// For the estimate: the class its parameters are nearest to.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -811,6 +897,7 @@ impl MaterialsOut {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ClassOut {
+    /// The class's name, as the answer's `label` spells it.
     pub name: String,
     /// In words (from the Ward parameters when known), e.g. "white, glossy: sharp
     /// reflections".
@@ -834,7 +921,9 @@ impl From<&ClassInfo> for ClassOut {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct NamedValues {
+    /// Feature names (canonical, e.g. `wav.s1.h.var`), or `pc1…` for principal components.
     pub names: Vec<String>,
+    /// Their values, index by index with `names`.
     pub values: Vec<f64>,
 }
 
@@ -844,17 +933,24 @@ pub struct NamedValues {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct FeaturesOut {
+    /// The classifier's inputs' names.
     pub names: Vec<String>,
+    /// Their values, raw (standardized for principal components).
     pub values: Vec<f64>,
+    /// Every extracted feature in canonical order, with `include=features`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub all: Option<NamedValues>,
 }
 
+/// The sphere's circle in the image's pixels (x across, y down), and how it was found.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct GeometryOut {
+    /// Centre's x (px, from the left edge).
     pub cx: f64,
+    /// Centre's y (px, from the top edge).
     pub cy: f64,
+    /// Radius (px, > 0).
     pub r: f64,
     /// `given`, `mask` (mask image), `alpha` (the image's alpha channel) or `auto`.
     #[cfg_attr(feature = "openapi", schema(value_type = String, example = "given"))]
@@ -876,9 +972,11 @@ impl From<&geometry::Geometry> for GeometryOut {
     }
 }
 
+/// The white reference used: the linear luminance of a white surface at the sphere.
 #[derive(Clone, Debug, Serialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct WhiteOut {
+    /// The white value, linear luminance (> 0; 1 without a reference).
     pub value: f64,
     /// `given`, `white_image` or `none` (no reference: the image is taken as normalized).
     #[cfg_attr(feature = "openapi", schema(value_type = String, example = "given"))]
@@ -889,9 +987,13 @@ pub struct WhiteOut {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct TimingMs {
+    /// Decoding the image (and a card and a mask).
     pub decode: f64,
+    /// Locating the sphere, the white reference and extracting the features.
     pub features: f64,
+    /// Classifying, estimating and explaining.
     pub predict: f64,
+    /// The whole request.
     pub total: f64,
 }
 
@@ -899,9 +1001,13 @@ pub struct TimingMs {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Neighbour {
+    /// The training image's path, as the training manifest gives it.
     pub path: String,
+    /// Its class.
     pub class: String,
+    /// Its illumination (light probe).
     pub illumination: String,
+    /// Euclidean distance to the classified image in standardized input space.
     pub distance: f64,
     /// A small picture of the training image (PNG data URL), when the model has one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -920,6 +1026,7 @@ pub struct ImagesOut {
     pub subbands: Vec<SubbandImage>,
 }
 
+/// One oriented subband of the pyramid, as a picture.
 #[derive(Clone, Debug, Serialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct SubbandImage {
@@ -929,6 +1036,7 @@ pub struct SubbandImage {
     /// as in the feature names (`wav.s1.h.var`).
     #[cfg_attr(feature = "openapi", schema(example = "h"))]
     pub orientation: String,
+    /// A signed grey PNG data URL (mid-grey 0).
     pub image: String,
 }
 
@@ -973,6 +1081,7 @@ fn images_of(extractor: &Extractor, image: &decode::LinearImage, analysis: &Anal
 #[derive(Clone, Debug, Serialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct PredictionSetOut {
+    /// The target coverage, in [0.5, 0.999].
     #[cfg_attr(feature = "openapi", schema(example = 0.95))]
     pub coverage: f64,
     /// Most probable first; the label is always the first.
@@ -987,6 +1096,7 @@ pub struct DomainCheckOut {
     /// follows a sphere's outline) or `brightness` (log10 of the centre over white).
     #[cfg_attr(feature = "openapi", schema(example = "outline"))]
     pub check: String,
+    /// The measured value (`typicality`: a distance; `outline`: a fit; `brightness`: log10).
     pub value: f64,
     /// Statistical checks: how often an image of a sphere under held-out light is at least
     /// this unusual.
@@ -1002,15 +1112,19 @@ pub struct DomainCheckOut {
 #[derive(Clone, Debug, Serialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct DomainOut {
+    /// The input passed every check and is within the capture envelope.
     pub in_domain: bool,
     /// Fisher's −2 Σ ln p over the checks; out of domain above `threshold`. Absent for a
     /// model without a domain calibration.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub score: Option<f64>,
+    /// Fisher's score above which the input is out of domain (its calibrated quantile over
+    /// held-out light).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub threshold: Option<f64>,
     /// Why the input is out of domain, in words (empty when in domain).
     pub reasons: Vec<String>,
+    /// Each check's measurement.
     pub checks: Vec<DomainCheckOut>,
 }
 
@@ -1026,10 +1140,14 @@ pub const WITHOUT_WHITE_WARNING: &str = "answered without a white reference: onl
 pub const OUT_OF_DOMAIN_WARNING: &str =
     "out of domain: the class and its probabilities are unreliable";
 
+/// The answer of `POST /v1/classify` (and `reflectance classify --json`): the class, how
+/// sure the model is, whether the input is one it knows, and what was measured.
 #[derive(Clone, Debug, Serialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ClassifyResponse {
+    /// The request's id (the service's `x-request-id`).
     pub request_id: String,
+    /// The model version that answered.
     pub model: ModelId,
     /// The predicted class: the most probable one (the first of `probabilities` and of the
     /// prediction set).
@@ -1041,11 +1159,17 @@ pub struct ClassifyResponse {
     /// Absent for a model without a prediction-set calibration (a warning says so).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prediction_set: Option<PredictionSetOut>,
+    /// Whether the input is like what the model was trained on.
     pub domain: DomainOut,
+    /// The classifier's inputs, and every feature on request.
     pub features: FeaturesOut,
+    /// The sphere's circle and how it was found.
     pub geometry: GeometryOut,
+    /// The white reference used.
     pub white: WhiteOut,
+    /// What the caller should know: no white, out of domain, a clipped image, …
     pub warnings: Vec<String>,
+    /// Milliseconds per stage.
     pub timing_ms: TimingMs,
     /// With `include=explain`: the 3 nearest training images, nearest first.
     #[serde(default, skip_serializing_if = "Option::is_none")]

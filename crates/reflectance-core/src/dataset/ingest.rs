@@ -20,14 +20,18 @@ pub const MIN_ILLUMINATIONS: usize = 3;
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Refusal {
+    /// The row's path (or the archive member's name).
     pub path: String,
+    /// Why it cannot be used, for people.
     pub reason: String,
 }
 
 /// The usable rows, each with its circle, and the refused ones.
 #[derive(Clone, Debug)]
 pub struct Ingested {
+    /// The usable rows, in manifest order, each with its circle.
     pub entries: Vec<Entry>,
+    /// The refused rows, in manifest order.
     pub refused: Vec<Refusal>,
     /// Rows whose circle was found here rather than given.
     pub located: usize,
@@ -117,6 +121,7 @@ pub struct Coverage {
 }
 
 impl Coverage {
+    /// The classes and illuminations of `entries` (rows without both labels are left out).
     pub fn of(entries: &[Entry]) -> Coverage {
         let mut coverage = Coverage::default();
         for e in entries {
@@ -131,10 +136,12 @@ impl Coverage {
         coverage
     }
 
+    /// The classes, sorted.
     pub fn classes(&self) -> Vec<String> {
         self.illuminations_of.keys().cloned().collect()
     }
 
+    /// Every illumination of any class, sorted.
     pub fn illuminations(&self) -> Vec<String> {
         let all: BTreeSet<&String> = self.illuminations_of.values().flatten().collect();
         all.into_iter().cloned().collect()

@@ -14,6 +14,7 @@ use serde::Serialize;
 /// Where the sphere is.
 #[derive(Clone, Debug)]
 pub enum Locate {
+    /// A circle in the image's pixels.
     Circle(geometry::Circle),
     /// A separate mask image (same size as the image): alpha if it has one, else
     /// linear luminance ≥ 0.5.
@@ -25,25 +26,37 @@ pub enum Locate {
 /// How bright white is.
 #[derive(Clone, Debug)]
 pub enum WhiteInput {
+    /// White's linear luminance, given (finite, > 0).
     Value(f64),
+    /// A separate image of a white card.
     Card {
+        /// The card's image, decoded.
         image: LinearImage,
+        /// The card's reflectance, in (0, 1].
         reflectance: f64,
     },
     /// A white card inside the image itself.
     Rect {
+        /// The card's rectangle, in the image's pixels.
         rect: white::Rect,
+        /// The card's reflectance, in (0, 1].
         reflectance: f64,
     },
+    /// No reference: white = 1 (the image taken as normalized).
     Missing,
 }
 
+/// Why an image gives no features: it does not decode, the circle or white is unusable,
+/// or the image divided by white is out of f32's range.
 #[derive(Debug, thiserror::Error)]
 pub enum AnalysisError {
+    /// The image (or the card) does not decode.
     #[error(transparent)]
     Decode(#[from] DecodeError),
+    /// No usable circle.
     #[error(transparent)]
     Geometry(#[from] GeometryError),
+    /// No usable white reference.
     #[error(transparent)]
     White(#[from] WhiteError),
     /// Pixels are f32 once divided by white: the ratio must neither overflow nor vanish.
@@ -53,15 +66,24 @@ pub enum AnalysisError {
         min = f32::MIN_POSITIVE,
         max = f32::MAX
     )]
-    Scale { white: f64, normalized: f64 },
+    Scale {
+        /// White's linear luminance.
+        white: f64,
+        /// The brightest pixel divided by it.
+        normalized: f64,
+    },
 }
 
 /// Features of one sphere and what produced them.
 #[derive(Clone, Debug, Serialize)]
 pub struct Analysis {
+    /// The features in canonical order (NaN for those a subset did not ask for).
     pub values: Vec<f64>,
+    /// The circle used and how it was found.
     pub geometry: Geometry,
+    /// The white reference used.
     pub white: White,
+    /// What the caller should know (a small or cut-off sphere, clipping, …).
     pub warnings: Vec<String>,
     /// The capture measurements, when asked for.
     #[serde(skip)]
@@ -193,8 +215,11 @@ pub fn analyze(
 /// Where the sphere is and how bright white is, checked against the image and the
 /// extractor, with the warnings so far.
 pub struct Placed {
+    /// The circle, checked against the image.
     pub geometry: Geometry,
+    /// The white reference, measured or given.
     pub white: White,
+    /// Warnings so far.
     pub warnings: Vec<String>,
 }
 

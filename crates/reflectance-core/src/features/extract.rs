@@ -97,12 +97,48 @@ pub struct Extractor {
 
 /// Per-stage intermediate results, for tests and diagnostics.
 pub struct Stages {
+    /// The annulus unwrapped to the configured grid (rows: radius, columns: angle), in units
+    /// of white.
     pub unwrapped: Array2<f64>,
+    /// Its wavelet pyramid.
     pub pyramid: pyramid::Pyramid,
+    /// Its oriented band powers.
     pub band_powers: BandPowers,
 }
 
 impl Extractor {
+    /// An extractor for `config`, once it is valid ([`FeatureConfig::validate`]); it plans
+    /// the FFT of the configured grid, and is meant to be built once and shared.
+    ///
+    /// ```
+    /// use ndarray::Array2;
+    /// use reflectance_core::image::geometry::{self, Circle};
+    /// use reflectance_core::{Extractor, FeatureConfig};
+    ///
+    /// // A matte (Lambertian) sphere of albedo 0.6 lit from the upper left, on black.
+    /// let (size, r) = (160, 64.0);
+    /// let centre = (size as f64 - 1.0) / 2.0;
+    /// let light = [-0.4, -0.5, 0.768];
+    /// let luminance = Array2::from_shape_fn((size, size), |(y, x)| {
+    ///     let (nx, ny) = ((x as f64 - centre) / r, (y as f64 - centre) / r);
+    ///     let d2 = nx * nx + ny * ny;
+    ///     if d2 >= 1.0 {
+    ///         return 0.0;
+    ///     }
+    ///     let nz = (1.0 - d2).sqrt();
+    ///     0.6 * (nx * light[0] + ny * light[1] + nz * light[2]).max(0.0)
+    /// });
+    /// let circle = Circle { cx: centre, cy: centre, r };
+    ///
+    /// let config = FeatureConfig::default();
+    /// let extractor = Extractor::new(config)?;
+    /// // The circle must fit the image with its sampled annulus.
+    /// geometry::validate(&circle, size, size, config.unwrap.outer, config.unwrap.r0)?;
+    /// let values = extractor.extract(luminance.view(), &circle, 1.0);
+    /// assert_eq!(values.len(), 117);
+    /// assert!(values.iter().all(|v| v.is_finite()));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn new(config: FeatureConfig) -> Result<Self, ConfigError> {
         config.validate()?;
         Ok(Extractor {
@@ -113,6 +149,7 @@ impl Extractor {
         })
     }
 
+    /// The configuration it extracts.
     pub fn config(&self) -> &FeatureConfig {
         &self.config
     }
@@ -247,11 +284,13 @@ impl Extractor {
         (values, measurements.filter(|_| measure))
     }
 
+    /// The stages of a sphere's extraction: unwrapped, its pyramid and its band powers.
     pub fn stages(&self, luminance: ArrayView2<f64>, circle: &Circle, white: f64) -> Stages {
         let unwrapped = self.unwrap(luminance, circle, white);
         self.stages_of_unwrapped(unwrapped)
     }
 
+    /// The stages of an annulus already unwrapped (the pyramid with a periodic edge in angle).
     pub fn stages_of_unwrapped(&self, unwrapped: Array2<f64>) -> Stages {
         let pyramid = pyramid::build(unwrapped.view(), self.config.levels, Edge::Periodic);
         let band_powers = self.spectrum.band_powers(unwrapped.view());

@@ -23,8 +23,11 @@ const BAND_POWERS: usize = RADIAL_BANDS * ORIENTATIONS.len() + 1;
 /// (ring pair by ring pair) and orientation dependencies (level by level).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BlockLayout {
+    /// Pyramid levels (subbands: 3 per level).
     pub levels: usize,
+    /// With the radial changes between rings (`radial.*`).
     pub radial: bool,
+    /// With the orientation dependencies of each level.
     pub dependencies: bool,
 }
 
@@ -81,6 +84,7 @@ impl BlockLayout {
         self.band_powers().end + self.radial_len() + ORIENTATION_PAIRS.len() * level + pair
     }
 
+    /// Number of features of the block.
     pub fn count(&self) -> usize {
         let dependencies = match self.dependencies {
             true => ORIENTATION_PAIRS.len() * self.levels,
@@ -154,12 +158,17 @@ impl BlockLayout {
 /// centre features and the domain measurements.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Layout {
+    /// The block of one image.
     pub block: BlockLayout,
+    /// With the log10 block (`log.*`, the log-domain extension).
     pub log_domain: bool,
+    /// With the capture measurements (`cap.*`).
     pub capture: bool,
+    /// With the centre features (`ctr.*`).
     pub centre: bool,
     /// Whether the centre family ends with `ctr.cos` (see `FeatureConfig::centre_cos`).
     pub centre_cos: bool,
+    /// With the domain measurements (`dom.*`).
     pub domain: bool,
 }
 
@@ -197,10 +206,12 @@ impl Layout {
         }
     }
 
+    /// Number of features (117 with the default configuration).
     pub fn count(&self) -> usize {
         self.domain().end
     }
 
+    /// The feature names, in canonical order (see [`super::FeatureConfig::names`]).
     pub fn names(&self) -> Vec<String> {
         let block = self.block.names();
         let log = block

@@ -74,6 +74,8 @@ pub struct Level {
     pub d: Array2<f64>,
 }
 
+/// The QMF wavelet pyramid of an image: each level's three oriented subbands and the
+/// residual lowpass.
 #[derive(Clone, Debug)]
 pub struct Pyramid {
     /// Finest first.
@@ -180,6 +182,24 @@ fn corr_down_x(input: ArrayView2<f64>, edge: Edge) -> (Array2<f64>, Array2<f64>)
 }
 
 /// Build `levels` levels; `x_edge` is the edge rule along x (y is always reflect1).
+///
+/// Each level halves the size (rounding up). A constant image has next to no structure:
+/// its subbands are near 0 (qmf9's highpass taps sum to nearly, not exactly, 0).
+///
+/// ```
+/// use ndarray::Array2;
+/// use reflectance_core::features::pyramid::{Edge, build};
+///
+/// let flat = Array2::from_elem((32, 64), 0.5);
+/// let pyramid = build(flat.view(), 3, Edge::Periodic);
+/// assert_eq!(pyramid.levels.len(), 3);
+/// assert_eq!(pyramid.levels[0].h.dim(), (16, 32));
+/// assert_eq!(pyramid.levels[2].d.dim(), (4, 8));
+/// assert_eq!(pyramid.lowpass.dim(), (4, 8));
+/// let finest = &pyramid.levels[0];
+/// let bands = [&finest.h, &finest.v, &finest.d];
+/// assert!(bands.iter().all(|b| b.iter().all(|v| v.abs() < 1e-3)));
+/// ```
 pub fn build(image: ArrayView2<f64>, levels: usize, x_edge: Edge) -> Pyramid {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {

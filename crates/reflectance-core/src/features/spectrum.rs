@@ -15,6 +15,7 @@ use std::sync::Arc;
 const BAND_LOWER_RHO2: [f64; 4] = [1.0 / 16.0, 1.0 / 64.0, 1.0 / 256.0, 1.0 / 1024.0];
 /// Orientation names, in feature order.
 pub const ORIENTATIONS: [&str; 4] = ["f0", "f45", "f90", "f135"];
+/// Radial bands with orientations (`fft.b1` … `fft.b4`).
 pub const BANDS: usize = 4;
 /// Class index of the `lo` band (0 < ρ < 1/32); 0..16 are band·4 + orientation.
 const LO_CLASS: u8 = 16;
@@ -23,7 +24,10 @@ const NO_CLASS: u8 = u8::MAX;
 /// Powers per band × orientation, then the `lo` band.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BandPowers {
+    /// `oriented[band][orientation]`: band b1 (finest) first, orientations in [`ORIENTATIONS`]
+    /// order.
     pub oriented: [[f64; 4]; BANDS],
+    /// The `lo` band (0 < ρ < 1/32).
     pub lo: f64,
 }
 
@@ -83,6 +87,7 @@ fn classify(ky: usize, kx: usize, rows: usize, cols: usize) -> u8 {
 }
 
 impl SpectrumPlan {
+    /// The FFT plans and frequency-bin classes of a `rows` × `cols` image.
     pub fn new(rows: usize, cols: usize) -> Self {
         let row_fft = RealFftPlanner::<f64>::new().plan_fft_forward(cols);
         let col_fft = FftPlanner::<f64>::new().plan_fft_forward(rows);

@@ -3,12 +3,19 @@
 /// The seven statistics of one set of values, in canonical feature order.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Summary {
+    /// Mean.
     pub mean: f64,
+    /// Population variance `m2`.
     pub var: f64,
+    /// Skewness `m3 / m2^1.5` (0 for constant values).
     pub skew: f64,
+    /// Pearson kurtosis `m4 / m2²` (3 for a normal distribution and for constant values).
     pub kurt: f64,
+    /// 10th percentile (numpy's linear method).
     pub p10: f64,
+    /// Median.
     pub p50: f64,
+    /// 90th percentile.
     pub p90: f64,
 }
 
@@ -16,6 +23,7 @@ pub struct Summary {
 pub const STAT_NAMES: [&str; 7] = ["mean", "var", "skew", "kurt", "p10", "p50", "p90"];
 
 impl Summary {
+    /// The statistics in [`STAT_NAMES`] order.
     pub fn to_array(&self) -> [f64; 7] {
         [
             self.mean, self.var, self.skew, self.kurt, self.p10, self.p50, self.p90,
@@ -212,11 +220,17 @@ mod avx {
 /// The moment statistics and the range of a set of values.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Moments {
+    /// Mean.
     pub mean: f64,
+    /// Population variance `m2`.
     pub var: f64,
+    /// Skewness `m3 / m2^1.5`.
     pub skew: f64,
+    /// Pearson kurtosis `m4 / m2²`.
     pub kurt: f64,
+    /// Smallest value (NaN values skipped).
     pub min: f64,
+    /// Largest value (NaN values skipped).
     pub max: f64,
 }
 
@@ -228,6 +242,19 @@ impl Moments {
 }
 
 /// All seven statistics; `scratch` is reused by the percentile selection.
+///
+/// ```
+/// use reflectance_core::features::stats::{STAT_NAMES, summarize};
+///
+/// let values = [1.0, 2.0, 3.0, 4.0, 5.0];
+/// let summary = summarize(&values, &mut Vec::new());
+/// assert_eq!(summary.mean, 3.0);
+/// assert_eq!(summary.var, 2.0); // population variance
+/// assert_eq!(summary.skew, 0.0);
+/// assert_eq!(summary.p50, 3.0);
+/// assert!((summary.p10 - 1.4).abs() < 1e-12); // numpy's linear percentile
+/// assert_eq!(summary.to_array().len(), STAT_NAMES.len());
+/// ```
 pub fn summarize(values: &[f64], scratch: &mut Vec<u64>) -> Summary {
     assert!(!values.is_empty(), "statistics of an empty set");
     let m = moments(values);

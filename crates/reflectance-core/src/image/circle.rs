@@ -5,10 +5,14 @@ use serde::{Deserialize, Serialize};
 
 /// Radii below this are refused.
 pub const MIN_RADIUS: f64 = 32.0;
+/// A circle in an image's pixels: pixel centres at integer coordinates, x across and y down.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Circle {
+    /// Centre's x (px).
     pub cx: f64,
+    /// Centre's y (px).
     pub cy: f64,
+    /// Radius (px, > 0).
     pub r: f64,
 }
 

@@ -80,6 +80,7 @@ pub fn preview_png(luminance: ArrayView2<f64>, side: usize) -> Vec<u8> {
     luminance_png(small.mapv(|v| v * gain).view())
 }
 
+/// A `data:image/png;base64,…` URL of PNG bytes.
 pub fn data_url(png: &[u8]) -> String {
     let encoded = base64::engine::general_purpose::STANDARD.encode(png);
     format!("data:image/png;base64,{encoded}")

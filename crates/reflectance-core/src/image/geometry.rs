@@ -11,6 +11,7 @@ use std::collections::VecDeque;
 /// Automatic detection refuses below this confidence.
 pub const MIN_CONFIDENCE: f64 = 0.9;
 
+/// How the sphere's circle was found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Method {
@@ -27,15 +28,22 @@ pub enum Method {
 /// The circle used, how it was found, and (for detection) how sure we are.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Geometry {
+    /// Centre's x (px; pixel centres at integer coordinates).
     pub cx: f64,
+    /// Centre's y (px, down).
     pub cy: f64,
+    /// Radius (px, ≥ [`MIN_RADIUS`]).
     pub r: f64,
+    /// How the circle was found.
     pub method: Method,
+    /// Detection's confidence, in [0, 1] (≥ [`MIN_CONFIDENCE`] when accepted); `None` unless
+    /// detected.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub confidence: Option<f64>,
 }
 
 impl Geometry {
+    /// The circle alone.
     pub fn circle(&self) -> Circle {
         Circle {
             cx: self.cx,
@@ -55,41 +63,78 @@ impl Geometry {
     }
 }
 
+/// Why a circle cannot be used, or cannot be found.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum GeometryError {
+    /// A circle parameter is NaN or infinite.
     #[error("circle parameters must be finite numbers (cx={cx}, cy={cy}, r={r})")]
-    NotFinite { cx: f64, cy: f64, r: f64 },
+    NotFinite {
+        /// Centre's x (px).
+        cx: f64,
+        /// Centre's y (px).
+        cy: f64,
+        /// Radius (px).
+        r: f64,
+    },
+    /// Some but not all of cx, cy and r were given.
     #[error("give all of cx, cy and r, or none of them")]
     Incomplete,
+    /// The radius is below [`MIN_RADIUS`].
     #[error("sphere radius {r} px is below the minimum of {min} px")]
-    TooSmall { r: f64, min: f64 },
+    TooSmall {
+        /// The radius (px).
+        r: f64,
+        /// The smallest usable radius (px).
+        min: f64,
+    },
+    /// The sampled annulus does not fit inside the image.
     #[error(
         "circle (cx={cx}, cy={cy}, r={r}) is outside the {width}×{height} image: the sampled annulus (up to {outer}·r) must lie inside it"
     )]
     OutsideImage {
+        /// Centre's x (px).
         cx: f64,
+        /// Centre's y (px).
         cy: f64,
+        /// Radius (px).
         r: f64,
+        /// The annulus's outer radius as a multiple of `r`.
         outer: f64,
+        /// The image's width (px).
         width: usize,
+        /// The image's height (px).
         height: usize,
     },
+    /// A mask of another size than the image.
     #[error("mask is {mask_width}×{mask_height} but the image is {width}×{height}")]
     MaskSizeMismatch {
+        /// The mask's width (px).
         mask_width: usize,
+        /// The mask's height (px).
         mask_height: usize,
+        /// The image's width (px).
         width: usize,
+        /// The image's height (px).
         height: usize,
     },
+    /// No pixel of the mask is set.
     #[error("mask is empty: no pixel is inside the sphere")]
     EmptyMask,
+    /// The mask's edge is missing or only on the image's border.
     #[error("mask has no usable edge (it covers the whole image or touches only its border)")]
     NoMaskEdge,
+    /// The mask's edge is too far from a circle.
     #[error("mask is not a disc: its edge is {rms:.2} px (RMS) from the best-fitting circle")]
-    NotCircular { rms: f64 },
+    NotCircular {
+        /// RMS distance of the edge from the best-fitting circle (px).
+        rms: f64,
+    },
     /// Each surface says what to do in its own words (fields, flags or the page's circle).
     #[error("could not find the sphere automatically: {reason}")]
-    DetectionFailed { reason: String },
+    DetectionFailed {
+        /// Why detection found no sphere.
+        reason: String,
+    },
 }
 
 /// Validate a circle for an image of `width × height`: finite, r ≥ 32, and the sampled

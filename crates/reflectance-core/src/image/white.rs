@@ -9,10 +9,13 @@ use ndarray::s;
 use serde::Serialize;
 use std::ops::Range;
 
+/// Where the white reference came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Method {
+    /// Given as a number.
     Given,
+    /// A separate image of a white card.
     WhiteImage,
     /// A rectangle of the photograph (a white card beside the sphere).
     WhiteRect,
@@ -20,9 +23,13 @@ pub enum Method {
     None,
 }
 
+/// The white reference used: its linear luminance, where it came from, and its colour when
+/// known.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct White {
+    /// White's linear luminance at the sphere (finite, > 0; 1 without a reference).
     pub value: f64,
+    /// Where it came from.
     pub method: Method,
     /// White's linear RGB (the card's mean over its reflectance), when a card was measured
     /// in an image decoded with its colour.
@@ -30,23 +37,32 @@ pub struct White {
     pub rgb: Option<Rgb>,
 }
 
+/// Why a white reference cannot be used.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum WhiteError {
+    /// A value that is not a finite number > 0.
     #[error("white must be a finite number > 0, not {0}")]
     NotPositive(f64),
+    /// A card's reflectance outside (0, 1].
     #[error("white-card reflectance must be in (0, 1], not {0}")]
     BadReflectance(f64),
+    /// A card whose median luminance (the value) is not positive.
     #[error("the white image is black (median luminance {0}); it cannot serve as a reference")]
     BlackImage(f64),
+    /// A `white_rect` that is not `x,y,w,h` with w, h > 0.
     #[error("white_rect must be x,y,w,h: four finite numbers with w, h > 0, not {0:?}")]
     RectSyntax(String),
+    /// A rectangle not inside the image.
     #[error(
         "white_rect {rect} is not inside the {width} × {height} image",
         rect = .rect.to_string()
     )]
     RectOutside {
+        /// The rectangle.
         rect: Rect,
+        /// The image's width (px).
         width: usize,
+        /// The image's height (px).
         height: usize,
     },
 }
@@ -54,9 +70,13 @@ pub enum WhiteError {
 /// A rectangle of the image in pixels: left, top, width, height (x across, y down).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rect {
+    /// Left edge (px).
     pub x: f64,
+    /// Top edge (px).
     pub y: f64,
+    /// Width (px, > 0).
     pub w: f64,
+    /// Height (px, > 0).
     pub h: f64,
 }
 
@@ -95,6 +115,7 @@ impl Rect {
     }
 }
 
+/// The warning of an answer without a white reference.
 pub const MISSING_WARNING: &str =
     "no white reference given: the image is assumed to be normalized already (white = 1)";
 

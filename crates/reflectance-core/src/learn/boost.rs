@@ -49,8 +49,11 @@ impl Default for BoostSpec {
 /// One complete tree (see the module).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Tree {
+    /// Each split's input index, nodes in breadth-first order (2^depth − 1 of them).
     pub feature: Vec<u16>,
+    /// Each split's threshold: an input above it goes right (`f64::MAX`: no split).
     pub threshold: Vec<f64>,
+    /// The 2^depth leaf values, left to right.
     pub leaf: Vec<f64>,
 }
 
@@ -68,6 +71,7 @@ impl Tree {
 /// A fitted ensemble per output.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Boosted {
+    /// Number of inputs a row has.
     pub inputs: usize,
     /// Each output's starting value (its mean).
     pub base: Vec<f64>,
@@ -76,10 +80,12 @@ pub struct Boosted {
 }
 
 impl Boosted {
+    /// Number of outputs.
     pub fn outputs(&self) -> usize {
         self.base.len()
     }
 
+    /// Each output's prediction for a row of `inputs` values: its base plus its trees' leaves.
     pub fn predict(&self, x: &[f64]) -> Vec<f64> {
         self.base
             .iter()
@@ -106,7 +112,10 @@ impl Boosted {
 /// What a fit leaves behind: the model, and each row's prediction by the fit without its
 /// group (when groups were given).
 pub struct Fitted {
+    /// The fitted ensembles.
     pub model: Boosted,
+    /// Each row's prediction by the fit without its group (rows × outputs), when groups were
+    /// given.
     pub held_out: Option<Array2<f64>>,
 }
 

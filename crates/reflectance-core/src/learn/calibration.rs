@@ -18,9 +18,12 @@
 use crate::util::rng::Rng;
 use serde::{Deserialize, Serialize};
 
+/// A Platt sigmoid: P(class | f) = 1 / (1 + exp(a·f + b)).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Sigmoid {
+    /// Slope A (negative when a larger decision value is more probable).
     pub a: f64,
+    /// Offset B.
     pub b: f64,
 }
 
@@ -122,8 +125,16 @@ impl Sigmoid {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum Calibration {
-    Softmax { temperature: f64 },
-    Platt { sigmoids: Vec<Sigmoid> },
+    /// One temperature for every class: P_k = exp(T f_k) / Σ_j exp(T f_j).
+    Softmax {
+        /// T > 0, fitted by maximum likelihood on held-out decision values.
+        temperature: f64,
+    },
+    /// One sigmoid per class, then normalized (older model files).
+    Platt {
+        /// Each class's sigmoid, in class order.
+        sigmoids: Vec<Sigmoid>,
+    },
 }
 
 impl Calibration {

@@ -94,6 +94,7 @@ fn conformal_quantile(sorted: &[f64], coverage: f64) -> f64 {
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[cfg_attr(feature = "openapi", schema(as = SetsMeasured))]
 pub struct Measured {
+    /// The coverage asked for, one of [`MEASURED_COVERAGES`].
     pub coverage: f64,
     /// The fraction of held-out images whose set held the truth, each fold's sets made from
     /// the other folds' scores.
@@ -107,6 +108,7 @@ pub struct Measured {
 pub struct PredictionSets {
     /// RAPS's λ and k_reg.
     pub lambda: f64,
+    /// Ranks free of the penalty.
     pub k_reg: usize,
     /// Calibration scores.
     pub n: usize,
@@ -115,7 +117,9 @@ pub struct PredictionSets {
     pub positive: Vec<f64>,
     /// Folds of whole illuminations that gave the scores (or stratified rows, `false`).
     pub folds: usize,
+    /// Whether the folds were whole illuminations.
     pub by_illumination: bool,
+    /// What held-out images showed at each of [`MEASURED_COVERAGES`].
     pub measured: Vec<Measured>,
 }
 

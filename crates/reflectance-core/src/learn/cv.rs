@@ -26,28 +26,41 @@ pub const ECE_BINS: usize = 10;
 #[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ClassScore {
+    /// The class's name.
     pub class: String,
+    /// Held-out images of the class.
     pub n: usize,
+    /// Of them, classified correctly.
     pub correct: usize,
+    /// `correct / n`, in [0, 1] (0 for a class without images).
     pub accuracy: f64,
 }
 
 /// The training image nearest to a misclassified one (the paper's Fig. 13).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Nearest {
+    /// The training image's path, as its manifest gives it.
     pub path: String,
+    /// Its class.
     pub class: String,
+    /// Its illumination (light probe).
     pub illumination: String,
     /// Euclidean, in the fold's standardized classifier-input space.
     pub distance: f64,
 }
 
+/// One held-out image's classification in the cross-validation.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct PredictionRecord {
+    /// The image's path, as its manifest gives it.
     pub path: String,
+    /// Its illumination, the fold's held-out one.
     pub illumination: String,
+    /// Its true class.
     pub truth: String,
+    /// The class predicted.
     pub predicted: String,
+    /// Whether `predicted` is `truth`.
     pub correct: bool,
     /// Class order.
     pub probabilities: Vec<f64>,
@@ -63,14 +76,19 @@ pub struct PredictionRecord {
 pub struct FoldReport {
     /// The held-out illumination.
     pub illumination: String,
+    /// Training rows of the fold.
     pub n_train: usize,
+    /// Held-out rows of the fold.
     pub n_test: usize,
+    /// Of them, classified correctly.
     pub correct: usize,
+    /// `correct / n_test`, in [0, 1].
     pub accuracy: f64,
     /// The classifier's inputs in this fold (auto<N>: in selection order).
     pub selected: Vec<String>,
     /// SVM only: the C and γ used (grid search may choose them per fold).
     pub c: Option<f64>,
+    /// SVM only: the γ used.
     pub gamma: Option<f64>,
 }
 
@@ -88,15 +106,23 @@ pub struct CvReport {
 #[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct CvSummary {
+    /// The feature set as specified (`hand6`, `auto6`, `pca6`, a list…).
     pub features: String,
+    /// The classifier (`svm`, `nn`, `knn5` or `chance`).
     pub classifier: String,
+    /// The run's seed; each fold's seed is forked from it by the fold's index.
     pub seed: u64,
+    /// Class names, in the order of `per_class` and `confusion`.
     pub classes: Vec<String>,
+    /// Held-out images evaluated (each once).
     pub n: usize,
+    /// Of them, classified correctly.
     pub correct: usize,
+    /// `correct / n`, in [0, 1].
     pub accuracy: f64,
     /// Expected accuracy of guessing uniformly at random: 1 / number of classes.
     pub random_guess_accuracy: f64,
+    /// Each class's held-out images and accuracy, in class order.
     pub per_class: Vec<ClassScore>,
     /// confusion[truth][predicted], class order.
     pub confusion: Vec<Vec<usize>>,
@@ -106,6 +132,7 @@ pub struct CvSummary {
     /// Σ_b (n_b / n)·|accuracy_b − mean confidence_b|, where a row counts as correct when
     /// its most probable class (first on ties) is the true class.
     pub ece: f64,
+    /// One report per held-out illumination.
     pub folds: Vec<FoldReport>,
 }
 

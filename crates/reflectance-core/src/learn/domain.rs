@@ -47,8 +47,12 @@ pub const BRIGHTNESS_MARGIN: f64 = 2.0;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum CheckKind {
+    /// Mean distance to the [`K`] nearest reference images (statistical, upper tail).
     Typicality,
+    /// `dom.outline`: how well the circle follows a sphere's outline (statistical, lower tail).
     Outline,
+    /// `ctr.mean`, the centre over white (a bound: [`BRIGHTNESS_MARGIN`] × the brightest
+    /// held-out sphere's).
     Brightness,
 }
 
@@ -90,6 +94,7 @@ impl CheckKind {
 /// A statistic's distribution on held-out valid images.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Check {
+    /// What it measures.
     pub kind: CheckKind,
     /// For feature checks: the feature's index in the model's full row.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -159,7 +164,9 @@ impl Check {
 /// One check's verdict on one input.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct CheckResult {
+    /// What it measured.
     pub kind: CheckKind,
+    /// The measured value (a distance, the outline's fit, or log10 of the centre over white).
     pub value: f64,
     /// Statistical checks: how often a valid image is at least this unusual.
     pub p_value: Option<f64>,
@@ -179,11 +186,14 @@ impl CheckResult {
 pub struct Verdict {
     /// −2 Σ ln p over the checks (Fisher); larger is less like training.
     pub score: f64,
+    /// The score above which the input is out of domain.
     pub threshold: f64,
+    /// Each check's measurement, in the model's check order.
     pub checks: Vec<CheckResult>,
 }
 
 impl Verdict {
+    /// In domain: the score at most the threshold, and no bound broken.
     pub fn in_domain(&self) -> bool {
         self.score <= self.threshold && !self.checks.iter().any(CheckResult::broken)
     }
@@ -216,7 +226,9 @@ impl Verdict {
 pub struct DomainCheck {
     /// Training images in the classifier's standardized input space.
     pub reference: Vec<Vec<f64>>,
+    /// Neighbours the typicality check averages ([`K`] when trained).
     pub k: usize,
+    /// The checks, typicality first.
     pub checks: Vec<Check>,
     /// On the Fisher combination.
     pub threshold: f64,
@@ -225,6 +237,7 @@ pub struct DomainCheck {
     /// Held-out images that calibrated it, and the fraction of them flagged (with each
     /// fold's reference drawn from the other folds).
     pub n: usize,
+    /// The fraction of those held-out images flagged, near `false_alarm`.
     pub held_out_flagged: f64,
 }
 

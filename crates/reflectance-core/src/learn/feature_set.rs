@@ -8,10 +8,13 @@ use crate::features::{NAMED_SETS, named_set};
 use std::fmt;
 use std::str::FromStr;
 
+/// Which features a classifier reads, as specified (`hand6`, `all`, `auto6`, `pca6` or a
+/// list of names).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum FeatureSet {
     /// One of [`NAMED_SETS`] (the paper's hand-picked sets and our extensions of hand6).
     Named(&'static str),
+    /// Every feature of the table.
     All,
     /// Automatic selection of N features (docs/design.md §3 "Automatic selection").
     Auto(usize),

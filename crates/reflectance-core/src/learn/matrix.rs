@@ -10,6 +10,8 @@ use super::error::LearnError;
 use crate::dataset::FeatureTable;
 use ndarray::Array2;
 
+/// A feature table as learning reads it: the matrix, each row's class and illumination
+/// group, and which rows are augmented copies.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Dataset {
     /// n × (all feature columns), in the table's column order.
@@ -28,6 +30,7 @@ pub struct Dataset {
     pub illuminations: Vec<String>,
     /// Whether the row is an augmented copy (`<probe>@<suffix>`): training only.
     pub augmented: Vec<bool>,
+    /// Each row's image path.
     pub paths: Vec<String>,
 }
 
@@ -54,6 +57,7 @@ fn index_of(sorted: &[String], item: &str) -> usize {
 }
 
 impl Dataset {
+    /// The dataset of a table: labels not empty, rows as long as the header, values finite.
     pub fn from_table(table: &FeatureTable) -> Result<Dataset, LearnError> {
         let n = table.samples.len();
         if n == 0 {
@@ -138,10 +142,12 @@ impl Dataset {
         })
     }
 
+    /// Number of rows.
     pub fn n_rows(&self) -> usize {
         self.labels.len()
     }
 
+    /// Number of classes.
     pub fn n_classes(&self) -> usize {
         self.classes.len()
     }

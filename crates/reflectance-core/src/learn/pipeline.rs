@@ -39,12 +39,18 @@ pub enum CalibrationKind {
     Platt,
 }
 
+/// Which classifier to train (docs/design.md §3 "Classifiers"); spelled `svm`, `nn`, `knn5`,
+/// `chance`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ClassifierKind {
+    /// An RBF-kernel support vector machine (the paper's classifier).
     Svm,
+    /// Nearest neighbour (1-NN) in standardized input space.
     Nn,
+    /// 5 nearest neighbours, by vote.
     Knn5,
+    /// The training class frequencies, whatever the input: the baseline every classifier must beat.
     Chance,
 }
 
@@ -78,7 +84,9 @@ impl fmt::Display for ClassifierKind {
 /// classifier inputs).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Grid {
+    /// SVM C values (> 0).
     pub c: Vec<f64>,
+    /// γ multipliers (> 0): γ = multiplier / number of classifier inputs.
     pub gamma_multipliers: Vec<f64>,
 }
 
@@ -94,9 +102,12 @@ impl Default for Grid {
 /// The SVM's default C (docs/design.md §3 "Classifiers").
 pub const DEFAULT_C: f64 = 100.0;
 
+/// What to train: the features, the classifier, its hyper-parameters and its calibration.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrainSpec {
+    /// The classifier's inputs.
     pub features: FeatureSet,
+    /// The classifier.
     pub classifier: ClassifierKind,
     /// SVM C (default [`DEFAULT_C`]).
     pub c: f64,
@@ -104,6 +115,7 @@ pub struct TrainSpec {
     pub gamma: Option<f64>,
     /// Choose (C, γ) by inner leave-one-illumination-out CV on the training data.
     pub grid: Option<Grid>,
+    /// How decision values become probabilities.
     pub calibration: CalibrationKind,
     /// Folds of the calibration (illuminations dealt to this many; 0: one fold per
     /// illumination, each held out in turn).
@@ -111,6 +123,8 @@ pub struct TrainSpec {
 }
 
 impl TrainSpec {
+    /// A specification with the defaults: C = [`DEFAULT_C`], γ = 1 / inputs, no grid, the
+    /// default calibration and its folds.
     pub fn new(features: FeatureSet, classifier: ClassifierKind) -> Self {
         TrainSpec {
             features,
@@ -132,7 +146,9 @@ pub struct SpecText<'a> {
     pub features: &'a str,
     /// `svm`, `nn`, `knn5` or `chance`.
     pub classifier: &'a str,
+    /// SVM C (finite, > 0).
     pub c: f64,
+    /// SVM γ (finite, > 0); `None`: 1 / number of classifier inputs.
     pub gamma: Option<f64>,
     /// Choose C and γ by inner cross-validation over the default grid.
     pub grid: bool,
@@ -168,25 +184,35 @@ impl SpecText<'_> {
     }
 }
 
+/// A fitted model of one of the [`ClassifierKind`]s (k-NN serves `nn` and `knn5`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Model {
+    /// An RBF-kernel SVM.
     Svm(SvmModel),
+    /// Nearest neighbours (k = 1 or 5) over the training rows.
     Knn(KnnModel),
+    /// The training class frequencies.
     Chance(ChanceModel),
 }
 
 /// One grid point's inner-CV score.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GridPoint {
+    /// SVM C of the point.
     pub c: f64,
+    /// SVM γ of the point.
     pub gamma: f64,
+    /// Held-out rows classified correctly.
     pub correct: usize,
+    /// Held-out rows.
     pub n: usize,
 }
 
+/// The inner cross-validation's search over the [`Grid`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GridSearch {
+    /// Every point's score, in grid order (C major, then γ).
     pub points: Vec<GridPoint>,
     /// Index of the chosen point: the most correct, the first in grid order (C major, then
     /// γ) on ties.
@@ -196,6 +222,7 @@ pub struct GridSearch {
 /// Output of one classification.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Output {
+    /// The predicted class (index in class order).
     pub class: usize,
     /// Class probabilities (calibrated for the SVM), in class order, summing to 1.
     pub probabilities: Vec<f64>,
@@ -337,6 +364,7 @@ pub struct HeldOut {
     pub fold: Vec<Option<usize>>,
     /// Per row of the fit: its decision values when it was held out (empty for `None`).
     pub decision: Vec<Vec<f64>>,
+    /// Number of calibration folds.
     pub folds: usize,
     /// Whether the folds are whole illuminations (else stratified rows: fewer than two
     /// illuminations to hold out).
@@ -721,6 +749,7 @@ impl Classifier {
         &self.classes
     }
 
+    /// Which classifier it is.
     pub fn kind(&self) -> ClassifierKind {
         self.kind
     }
@@ -735,6 +764,7 @@ impl Classifier {
         self.calibration.is_some()
     }
 
+    /// Number of classes.
     pub fn n_classes(&self) -> usize {
         self.classes.len()
     }
@@ -898,6 +928,8 @@ impl Classifier {
         Ok(self.classify(row)?.class)
     }
 
+    /// Decision values of a full feature row: an SVM's one-against-all decision values, k-NN's vote
+    /// fractions, chance's training frequencies.
     pub fn decision_values(&self, row: &[f64]) -> Result<Vec<f64>, LearnError> {
         Ok(self.classify(row)?.decision)
     }
@@ -910,6 +942,7 @@ impl Classifier {
             .collect()
     }
 
+    /// [`Classifier::predict_proba`] of every row of `x` (rows × classes).
     pub fn predict_proba_batch(&self, x: ArrayView2<f64>) -> Result<Array2<f64>, LearnError> {
         let out = self.classify_batch(x)?;
         Ok(to_matrix(
@@ -918,11 +951,13 @@ impl Classifier {
         ))
     }
 
+    /// [`Classifier::decision_values`] of every row of `x`, one row each.
     pub fn decision_values_batch(&self, x: ArrayView2<f64>) -> Result<Array2<f64>, LearnError> {
         let out = self.classify_batch(x)?;
         Ok(to_matrix(out.iter().map(|o| &o.decision), self.n_classes()))
     }
 
+    /// [`Classifier::predict`] of every row of `x`.
     pub fn predict_batch(&self, x: ArrayView2<f64>) -> Result<Vec<usize>, LearnError> {
         Ok(self.classify_batch(x)?.iter().map(|o| o.class).collect())
     }

@@ -29,6 +29,7 @@ pub struct RidgeSpec {
     pub gamma: f64,
     /// Ridge penalty λ.
     pub lambda: f64,
+    /// The seed of the random frequencies and phases.
     pub seed: u64,
 }
 
@@ -37,7 +38,9 @@ pub struct RidgeSpec {
 pub struct FourierMap {
     /// D × d frequencies, row-major.
     pub omega: Vec<f64>,
+    /// D phases, uniform in [0, 2π).
     pub phase: Vec<f64>,
+    /// Input dimension d.
     pub inputs: usize,
 }
 
@@ -49,6 +52,7 @@ fn gaussian(rng: &mut Rng) -> f64 {
 }
 
 impl FourierMap {
+    /// D frequencies drawn from N(0, 2γ) per input and D uniform phases, from the spec's seed.
     pub fn new(inputs: usize, spec: &RidgeSpec) -> FourierMap {
         let mut rng = Rng::fork(spec.seed, 0x4646_5452);
         let scale = (2.0 * spec.gamma).sqrt();
@@ -97,13 +101,16 @@ impl FourierMap {
 /// A fitted multi-output ridge regression.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Ridge {
+    /// The random Fourier map of the inputs.
     pub map: FourierMap,
     /// (D + 1) × outputs, row-major.
     pub weights: Vec<f64>,
+    /// Number of outputs.
     pub outputs: usize,
 }
 
 impl Ridge {
+    /// Each output's prediction: the mapped row (with its constant 1) times the weights.
     pub fn predict(&self, x: &[f64]) -> Vec<f64> {
         let z = self.map.map(x);
         (0..self.outputs)
@@ -120,7 +127,10 @@ impl Ridge {
 /// What a fit leaves behind: the model, and each row's prediction by the fit without its
 /// group (when groups were given).
 pub struct Fitted {
+    /// The fitted regression.
     pub ridge: Ridge,
+    /// Each row's prediction by the fit without its group (rows × outputs), when groups were
+    /// given.
     pub held_out: Option<Array2<f64>>,
 }
 

@@ -3,8 +3,10 @@
 use ndarray::{Array2, ArrayView2};
 use serde::{Deserialize, Serialize};
 
+/// Per-column standardization: (x − mean) / std, with the training data's statistics.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Scaler {
+    /// Each column's mean.
     pub mean: Vec<f64>,
     /// Population (ddof = 0) standard deviation; 1 for a constant column.
     pub std: Vec<f64>,
@@ -33,6 +35,7 @@ impl Scaler {
         Scaler { mean, std }
     }
 
+    /// Number of columns.
     pub fn dim(&self) -> usize {
         self.mean.len()
     }
@@ -44,6 +47,7 @@ impl Scaler {
         }
     }
 
+    /// The standardized copy of `x` (n × [`Scaler::dim`]).
     pub fn transform(&self, x: ArrayView2<f64>) -> Array2<f64> {
         let mut out = x.to_owned();
         for mut row in out.rows_mut() {

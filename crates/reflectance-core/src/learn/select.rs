@@ -31,8 +31,11 @@ pub const EXHAUSTED: f64 = 1e-9;
 /// One class's weighted Gaussian.
 #[derive(Clone, Copy, Debug)]
 pub struct Component {
+    /// The class's frequency in the training data.
     pub prior: f64,
+    /// The class's mean of the feature.
     pub mean: f64,
+    /// Its ddof = 1 standard deviation, floored at [`STD_FLOOR`] × the feature's.
     pub std: f64,
 }
 
@@ -190,7 +193,9 @@ fn class_components(
 /// selection, with the Bayes error each had when chosen.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Selection {
+    /// The chosen columns, in order of selection.
     pub columns: Vec<usize>,
+    /// The Bayes error of each when chosen.
     pub errors: Vec<f64>,
 }
 

@@ -19,7 +19,9 @@ use serde::{Deserialize, Serialize};
 
 /// Element type of a kernel matrix.
 pub trait KernelValue: Copy + Send + Sync + Default + 'static {
+    /// The value stored for a kernel value (rounded for `f32`).
     fn from_f64(v: f64) -> Self;
+    /// The stored value as `f64`.
     fn get(self) -> f64;
 }
 
@@ -106,15 +108,18 @@ impl<T: KernelValue> Gram<T> {
         Gram { n, values }
     }
 
+    /// Number of rows (the matrix is n × n).
     pub fn n(&self) -> usize {
         self.n
     }
 
+    /// Row `i`'s kernel values.
     #[inline(always)]
     pub fn row(&self, i: usize) -> &[T] {
         &self.values[i * self.n..(i + 1) * self.n]
     }
 
+    /// K(x_i, x_j).
     #[inline(always)]
     pub fn get(&self, i: usize, j: usize) -> f64 {
         self.values[i * self.n + j].get()
@@ -130,6 +135,7 @@ pub struct SolverParams {
     pub eps: f64,
     /// Replaces a non-positive curvature in the working-set selection and the update.
     pub tau: f64,
+    /// Whether to shrink the active set (with one unshrink near the end, as libsvm does).
     pub shrinking: bool,
     /// Iteration limit; 0 means libsvm's max(10⁷, 100·l).
     pub max_iter: usize,
@@ -158,6 +164,7 @@ pub struct BinarySolution {
     pub rho: f64,
     /// Final dual gradient G_i = (Qα)_i − 1 (all rows, after the final reconstruction).
     pub gradient: Vec<f64>,
+    /// Iterations the solver took.
     pub iterations: usize,
     /// False if the iteration limit stopped the solver.
     pub converged: bool,
@@ -169,6 +176,7 @@ impl BinarySolution {
         f64::from(self.y[i]) * self.alpha[i]
     }
 
+    /// Number of support vectors (α_i > 0).
     pub fn n_sv(&self) -> usize {
         self.alpha.iter().filter(|&&a| a > 0.0).count()
     }
@@ -597,7 +605,9 @@ pub fn train_one_vs_all<T: KernelValue>(
 pub struct SvmModel {
     /// Always "rbf": K(a, b) = exp(−γ‖a − b‖²).
     pub kernel: String,
+    /// RBF γ (> 0).
     pub gamma: f64,
+    /// The C it was trained with (> 0).
     pub c: f64,
     /// Support vectors (standardized feature space), each a row.
     pub support_vectors: Vec<Vec<f64>>,
@@ -643,10 +653,12 @@ impl SvmModel {
         }
     }
 
+    /// Number of classes (one decision function each).
     pub fn n_classes(&self) -> usize {
         self.rho.len()
     }
 
+    /// Number of distinct support vectors over every class's problem.
     pub fn n_support_vectors(&self) -> usize {
         self.support_vectors.len()
     }

@@ -12,10 +12,13 @@ use crate::util::rng::Rng;
 /// The parameter ranges of the design.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ranges {
+    /// Largest ρs (ρs is uniform in [0, ρs_max]; ρd + ρs ≤ 1).
     pub rho_s_max: f64,
     /// Share of mirrors (α = 0), in [0, 1].
     pub mirror_share: f64,
+    /// Smallest α of a non-mirror (> 0; α is log-uniform in [α_min, α_max]).
     pub alpha_min: f64,
+    /// Largest α.
     pub alpha_max: f64,
 }
 

@@ -12,9 +12,13 @@ use std::collections::BTreeMap;
 pub struct CaptureRanges {
     /// Sphere radius (px), drawn log-uniformly.
     pub radius: [f64; 2],
+    /// Exposure: white as a fraction of full scale.
     pub exposure: [f64; 2],
+    /// Noise: σ at white, as a fraction of white.
     pub noise: [f64; 2],
+    /// Lens blur σ (px).
     pub blur: [f64; 2],
+    /// JPEG quality of the captures saved as JPEG (1–100).
     pub jpeg_quality: [u8; 2],
     /// Largest relative white error (±).
     pub white_error: f64,
@@ -46,6 +50,9 @@ impl Default for CaptureRanges {
 pub struct InvalidRanges(pub String);
 
 impl CaptureRanges {
+    /// Check the bounds: every range ordered, radius ≥ [`crate::image::geometry::MIN_RADIUS`],
+    /// exposure in [0.01, 1], noise ≤ 0.5, blur ≤ 10 px, qualities in 1–100 and the errors
+    /// below their limits.
     pub fn validate(&self) -> Result<(), InvalidRanges> {
         let ordered = |[lo, hi]: [f64; 2], min: f64, max: f64| lo >= min && lo <= hi && hi <= max;
         let ok = ordered(self.radius, crate::image::geometry::MIN_RADIUS, 4096.0)
@@ -74,6 +81,7 @@ pub const VIEW_TAG: &str = "@cap";
 /// mirror's reflections read as more noise, and clip more, than a matte sphere's shading).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CaptureEnvelope {
+    /// The ranges its training views were drawn from.
     pub ranges: CaptureRanges,
     /// Per class, the 99th percentile of the noise at white estimated on its training
     /// images (fraction of white); empty when the training table has no `cap.noise`.

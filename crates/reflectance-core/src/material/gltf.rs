@@ -51,8 +51,11 @@ pub const DISC_EDGE: f64 = 0.98;
 /// channel).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Pbr {
+    /// `baseColorFactor`'s grey value, in [0, 1] (a colour tints it).
     pub base_color: f64,
+    /// `metallicFactor`, 0 or 1.
     pub metallic: f64,
+    /// `roughnessFactor`, in [0, 1].
     pub roughness: f64,
     /// `KHR_materials_ior` (≥ 1; 1.5 is glTF's default, and the extension is then left out).
     pub ior: f64,
@@ -251,7 +254,9 @@ fn material_json(name: &str, pbr: &Pbr, colour: Option<Rgb>) -> (Value, Vec<&'st
 /// binary container (`.glb`: a JSON chunk and a binary chunk).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Container {
+    /// JSON with the buffer as a base64 data URI.
     Gltf,
+    /// The binary container.
     Glb,
 }
 
@@ -264,6 +269,7 @@ impl Container {
         }
     }
 
+    /// The media type to serve it as (`model/gltf+json`, `model/gltf-binary`).
     pub fn media_type(self) -> &'static str {
         match self {
             Container::Gltf => "model/gltf+json",
@@ -271,6 +277,7 @@ impl Container {
         }
     }
 
+    /// The file extension, without the dot.
     pub fn extension(self) -> &'static str {
         match self {
             Container::Gltf => "gltf",

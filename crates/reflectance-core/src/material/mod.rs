@@ -14,19 +14,26 @@ use std::path::Path;
 /// α; α = 0 is the ideal mirror).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Material {
+    /// The class's name (not empty).
     pub name: String,
+    /// Diffuse reflectance ρd ≥ 0.
     pub rho_d: f64,
+    /// Specular reflectance ρs ≥ 0, with ρd + ρs ≤ 1.
     pub rho_s: f64,
+    /// Roughness α, in [0, 1] (0: the ideal mirror).
     pub alpha: f64,
 }
 
+/// A class whose parameters break the rules of [`Material::validate`].
 #[derive(Debug, thiserror::Error, PartialEq)]
 #[error("class {name:?}: need 0 ≤ rho_d, 0 ≤ rho_s, rho_d + rho_s ≤ 1 and 0 ≤ alpha ≤ 1")]
 pub struct MaterialError {
+    /// The class's name.
     pub name: String,
 }
 
 impl Material {
+    /// Check the rules: a name, 0 ≤ ρd, 0 ≤ ρs, ρd + ρs ≤ 1 and 0 ≤ α ≤ 1.
     pub fn validate(&self) -> Result<(), MaterialError> {
         let ok = self.rho_d >= 0.0
             && self.rho_s >= 0.0
@@ -43,17 +50,29 @@ impl Material {
     }
 }
 
+/// Why a class file cannot be used.
 #[derive(Debug, thiserror::Error)]
 pub enum ClassFileError {
+    /// The file cannot be read.
     #[error("{path}: {source}")]
     Io {
+        /// Its path.
         path: String,
+        /// The operating system's error.
         source: std::io::Error,
     },
+    /// The file is not JSON of a class list, or lists no class.
     #[error("{path}: not a class file ({detail})")]
-    Invalid { path: String, detail: String },
+    Invalid {
+        /// Its path.
+        path: String,
+        /// What is wrong.
+        detail: String,
+    },
+    /// A class breaks the parameter rules.
     #[error(transparent)]
     Material(#[from] MaterialError),
+    /// Two classes of the same name.
     #[error("duplicate class name {0:?}")]
     DuplicateClass(String),
 }

@@ -17,7 +17,9 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use sha2::{Digest, Sha256};
 
+/// The `schema` every model file states (docs/design.md §4).
 pub const SCHEMA: &str = "reflectance.model";
+/// The schema version this build reads and writes.
 pub const SCHEMA_VERSION: u32 = 1;
 /// The self-test must reproduce the stored probabilities to this precision.
 const SELF_TEST_TOLERANCE: f64 = 1e-9;
@@ -27,8 +29,11 @@ const SELF_TEST_TOLERANCE: f64 = 1e-9;
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[cfg_attr(feature = "openapi", schema(as = WardParams))]
 pub struct Ward {
+    /// Diffuse reflectance ρd, in [0, 1].
     pub rho_d: f64,
+    /// Specular reflectance ρs, in [0, 1] (0: matte).
     pub rho_s: f64,
+    /// Roughness α, the standard deviation of the surface slope (0: a perfect mirror).
     pub alpha: f64,
 }
 
@@ -78,9 +83,12 @@ impl Ward {
     }
 }
 
+/// A class the model knows: its name, and its Ward parameters when rendered from them.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ClassInfo {
+    /// The class's name, as answers spell the label.
     pub name: String,
+    /// The Ward parameters the class was rendered with, when known.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ward: Option<Ward>,
 }
@@ -95,6 +103,7 @@ impl ClassInfo {
     }
 }
 
+/// How the model's features are extracted and which of them the classifier reads.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FeatureSpec {
     /// The extraction constants (unwrap grid, levels).
@@ -110,10 +119,15 @@ pub struct FeatureSpec {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct StoredCv {
+    /// Fraction of held-out images classified correctly, in [0, 1].
     pub accuracy: f64,
+    /// Number of held-out images.
     pub n: usize,
+    /// Mean negative log-probability of the true class (nats).
     pub log_loss: f64,
+    /// Expected calibration error, in [0, 1].
     pub ece: f64,
+    /// Each class's held-out images and accuracy, in class order.
     pub per_class: Vec<crate::learn::cv::ClassScore>,
     /// `confusion[truth][predicted]`, class order.
     pub confusion: Vec<Vec<usize>>,
@@ -132,17 +146,22 @@ impl From<&crate::learn::CvSummary> for StoredCv {
     }
 }
 
+/// Where a model came from: its training data, options and cross-validation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Provenance {
     /// Where the training data came from (manifest or table path, as given).
     pub dataset: String,
     /// SHA-256 of the training feature table (CSV as written by `features --out`).
     pub dataset_sha256: String,
+    /// Number of training images (augmented views included).
     pub images: usize,
+    /// Number of distinct illuminations (an augmented `probe@…` counts as its probe).
     pub illuminations: usize,
+    /// The seed of every random choice of training (splits, grid, augmentation).
     pub seed: u64,
     /// Training options as given (classifier, C, γ, grid, augmentation handling).
     pub options: Value,
+    /// The leave-one-illumination-out cross-validation, when training ran one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cv: Option<StoredCv>,
 }
@@ -150,9 +169,13 @@ pub struct Provenance {
 /// A training image in the classifier's (standardized) input space, for explanations.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Exemplar {
+    /// The image's path, as its manifest gives it.
     pub path: String,
+    /// Its class.
     pub class: String,
+    /// Its illumination (light probe).
     pub illumination: String,
+    /// The classifier's standardized inputs for it.
     pub inputs: Vec<f64>,
     /// A small picture of the training image (a PNG data URL), when training could read it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -162,7 +185,9 @@ pub struct Exemplar {
 /// A feature vector and the probabilities the model must give it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SelfTest {
+    /// A feature row in canonical order.
     pub features: Vec<f64>,
+    /// The probabilities the classifier must give it, in class order.
     pub probabilities: Vec<f64>,
     /// What the classifier without white gives it, when the model has one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -174,9 +199,12 @@ pub struct SelfTest {
 /// prediction sets and a domain check of its own (docs/design.md §3 "Without white").
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct NoWhite {
+    /// The classifier reading only the scale-invariant features.
     pub classifier: Classifier,
+    /// Its prediction sets, calibrated on held-out illuminations.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prediction_sets: Option<PredictionSets>,
+    /// Its domain check.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub domain: Option<DomainCheck>,
 }
@@ -185,25 +213,39 @@ pub struct NoWhite {
 /// without white.
 #[derive(Clone, Copy, Debug)]
 pub struct Head<'a> {
+    /// The classifier.
     pub classifier: &'a Classifier,
+    /// Its prediction sets, when calibrated.
     pub prediction_sets: Option<&'a PredictionSets>,
+    /// Its domain check, when calibrated.
     pub domain: Option<&'a DomainCheck>,
     /// The classifier without white.
     pub without_white: bool,
 }
 
+/// A trained model version as stored (docs/design.md §4): checksummed JSON, verified on
+/// load by schema, checksum and self-test.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ModelFile {
+    /// Always [`SCHEMA`].
     pub schema: String,
+    /// [`SCHEMA_VERSION`] when written; loading refuses any other.
     pub schema_version: u32,
+    /// The model's name in its registry, e.g. `ward11`.
     pub name: String,
+    /// Its version in the registry (1, 2, …).
     pub version: u32,
     /// RFC 3339, UTC.
     pub created: String,
+    /// The classes, in no particular order (the classifier holds the class order).
     pub classes: Vec<ClassInfo>,
+    /// The extraction configuration and the classifier's inputs.
     pub features: FeatureSpec,
+    /// The classifier answering with a white reference.
     pub classifier: Classifier,
+    /// The training data and options.
     pub training: Provenance,
+    /// A feature row and its probabilities, checked on every load.
     pub self_test: SelfTest,
     /// The original (non-augmented) training images, for `explain`.
     #[serde(default)]
@@ -226,28 +268,47 @@ pub struct ModelFile {
     /// models without the log-domain features.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub no_white: Option<NoWhite>,
+    /// SHA-256 (hex) of the canonical JSON of the document without this field.
     #[serde(default)]
     pub sha256: String,
 }
 
+/// Why a model file cannot be used.
 #[derive(Debug, thiserror::Error)]
 pub enum ModelError {
+    /// The file is not JSON of a model (the parser's message).
     #[error("not a model file: {0}")]
     Json(String),
+    /// Another schema or schema version than this build reads.
     #[error(
         "unsupported model schema {found:?} version {version} (expected {SCHEMA:?} version {SCHEMA_VERSION})"
     )]
-    Schema { found: String, version: u32 },
+    Schema {
+        /// The file's `schema`.
+        found: String,
+        /// The file's `schema_version`.
+        version: u32,
+    },
+    /// The stored checksum does not match the content.
     #[error(
         "checksum mismatch: the file says {stored}, its content hashes to {actual} (corrupt or edited)"
     )]
-    Checksum { stored: String, actual: String },
+    Checksum {
+        /// The file's `sha256`.
+        stored: String,
+        /// SHA-256 of its canonical content.
+        actual: String,
+    },
+    /// The feature configuration is invalid.
     #[error("invalid feature configuration: {0}")]
     Config(#[from] ConfigError),
+    /// Parts of the file disagree (class lists, feature counts, indices).
     #[error("inconsistent model: {0}")]
     Inconsistent(String),
+    /// The classifier (or estimator) is invalid.
     #[error("invalid classifier: {0}")]
     Classifier(#[from] LearnError),
+    /// The self-test's probabilities differ from the stored ones by this much.
     #[error("self-test failed: probabilities differ from the stored ones by {0:e}")]
     SelfTest(f64),
 }
@@ -299,6 +360,7 @@ fn digest(document: &Value) -> String {
     hex(&Sha256::digest(&bytes))
 }
 
+/// Lower-case hex of bytes, two digits a byte.
 pub fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
@@ -466,6 +528,8 @@ impl ModelFile {
         Ok(scored)
     }
 
+    /// Check that the classifiers give the self-test's features their stored probabilities
+    /// (to 1e-9).
     pub fn self_test(&self) -> Result<(), ModelError> {
         let features = &self.self_test.features;
         let mut pairs = vec![(

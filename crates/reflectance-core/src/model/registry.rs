@@ -10,37 +10,67 @@ use crate::util::durable::{sync_dir, write_atomic};
 use std::fs;
 use std::path::{Path, PathBuf};
 
+/// The model file's name in a version's folder: `ROOT/NAME/VERSION/model.json`.
 pub const MODEL_FILE: &str = "model.json";
 const ACTIVE_FILE: &str = "ACTIVE";
 
+/// Why the registry cannot answer or change.
 #[derive(Debug, thiserror::Error)]
 pub enum RegistryError {
+    /// A model name outside the safe alphabet ([`valid_name`]).
     #[error("invalid model name {0:?} (use 1–64 of a-z, 0-9, '_' and '-')")]
     BadName(String),
+    /// No model of that name.
     #[error("unknown model {0:?}")]
     UnknownModel(String),
+    /// The registry's folder does not exist.
     #[error(
         "there is no model folder {0} (a registry of models: FOLDER/NAME/VERSION/model.json, \
          such as models/ward6/1/model.json)"
     )]
     NoFolder(String),
+    /// No model of that name in the registry, with the names it holds.
     #[error("unknown model {name:?} in {root} (it holds: {known})")]
     UnknownModelIn {
+        /// The name asked for.
         name: String,
+        /// The registry's folder.
         root: String,
+        /// The names it holds, comma-separated.
         known: String,
     },
+    /// The model has no such version.
     #[error("model {name:?} has no version {version}")]
-    UnknownVersion { name: String, version: u32 },
+    UnknownVersion {
+        /// The model's name.
+        name: String,
+        /// The version asked for.
+        version: u32,
+    },
+    /// The version is active and cannot be removed.
     #[error("version {version} of {name:?} is active; activate another version first")]
-    ActiveVersion { name: String, version: u32 },
+    ActiveVersion {
+        /// The model's name.
+        name: String,
+        /// The active version.
+        version: u32,
+    },
+    /// A file or folder cannot be read or written.
     #[error("{path}: {source}")]
     Io {
+        /// Its path.
         path: String,
+        /// The operating system's error.
         source: std::io::Error,
     },
+    /// A model file cannot be used.
     #[error("{path}: {source}")]
-    Model { path: String, source: ModelError },
+    Model {
+        /// The model file's path.
+        path: String,
+        /// Why it cannot be used.
+        source: ModelError,
+    },
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> RegistryError + '_ {
@@ -58,16 +88,20 @@ pub fn valid_name(name: &str) -> bool {
             .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'_' || b == b'-')
 }
 
+/// A folder of model versions, `ROOT/NAME/VERSION/model.json`, with each name's active
+/// version in `ROOT/NAME/ACTIVE` (docs/design.md §4).
 #[derive(Clone, Debug)]
 pub struct Registry {
     root: PathBuf,
 }
 
 impl Registry {
+    /// The registry at `root` (nothing is read until asked).
     pub fn new(root: impl Into<PathBuf>) -> Registry {
         Registry { root: root.into() }
     }
 
+    /// The registry's folder.
     pub fn root(&self) -> &Path {
         &self.root
     }
@@ -79,6 +113,7 @@ impl Registry {
         Ok(self.root.join(name))
     }
 
+    /// The folder of a version (whether it exists or not), for a valid name.
     pub fn version_dir(&self, name: &str, version: u32) -> Result<PathBuf, RegistryError> {
         Ok(self.model_dir(name)?.join(version.to_string()))
     }

@@ -237,6 +237,7 @@ pub struct Counter<'a> {
 }
 
 impl<'a> Counter<'a> {
+    /// A counter of `total` units reporting to `observer` (0 done, at once).
     pub fn new(observer: &'a dyn Observer, total: usize) -> Self {
         observer.progress(0, total);
         Counter {
@@ -252,6 +253,7 @@ impl<'a> Counter<'a> {
         self.observer.progress(done, self.total);
     }
 
+    /// Whether the observer asked to stop.
     pub fn cancelled(&self) -> bool {
         self.observer.cancelled()
     }

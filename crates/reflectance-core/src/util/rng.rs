@@ -1,12 +1,14 @@
 //! A small deterministic PRNG (SplitMix64): reproducible results for a fixed seed on every
 //! platform, without a dependency.
 
+/// A SplitMix64 generator: the same stream for the same seed on every platform.
 #[derive(Clone, Debug)]
 pub struct Rng {
     state: u64,
 }
 
 impl Rng {
+    /// The stream of `seed`.
     pub fn new(seed: u64) -> Self {
         Rng { state: seed }
     }
@@ -18,6 +20,7 @@ impl Rng {
         Rng::new(base.next_u64())
     }
 
+    /// The next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
         self.state = self.state.wrapping_add(0x9e37_79b9_7f4a_7c15);
         let mut z = self.state;

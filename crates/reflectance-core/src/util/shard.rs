@@ -6,38 +6,72 @@ use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
+/// Why a shard cannot be named, or the parts of a file cannot be merged.
 #[derive(Debug, thiserror::Error)]
 pub enum ShardError {
+    /// A shard that is not `I/N`.
     #[error("expected I/N (shard I of N, zero-based: 0 ≤ I < N), not {0:?}")]
     Syntax(String),
+    /// A shard count of 0.
     #[error("the shard count must be at least 1")]
     NoShards,
+    /// A shard index not below the count.
     #[error("shard index {index} must be below the shard count {count} (indices are zero-based)")]
-    Index { index: usize, count: usize },
+    Index {
+        /// The zero-based index.
+        index: usize,
+        /// The shard count.
+        count: usize,
+    },
+    /// Nothing to merge.
     #[error("no parts to merge")]
     NoParts,
+    /// A file not named as a shard part: the file.
     #[error("{0}: not a shard part (expected NAME.shard-I-of-N[.EXT])")]
     NotAPart(String),
+    /// Parts of different files: a part, its file, another part, its file.
     #[error("{0}: a part of {1}, but {2} is a part of {3}")]
     DifferentFiles(String, String, String, String),
+    /// Parts of differently sharded runs: a part, its count, another part, its count.
     #[error("{0}: one of {1} shards, but {2} is one of {3}")]
     DifferentCounts(String, usize, String, usize),
+    /// Two parts of the same shard.
     #[error("shard {index} of {count} is given twice: {first} and {second}")]
     Duplicate {
+        /// The zero-based shard index.
         index: usize,
+        /// The shard count.
         count: usize,
+        /// The first part of the shard.
         first: String,
+        /// The second.
         second: String,
     },
+    /// Shards without a part.
     #[error("missing shard(s) {missing} of {count}")]
-    Missing { missing: String, count: usize },
+    Missing {
+        /// The missing indices, comma-separated (the first 10, then an ellipsis).
+        missing: String,
+        /// The shard count.
+        count: usize,
+    },
+    /// Parts whose CSV headers differ: a part and the first part.
     #[error("{0}: the header differs from that of {1} (parts of different runs?)")]
     Header(String, String),
+    /// A part is not valid CSV.
     #[error("{path}: {detail}")]
-    Csv { path: String, detail: String },
+    Csv {
+        /// The part's path.
+        path: String,
+        /// The CSV reader's message.
+        detail: String,
+    },
+    /// A part cannot be read, or the merge written.
     #[error("{path}: {source}")]
     Io {
+        /// The file's path.
         path: String,
+        /// The operating system's error.
         source: std::io::Error,
     },
 }
@@ -50,6 +84,7 @@ pub struct Shard {
 }
 
 impl Shard {
+    /// Shard `index` of `count`: `count` ≥ 1 and `index` < `count`.
     pub fn new(index: usize, count: usize) -> Result<Shard, ShardError> {
         match (index, count) {
             (_, 0) => Err(ShardError::NoShards),
@@ -58,10 +93,12 @@ impl Shard {
         }
     }
 
+    /// The zero-based index.
     pub fn index(&self) -> usize {
         self.index
     }
 
+    /// The shard count (≥ 1).
     pub fn count(&self) -> usize {
         self.count
     }
@@ -134,6 +171,7 @@ impl std::str::FromStr for Shard {
 /// What [`merge`] joined.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Merged {
+    /// Parts merged (the shard count).
     pub shards: usize,
     /// Records after the header.
     pub rows: usize,
