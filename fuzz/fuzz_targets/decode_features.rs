@@ -1,13 +1,14 @@
 //! Image decoding + feature extraction on arbitrary bytes: every input is either refused
-//! with a typed error or yields finite, non-negative luminance whose analysis (automatic
-//! location, and a given circle when the image is large enough) never panics.
+//! with a typed error or yields finite, non-negative luminance (decoded in full, and reduced
+//! by the scaled JPEG decode) whose analysis (automatic location, and a given circle when the
+//! image is large enough) never panics.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use reflectance::features::analysis::{self, Locate, WhiteInput};
 use reflectance::features::{Extractor, FeatureConfig};
+use reflectance::image::decode::{DecodeOptions, Limits, decode, decode_reduced};
 use reflectance::image::geometry::Circle;
-use reflectance::image::decode::{DecodeOptions, Limits, decode};
 use std::sync::OnceLock;
 
 fn extractor() -> &'static Extractor {
@@ -27,6 +28,16 @@ fuzz_target!(|data: &[u8]| {
         // The colour copy is decoded too, so that its path is fuzzed with the rest.
         colour: true,
     };
+    // The scaled (DCT-domain) JPEG decode, at a reduction the input picks: an error, or an
+    // image of the reduced size with usable luminance.
+    let denominator = 1 << (data.len() % 4);
+    if let Ok(reduced) = decode_reduced(data, &options, denominator) {
+        let (d, lum) = (reduced.denominator, &reduced.image.luminance);
+        assert!([1, 2, 4, 8].contains(&d) && d <= denominator);
+        let (w, h) = (reduced.full_width, reduced.full_height);
+        assert_eq!(lum.dim(), (h.div_ceil(d), w.div_ceil(d)));
+        assert!(lum.iter().all(|v| v.is_finite() && *v >= 0.0));
+    }
     let Ok(image) = decode(data, &options) else {
         return;
     };

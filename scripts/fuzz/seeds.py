@@ -37,6 +37,32 @@ def write(target, name, data):
     (out / f"seed-{name}").write_bytes(data)
 
 
+# A 96 × 72 colour JPEG of a ball (4:2:0, EXIF orientation 6), made with Pillow: for the full
+# and the scaled (DCT-domain) JPEG decoders.
+BALL_JPEG = (
+    "/9j/4AAQSkZJRgABAQAAAQABAAD/4QAiRXhpZgAATU0AKgAAAAgAAQESAAMAAAABAAYAAAAAAAD/2wBDAAgGBgcG"
+    "BQgHBwcJCQgKDBQNDAsLDBkSEw8UHRofHh0aHBwgJC4nICIsIxwcKDcpLDAxNDQ0Hyc5PTgyPC4zNDL/2wBDAQkJ"
+    "CQwLDBgNDRgyIRwhMjIyMjIyMjIyMjIyMjIyMjIyMjIyMjIyMjIyMjIyMjIyMjIyMjIyMjIyMjIyMjIyMjL/wAAR"
+    "CABIAGADASIAAhEBAxEB/8QAHwAAAQUBAQEBAQEAAAAAAAAAAAECAwQFBgcICQoL/8QAtRAAAgEDAwIEAwUFBAQA"
+    "AAF9AQIDAAQRBRIhMUEGE1FhByJxFDKBkaEII0KxwRVS0fAkM2JyggkKFhcYGRolJicoKSo0NTY3ODk6Q0RFRkdI"
+    "SUpTVFVWV1hZWmNkZWZnaGlqc3R1dnd4eXqDhIWGh4iJipKTlJWWl5iZmqKjpKWmp6ipqrKztLW2t7i5usLDxMXG"
+    "x8jJytLT1NXW19jZ2uHi4+Tl5ufo6erx8vP09fb3+Pn6/8QAHwEAAwEBAQEBAQEBAQAAAAAAAAECAwQFBgcICQoL"
+    "/8QAtREAAgECBAQDBAcFBAQAAQJ3AAECAxEEBSExBhJBUQdhcRMiMoEIFEKRobHBCSMzUvAVYnLRChYkNOEl8RcY"
+    "GRomJygpKjU2Nzg5OkNERUZHSElKU1RVVldYWVpjZGVmZ2hpanN0dXZ3eHl6goOEhYaHiImKkpOUlZaXmJmaoqOk"
+    "paanqKmqsrO0tba3uLm6wsPExcbHyMnK0tPU1dbX2Nna4uPk5ebn6Onq8vP09fb3+Pn6/9oADAMBAAIRAxEAPwDl"
+    "oqtL0qrFVpelc5sDVWl71Zaq0vehAUZe9VWrq9J8Kz6mFnnJitmGRj7zehHoP8+9dLD4V021hCC1SQ92kG4k/j/S"
+    "k5pBytnl61bi613d1olkFwLWEYGBhBxXN3+mLAS0I2+3ampJhy2K0VWV6VUt5FckDhlOCD1FW16UANeqk3erb1Um"
+    "70IB0VWl6VViq0vSgAatPw/pK6heGadA0EZ6H+JvTHpWY1dp4fRINPi2jlhuJ9SamTshpanQRxqqgAVHNjFHnDFV"
+    "5puKxNCldYwa53UACDWzdTDB5rnr+bg81pEhnJ6m8lrL58Jw6+vQ+x9q1rO5jvLVJ4idjjjIwR6isTV5AVal8KXD"
+    "yQXEDHKRsGX2znI+nH6mtWtCL6m89VJu9W3qpN3pIY6KrS9KqxVaXpQANXUaVdAWkQz0UCuXaprO+8h/LJ9xUtXQ"
+    "0ztftQx1qtNdcHmsYagCPvVXmvxjrUqI7ly6uuDzXPX91weaLq/GDzXO39+MHmtIxJbKWqXO7IB61d8Ig77s7jgB"
+    "Bt7Hrz/n1rnppTK5Y11/hqzFvpvnEESTnccjHA6f1OferloiFua71Um71beqk3eoRY6KrS9KqxVaXpQANVS4TeOG"
+    "KkcgjsattVaXvQgMw6q8Ehim+Vx+o9RUcmrgj71S3cMc6FJVDLnNY8ukIXJjlZV/ukZqlYnULnVN2QDmsuWZpWyx"
+    "rQXRiSczgeny/wD160LPRraPBlBlbOfm4H5f41V0hWZS0bRzfOJpwRbKfoXPoPb3/wAjtV6VWiqyvSs27lJWGvVS"
+    "bvVt6qTd6EMdFVpelFFAA1Vpe9FFCAoy96qtRRVIkFq3F1oooAvRVZXpRRUlDXqpN3oooQH/2Q=="
+)
+
+
 def images():
     seeds = {p.name: p.read_bytes() for p in sorted(FEATURES.glob("*.png"))}
     seeds["tiny.png"] = png_gray(1, 1, 128)
@@ -46,6 +72,7 @@ def images():
         [128, 128, 128, 129] * 4)
     seeds["tiny.pgm"] = b"P5\n2 2\n255\n\x00\x40\x80\xff"
     seeds["exr-magic"] = bytes([0x76, 0x2F, 0x31, 0x01, 2, 0, 0, 0])
+    seeds["ball-rotated.jpg"] = base64.b64decode(BALL_JPEG)
     return seeds
 
 

@@ -63,7 +63,7 @@ fn map_error(error: ImageError, format: Format, limits: &Limits) -> DecodeError 
     }
 }
 
-fn to_linear(
+pub(super) fn to_linear(
     image: DynamicImage,
     format: Format,
     options: &DecodeOptions,

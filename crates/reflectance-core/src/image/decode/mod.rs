@@ -10,6 +10,7 @@ mod exr_file;
 mod integer;
 pub mod pfm;
 pub mod rgbe;
+pub mod scaled;
 
 use crate::image::colour::ColourCopy;
 use ndarray::Array2;
@@ -18,6 +19,7 @@ use std::path::Path;
 use std::str::FromStr;
 
 pub use color::{Encoding, srgb_to_linear};
+pub use scaled::{Reduced, decode_reduced, denominator_for};
 
 /// Rec. 709 luminance weights for linear R, G, B.
 pub const LUMA_WEIGHTS: [f64; 3] = [0.2126, 0.7152, 0.0722];
