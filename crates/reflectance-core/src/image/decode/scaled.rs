@@ -18,9 +18,11 @@ use std::io::Cursor;
 /// An image decoded at a reduction of its size, and how its pixels map onto the full image's.
 #[derive(Clone, Debug)]
 pub struct Reduced {
+    /// The reduced image (the full one when [`Reduced::denominator`] is 1).
     pub image: LinearImage,
-    /// The full image's size (after its EXIF orientation).
+    /// The full image's width (after its EXIF orientation).
     pub full_width: usize,
+    /// The full image's height (after its EXIF orientation).
     pub full_height: usize,
     /// Full-image pixels per reduced pixel along each axis: 1, 2, 4 or 8.
     pub denominator: usize,
