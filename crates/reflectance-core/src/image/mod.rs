@@ -4,9 +4,11 @@
 pub mod blur;
 pub(crate) mod circle;
 pub mod colour;
+#[allow(missing_docs)] // TODO(#43): documented once the scaled decoder lands
 pub mod decode;
 pub(crate) mod detect;
 pub mod display;
 pub mod geometry;
+pub mod normals;
 pub mod resample;
 pub mod white;

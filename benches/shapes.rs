@@ -1,0 +1,44 @@
+//! The equivalent sphere of an object of known shape (issue #44): a 4000 × 3000 (12 MP)
+//! photograph and its normal map (a torus-like blob covering a third of the frame) mapped to
+//! a sphere of the working radius, single thread. Target: ≤ 20 ms.
+
+use ndarray::Array2;
+use reflectance::image::normals::{NormalMap, equivalent_sphere};
+
+fn main() {
+    assert!(reflectance::heap::tune(), "heap thresholds refused");
+    divan::main();
+}
+
+const WIDTH: usize = 4000;
+const HEIGHT: usize = 3000;
+
+/// A bumpy dome: normals that turn across the object, background outside it.
+fn inputs() -> (Array2<f64>, NormalMap) {
+    let (cx, cy, r) = (2000.0, 1500.0, 1300.0);
+    let normals = Array2::from_shape_fn((HEIGHT, WIDTH), |(row, col)| {
+        let (x, y) = ((col as f64 - cx) / r, (cy - row as f64) / r);
+        let d2 = x * x + y * y;
+        if d2 >= 0.95 {
+            return [0.0f32; 3];
+        }
+        let bump = 0.15 * (9.0 * x).sin() * (7.0 * y).cos();
+        let n = [x + bump, y - bump, (1.0 - d2).sqrt()];
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        n.map(|c| (c / len) as f32)
+    });
+    let luminance = normals.mapv(|n| f64::from(0.2 + 0.6 * n[2].max(0.0)));
+    (
+        luminance,
+        NormalMap::from_vectors(normals).expect("unit normals"),
+    )
+}
+
+#[divan::bench(sample_count = 10)]
+fn map_12_mp(bencher: divan::Bencher) {
+    let (luminance, normals) = inputs();
+    bencher.bench_local(|| {
+        let sphere = equivalent_sphere(&luminance, &normals, None, 116.0).expect("a sphere");
+        divan::black_box(sphere.fraction)
+    });
+}

@@ -1,0 +1,471 @@
+//! Normal maps, and the equivalent sphere of an object of known shape (issue #44).
+//!
+//! Under distant light and a distant viewer the light leaving a surface point depends on its
+//! normal, not on where the point is. So each pixel of an object whose camera-space normals
+//! are known has a place on an *equivalent sphere*: the sphere point with the same normal
+//! (Dror, Adelson & Willsky, *Recognition of surface reflectance properties from a single
+//! image under unknown real-world illumination*, 2001). The cells of that sphere no pixel
+//! reaches are missing.
+//!
+//! Conventions: +X right, +Y up (image up), +Z toward the camera. A PNG stores
+//! n = 2v / max − 1 per channel (8 or 16 bits); (0, 0, 0) or alpha 0 is background.
+
+use super::circle::Circle;
+use super::decode::{DecodeError, Limits};
+use ndarray::Array2;
+use std::io::Cursor;
+
+/// A normal may differ from unit length by this much before it is refused as not a normal
+/// (8-bit quantization moves a unit normal's length by less than 0.01).
+pub const UNIT_TOLERANCE: f32 = 0.1;
+/// The fraction of object pixels that may fail [`UNIT_TOLERANCE`] (stray pixels of a mixed
+/// edge) before the map is refused.
+pub const MAX_NOT_UNIT: f64 = 0.01;
+/// Neighbouring object pixels whose normals differ by more than this angle (degrees) lie
+/// across a depth edge or a crease; their colours mix two surfaces, so neither is mapped.
+pub const EDGE_ANGLE_DEG: f32 = 25.0;
+
+/// Camera-space unit normals per pixel; the zero vector marks background.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NormalMap {
+    normals: Array2<[f32; 3]>,
+    /// Object pixels whose normal faced away from the camera (z < 0): counted, then made
+    /// background.
+    back_facing: usize,
+}
+
+/// What is wrong with a normal map, in words that say what to fix.
+#[derive(Debug, thiserror::Error)]
+pub enum NormalsError {
+    /// The bytes are not a PNG image this decoder reads.
+    #[error("the normal map does not decode as a PNG image: {0}")]
+    NotPng(#[source] image::ImageError),
+    /// The map is larger than the limits.
+    #[error(transparent)]
+    Limits(#[from] DecodeError),
+    /// The map's size differs from the photograph's.
+    #[error(
+        "the normal map is {found_w}×{found_h} but the photograph is {want_w}×{want_h}: give a map of the photograph's size"
+    )]
+    Size {
+        /// The map's width (px).
+        found_w: usize,
+        /// The map's height (px).
+        found_h: usize,
+        /// The photograph's width (px).
+        want_w: usize,
+        /// The photograph's height (px).
+        want_h: usize,
+    },
+    /// Too many pixels are not unit vectors.
+    #[error(
+        "{count} of {object} normals ({percent:.1} %) are not unit length within {UNIT_TOLERANCE}: \
+         give camera-space unit normals stored as n = 2v/max − 1 (background (0, 0, 0) or alpha 0)"
+    )]
+    NotUnit {
+        /// Pixels off unit length.
+        count: usize,
+        /// Object pixels.
+        object: usize,
+        /// 100 · count / object.
+        percent: f64,
+    },
+    /// No pixel is object.
+    #[error(
+        "the normal map has no object pixel facing the camera (all background, masked or z < 0)"
+    )]
+    Empty,
+}
+
+impl NormalMap {
+    /// Decode a PNG normal map (8 or 16 bits, RGB or RGBA), within `limits`.
+    pub fn from_png(bytes: &[u8], limits: &Limits) -> Result<NormalMap, NormalsError> {
+        use image::ImageDecoder;
+        let decoder = image::codecs::png::PngDecoder::new(Cursor::new(bytes))
+            .map_err(NormalsError::NotPng)?;
+        let (w, h) = decoder.dimensions();
+        limits.check(u64::from(w), u64::from(h))?;
+        let rgba = image::DynamicImage::from_decoder(decoder)
+            .map_err(NormalsError::NotPng)?
+            .into_rgba16();
+        let (w, h) = (w as usize, h as usize);
+        let mut samples = Array2::from_elem((h, w), [0.0f32; 4]);
+        for (cell, pixel) in samples.iter_mut().zip(rgba.pixels()) {
+            let v = pixel.0.map(|c| f32::from(c) / 65535.0);
+            *cell = v;
+        }
+        NormalMap::from_encoded(&samples)
+    }
+
+    /// Normals from encoded samples v ∈ [0, 1] per channel (RGBA): n = 2v − 1; black or
+    /// transparent is background.
+    pub fn from_encoded(samples: &Array2<[f32; 4]>) -> Result<NormalMap, NormalsError> {
+        let normals = samples.mapv(|[r, g, b, a]| {
+            if a == 0.0 || (r == 0.0 && g == 0.0 && b == 0.0) {
+                [0.0; 3]
+            } else {
+                [2.0 * r - 1.0, 2.0 * g - 1.0, 2.0 * b - 1.0]
+            }
+        });
+        NormalMap::from_vectors(normals)
+    }
+
+    /// Normals from vectors (the zero vector: background): checked for unit length,
+    /// normalized, back-facing ones counted and dropped.
+    pub fn from_vectors(mut normals: Array2<[f32; 3]>) -> Result<NormalMap, NormalsError> {
+        let (mut object, mut not_unit, mut back_facing) = (0usize, 0usize, 0usize);
+        for n in normals.iter_mut() {
+            let length = n.iter().map(|c| c * c).sum::<f32>().sqrt();
+            if length == 0.0 {
+                continue;
+            }
+            object += 1;
+            if !length.is_finite() || (length - 1.0).abs() > UNIT_TOLERANCE {
+                not_unit += 1;
+                *n = [0.0; 3];
+                continue;
+            }
+            *n = n.map(|c| c / length);
+            if n[2] < 0.0 {
+                back_facing += 1;
+                *n = [0.0; 3];
+            }
+        }
+        if not_unit as f64 > MAX_NOT_UNIT * object as f64 {
+            return Err(NormalsError::NotUnit {
+                count: not_unit,
+                object,
+                percent: 100.0 * not_unit as f64 / object as f64,
+            });
+        }
+        if object == back_facing + not_unit {
+            return Err(NormalsError::Empty);
+        }
+        Ok(NormalMap {
+            normals,
+            back_facing,
+        })
+    }
+
+    /// Width (px).
+    pub fn width(&self) -> usize {
+        self.normals.ncols()
+    }
+
+    /// Height (px).
+    pub fn height(&self) -> usize {
+        self.normals.nrows()
+    }
+
+    /// Object pixels whose normal faced away from the camera, ignored.
+    pub fn back_facing(&self) -> usize {
+        self.back_facing
+    }
+
+    /// The unit normal at (row, column), `None` for background.
+    pub fn at(&self, row: usize, col: usize) -> Option<[f32; 3]> {
+        let n = *self.normals.get((row, col))?;
+        (!is_background(&n)).then_some(n)
+    }
+
+    /// Whether the map fits a photograph of `width` × `height`.
+    pub fn check_size(&self, width: usize, height: usize) -> Result<(), NormalsError> {
+        if (self.width(), self.height()) == (width, height) {
+            return Ok(());
+        }
+        Err(NormalsError::Size {
+            found_w: self.width(),
+            found_h: self.height(),
+            want_w: width,
+            want_h: height,
+        })
+    }
+}
+
+/// Whether a normal is background.
+fn is_background(n: &[f32; 3]) -> bool {
+    *n == [0.0; 3]
+}
+
+/// Whether the inner pixel `i` of a `w`-wide row-major map lies across a depth edge or
+/// crease from a neighbour, or beside background (a silhouette pixel mixes the object with
+/// what is behind it).
+fn on_edge(map: &[[f32; 3]], w: usize, i: usize, cos_edge: f32) -> bool {
+    let n = map[i];
+    [map[i - 1], map[i + 1], map[i - w], map[i + w]]
+        .iter()
+        .any(|m| is_background(m) || n[0] * m[0] + n[1] * m[1] + n[2] * m[2] < cos_edge)
+}
+
+/// An object's photograph seen as a sphere: luminance at the sphere position of each
+/// object pixel's normal, averaged per cell, and which cells some pixel reached.
+#[derive(Clone, Debug)]
+pub struct EquivalentSphere {
+    /// The sphere's luminance (0 where not observed); the image is square.
+    pub luminance: Array2<f64>,
+    /// Cells some object pixel reached.
+    pub observed: Array2<bool>,
+    /// The sphere in `luminance`'s pixels.
+    pub circle: Circle,
+    /// The fraction of the sphere's disc observed, in [0, 1].
+    pub fraction: f64,
+}
+
+/// The equivalent sphere of radius `radius` (px) of a photograph's `luminance` and its
+/// normals, over the pixels `mask` keeps (all object pixels when `None`). Pixels across
+/// depth edges, creases and silhouettes are left out ([`EDGE_ANGLE_DEG`]).
+pub fn equivalent_sphere(
+    luminance: &Array2<f64>,
+    normals: &NormalMap,
+    mask: Option<&Array2<bool>>,
+    radius: f64,
+) -> Result<EquivalentSphere, NormalsError> {
+    let (h, w) = luminance.dim();
+    normals.check_size(w, h)?;
+    if let Some(m) = mask
+        && m.dim() != (h, w)
+    {
+        return Err(NormalsError::Size {
+            found_w: m.ncols(),
+            found_h: m.nrows(),
+            want_w: w,
+            want_h: h,
+        });
+    }
+    let side = (2.0 * radius).ceil() as usize + 3;
+    let centre = (side - 1) as f64 / 2.0;
+    let mut sum = Array2::<f64>::zeros((side, side));
+    let mut count = Array2::<u32>::zeros((side, side));
+    let cos_edge = EDGE_ANGLE_DEG.to_radians().cos();
+    let map = normals.normals.as_standard_layout();
+    let map = map.as_slice().unwrap_or_default();
+    let luminance = luminance.as_standard_layout();
+    let values = luminance.as_slice().unwrap_or_default();
+    let keep = mask.map(|m| m.as_standard_layout());
+    let keep = keep.as_ref().and_then(|m| m.as_slice());
+    let (sums, counts) = (sum.as_slice_mut(), count.as_slice_mut());
+    let (Some(sums), Some(counts)) = (sums, counts) else {
+        return Err(NormalsError::Empty);
+    };
+    // The border rows and columns are edges; each inner pixel is read with its neighbours.
+    for row in 1..h.saturating_sub(1) {
+        for col in 1..w - 1 {
+            let i = row * w + col;
+            let n = &map[i];
+            if is_background(n) || keep.is_some_and(|k| !k[i]) || on_edge(map, w, i, cos_edge) {
+                continue;
+            }
+            let x = (centre + radius * f64::from(n[0])).round() as usize;
+            let y = (centre - radius * f64::from(n[1])).round() as usize;
+            let cell = y * side + x;
+            sums[cell] += values[i];
+            counts[cell] += 1;
+        }
+    }
+    let observed = count.mapv(|c| c > 0);
+    let luminance = ndarray::Zip::from(&sum)
+        .and(&count)
+        .map_collect(|&s, &c| if c > 0 { s / f64::from(c) } else { 0.0 });
+    let circle = Circle {
+        cx: centre,
+        cy: centre,
+        r: radius,
+    };
+    let (mut disc, mut seen) = (0usize, 0usize);
+    for ((row, col), &o) in observed.indexed_iter() {
+        let (dx, dy) = (col as f64 - centre, row as f64 - centre);
+        if dx * dx + dy * dy <= radius * radius {
+            disc += 1;
+            seen += usize::from(o);
+        }
+    }
+    if seen == 0 {
+        return Err(NormalsError::Empty);
+    }
+    Ok(EquivalentSphere {
+        luminance,
+        observed,
+        circle,
+        fraction: seen as f64 / disc.max(1) as f64,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The camera-space normal of a sphere of radius `r` centred at (c, c) at a pixel, if
+    /// the pixel is on it.
+    fn sphere_normal(row: usize, col: usize, c: f64, r: f64) -> Option<[f32; 3]> {
+        let (x, y) = ((col as f64 - c) / r, (c - row as f64) / r);
+        let z2 = 1.0 - x * x - y * y;
+        (z2 > 0.0).then(|| [x as f32, y as f32, z2.sqrt() as f32])
+    }
+
+    fn sphere(side: usize, r: f64) -> (Array2<f64>, NormalMap) {
+        let c = (side - 1) as f64 / 2.0;
+        let normals = Array2::from_shape_fn((side, side), |(row, col)| {
+            sphere_normal(row, col, c, r).unwrap_or([0.0; 3])
+        });
+        // Shading that depends on the normal only: a light from the upper left.
+        let luminance =
+            normals.mapv(|n| f64::from((0.3 * n[0] + 0.5 * n[1] + 0.8 * n[2]).max(0.0)));
+        (luminance, NormalMap::from_vectors(normals).unwrap())
+    }
+
+    #[test]
+    fn a_sphere_is_its_own_equivalent_sphere() {
+        let (luminance, normals) = sphere(121, 50.0);
+        let eq = equivalent_sphere(&luminance, &normals, None, 50.0).unwrap();
+        assert!(eq.fraction > 0.93, "{}", eq.fraction);
+        let c = eq.circle.cx;
+        let mut worst = 0.0f64;
+        for ((row, col), &v) in eq.luminance.indexed_iter() {
+            let Some(n) = sphere_normal(row, col, c, 50.0) else {
+                continue;
+            };
+            if eq.observed[(row, col)] && n[2] > 0.3 {
+                let want = f64::from((0.3 * n[0] + 0.5 * n[1] + 0.8 * n[2]).max(0.0));
+                worst = worst.max((v - want).abs());
+            }
+        }
+        assert!(worst < 0.02, "{worst}");
+    }
+
+    #[test]
+    fn a_half_seen_object_observes_half_the_sphere() {
+        let (luminance, normals) = sphere(121, 50.0);
+        let left = Array2::from_shape_fn((121, 121), |(_, col)| col < 60);
+        let eq = equivalent_sphere(&luminance, &normals, Some(&left), 50.0).unwrap();
+        assert!((eq.fraction - 0.47).abs() < 0.04, "{}", eq.fraction);
+        assert!(eq.observed[(60, 30)] && !eq.observed[(60, 90)]);
+    }
+
+    #[test]
+    fn normals_map_by_direction_not_position() {
+        // A flat face turned toward the upper right: every pixel lands in one cell.
+        let n = [0.5f32, 0.5, 0.5f32.sqrt()];
+        let normals = Array2::from_elem((40, 40), n);
+        let luminance = Array2::from_elem((40, 40), 0.7);
+        let normals = NormalMap::from_vectors(normals).unwrap();
+        let eq = equivalent_sphere(&luminance, &normals, None, 50.0).unwrap();
+        let cells = eq.observed.iter().filter(|&&o| o).count();
+        assert_eq!(cells, 1);
+        let c = eq.circle.cx;
+        let (x, y) = ((c + 25.0).round() as usize, (c - 25.0).round() as usize);
+        assert!(eq.observed[(y, x)]);
+        assert!((eq.luminance[(y, x)] - 0.7).abs() < 1e-12);
+        assert!(eq.fraction < 0.001);
+    }
+
+    #[test]
+    fn depth_edges_are_not_mapped() {
+        // Two faces meeting at a crease: the columns on either side of it stay out.
+        let normals = Array2::from_shape_fn((20, 20), |(_, col)| {
+            if col < 10 {
+                [-0.6f32, 0.0, 0.8]
+            } else {
+                [0.6, 0.0, 0.8]
+            }
+        });
+        let luminance = Array2::from_shape_fn((20, 20), |(_, col)| col as f64);
+        let normals = NormalMap::from_vectors(normals).unwrap();
+        let eq = equivalent_sphere(&luminance, &normals, None, 50.0).unwrap();
+        let c = eq.circle.cx;
+        let left = eq.luminance[(c as usize, (c - 30.0).round() as usize)];
+        let right = eq.luminance[(c as usize, (c + 30.0).round() as usize)];
+        // Columns 1–8 (not 0, at the map's border, nor 9, at the crease) and 11–18.
+        assert!((left - 4.5).abs() < 1e-9, "{left}");
+        assert!((right - 14.5).abs() < 1e-9, "{right}");
+    }
+
+    #[test]
+    fn bad_maps_are_refused_with_what_to_fix() {
+        let (luminance, normals) = sphere(61, 25.0);
+        let small = Array2::<f64>::zeros((60, 61));
+        let e = equivalent_sphere(&small, &normals, None, 25.0).unwrap_err();
+        assert!(
+            e.to_string().contains("61×61 but the photograph is 61×60"),
+            "{e}"
+        );
+        // Vectors of length 0.5: not normals.
+        let half = Array2::from_elem((8, 8), [0.0f32, 0.0, 0.5]);
+        let e = NormalMap::from_vectors(half).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                NormalsError::NotUnit {
+                    count: 64,
+                    object: 64,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        // Back-facing normals are counted and ignored.
+        let mut vectors = Array2::from_elem((8, 8), [0.0f32, 0.0, 1.0]);
+        vectors[(0, 0)] = [0.0, 0.0, -1.0];
+        let map = NormalMap::from_vectors(vectors).unwrap();
+        assert_eq!(map.back_facing(), 1);
+        assert_eq!(map.at(0, 0), None);
+        let away = Array2::from_elem((4, 4), [0.0f32, 0.0, -1.0]);
+        assert!(matches!(
+            NormalMap::from_vectors(away),
+            Err(NormalsError::Empty)
+        ));
+        let _ = luminance;
+    }
+
+    #[test]
+    fn png_normal_maps_round_trip_at_8_and_16_bits() {
+        let (_, normals) = sphere(41, 18.0);
+        for sixteen in [false, true] {
+            let max = if sixteen { 65535.0 } else { 255.0 };
+            let encode = |c: f32| ((c + 1.0) / 2.0 * max).round();
+            let mut bytes = Vec::new();
+            let (w, h) = (41u32, 41u32);
+            let samples: Vec<f32> = (0..41)
+                .flat_map(|row| (0..41).map(move |col| (row, col)))
+                .flat_map(|(row, col)| match normals.at(row, col) {
+                    Some(n) => [encode(n[0]), encode(n[1]), encode(n[2])],
+                    None => [0.0; 3],
+                })
+                .collect();
+            let encoder = image::codecs::png::PngEncoder::new(&mut bytes);
+            use image::ImageEncoder;
+            if sixteen {
+                let words: Vec<u8> = samples
+                    .iter()
+                    .flat_map(|&v| (v as u16).to_ne_bytes())
+                    .collect();
+                encoder
+                    .write_image(&words, w, h, image::ExtendedColorType::Rgb16)
+                    .unwrap();
+            } else {
+                let b: Vec<u8> = samples.iter().map(|&v| v as u8).collect();
+                encoder
+                    .write_image(&b, w, h, image::ExtendedColorType::Rgb8)
+                    .unwrap();
+            }
+            let decoded = NormalMap::from_png(&bytes, &Limits::default()).unwrap();
+            let mut worst = 0.0f32;
+            for row in 0..41 {
+                for col in 0..41 {
+                    match (normals.at(row, col), decoded.at(row, col)) {
+                        (Some(a), Some(b)) => {
+                            let cos = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+                            worst = worst.max(cos.clamp(-1.0, 1.0).acos().to_degrees());
+                        }
+                        (None, None) => {}
+                        other => panic!("({row}, {col}): {other:?}"),
+                    }
+                }
+            }
+            // f32 acos resolves about 0.03° near 0; 8 bits quantize to about 0.3°.
+            let bound = if sixteen { 0.05 } else { 0.6 };
+            assert!(worst < bound, "{sixteen}: {worst}°");
+        }
+        let e = NormalMap::from_png(b"not a png", &Limits::default()).unwrap_err();
+        assert!(matches!(e, NormalsError::NotPng(_)));
+    }
+}
