@@ -6,7 +6,8 @@
 use super::{DatasetError, Entry, Manifest, format_f64};
 use crate::features::analysis::{self, Locate};
 use crate::features::polar::UnwrapConfig;
-use crate::image::decode::{self, DecodeOptions};
+use crate::image::decode::{self, DecodeError, DecodeOptions};
+use crate::image::geometry::GeometryError;
 use crate::util::progress;
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
@@ -47,33 +48,53 @@ pub fn is_inside(path: &str) -> bool {
             .all(|c| matches!(c, Component::Normal(_) | Component::CurDir))
 }
 
+/// Why a row of an uploaded dataset is refused.
+#[derive(Debug, thiserror::Error)]
+pub enum RowError {
+    /// The row has no class.
+    #[error("the row has no class")]
+    NoClass,
+    /// The row has no illumination.
+    #[error("the row has no illumination")]
+    NoIllumination,
+    /// The row's path is absolute or climbs out of the folder.
+    #[error("the path leaves the dataset's folder")]
+    Outside,
+    /// The row names no file of the dataset.
+    #[error("no such image in the dataset")]
+    Missing,
+    /// The image does not decode within the limits.
+    #[error(transparent)]
+    Decode(#[from] DecodeError),
+    /// The circle, given or found, does not fit the image.
+    #[error("{0}{hint}", hint = match .0 {
+        GeometryError::DetectionFailed { .. } => "; give cx, cy and r in the manifest",
+        _ => "",
+    })]
+    Geometry(#[from] GeometryError),
+}
+
 /// Check one row: labelled, inside the folder, decodable within the limits, and with a
 /// circle (given or found) whose annulus lies inside the image.
-fn check(entry: &Entry, options: &DecodeOptions) -> Result<(Entry, bool), String> {
+fn check(entry: &Entry, options: &DecodeOptions) -> Result<(Entry, bool), RowError> {
     match (&entry.class, &entry.illumination) {
-        (None, _) => return Err("the row has no class".into()),
-        (_, None) => return Err("the row has no illumination".into()),
+        (None, _) => return Err(RowError::NoClass),
+        (_, None) => return Err(RowError::NoIllumination),
         _ => {}
     }
     if !is_inside(&entry.path) {
-        return Err("the path leaves the dataset's folder".into());
+        return Err(RowError::Outside);
     }
     if !entry.file.is_file() {
-        return Err("no such image in the dataset".into());
+        return Err(RowError::Missing);
     }
     let options = DecodeOptions {
         encoding: entry.encoding.or(options.encoding),
         ..*options
     };
-    let image = decode::decode_file(&entry.file, &options).map_err(|e| e.to_string())?;
+    let image = decode::decode_file(&entry.file, &options)?;
     let how = entry.circle.map_or(Locate::Auto, Locate::Circle);
-    let (geometry, _) =
-        analysis::locate_for(&image, &how, &UnwrapConfig::default()).map_err(|e| match e {
-            crate::image::geometry::GeometryError::DetectionFailed { .. } => {
-                format!("{e}; give cx, cy and r in the manifest")
-            }
-            other => other.to_string(),
-        })?;
+    let (geometry, _) = analysis::locate_for(&image, &how, &UnwrapConfig::default())?;
     let located = entry.circle.is_none();
     let mut kept = entry.clone();
     kept.circle = Some(geometry.circle());
@@ -104,7 +125,7 @@ pub fn ingest(
                 path: entry.path.clone(),
                 // Rows of a manifest file have a line; rows made from a folder have none.
                 reason: match entry.line {
-                    0 => reason,
+                    0 => reason.to_string(),
                     line => format!("manifest line {line}: {reason}"),
                 },
             }),
