@@ -5,6 +5,8 @@
 //! inference, with material (Ward classes, capture envelopes) and dataset beside them.
 //! The `openapi` feature derives the answer types' OpenAPI schemas.
 
+#![deny(missing_docs)]
+
 pub mod dataset;
 pub mod features;
 pub mod image;
