@@ -4,7 +4,6 @@
 pub mod blur;
 pub(crate) mod circle;
 pub mod colour;
-#[allow(missing_docs)] // TODO(#43): documented once the scaled decoder lands
 pub mod decode;
 pub(crate) mod detect;
 pub mod display;

@@ -7,8 +7,10 @@ use std::sync::OnceLock;
 #[derive(Clone, Copy, Debug, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(into = "String", try_from = "String")]
 pub enum Encoding {
+    /// The sRGB transfer function (IEC 61966-2-1), the default.
     #[default]
     Srgb,
+    /// Samples are linear already.
     Linear,
     /// `c^g`, with `g` finite and positive.
     Gamma(f64),

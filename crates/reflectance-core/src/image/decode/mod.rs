@@ -33,8 +33,11 @@ pub fn luminance(r: f64, g: f64, b: f64) -> f64 {
 /// Hard limits against decompression bombs; checked on the header, before pixels are allocated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Limits {
+    /// The widest image accepted (px).
     pub max_width: u32,
+    /// The tallest image accepted (px).
     pub max_height: u32,
+    /// The most pixels (width × height) accepted.
     pub max_pixels: u64,
 }
 
@@ -74,12 +77,19 @@ impl Limits {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Format {
+    /// PNG, 8 or 16 bits.
     Png,
+    /// JPEG (baseline or progressive).
     Jpeg,
+    /// TIFF, integer samples.
     Tiff,
+    /// Netpbm (PGM, PPM).
     Pnm,
+    /// Radiance RGBE (`.hdr`), linear floats.
     Hdr,
+    /// Portable float map, linear floats.
     Pfm,
+    /// OpenEXR, linear floats.
     Exr,
     /// Linear luminance handed over as an array, not a file ([`from_luminance`]).
     Array,
@@ -104,58 +114,102 @@ impl fmt::Display for Format {
 /// A decoded image: linear luminance (row-major, y = row) and the alpha channel as a mask.
 #[derive(Clone, Debug)]
 pub struct LinearImage {
+    /// Linear luminance (Rec. 709 weights), in the file's units: integer formats in [0, 1]
+    /// after linearization, float formats as stored.
     pub luminance: Array2<f64>,
     /// `true` where alpha ≥ 0.5; `None` when the file has no alpha or it is fully opaque.
     pub alpha_mask: Option<Array2<bool>>,
+    /// The file's format.
     pub format: Format,
     /// The reduced linear-RGB copy, when asked for (`DecodeOptions::colour`) and the file
     /// has colour.
     pub colour: Option<ColourCopy>,
     /// Whether the samples were floating point (and so already linear).
     pub is_float: bool,
+    /// What the decode could not honour but went on (an encoding given for a float
+    /// format is ignored), for the answer's warnings.
     pub warnings: Vec<String>,
 }
 
 impl LinearImage {
+    /// Width (px).
     pub fn width(&self) -> usize {
         self.luminance.ncols()
     }
+    /// Height (px).
     pub fn height(&self) -> usize {
         self.luminance.nrows()
     }
 }
 
+/// Why bytes are not an image the pipeline reads.
 #[derive(Debug, thiserror::Error)]
 pub enum DecodeError {
+    /// The file could not be read.
     #[error("could not read the file: {0}")]
     Io(#[source] std::io::Error),
+    /// The bytes are none of the formats read.
     #[error(
         "unsupported image format (expected PNG, JPEG, TIFF, PNM, Radiance HDR, PFM or OpenEXR)"
     )]
     UnsupportedFormat,
+    /// A known format with content this decoder does not read (e.g. a colour type).
     #[error("unsupported {format} content: {detail}")]
-    Unsupported { format: Format, detail: String },
+    Unsupported {
+        /// The format.
+        format: Format,
+        /// What is not read.
+        detail: String,
+    },
+    /// The file ends early or is damaged.
     #[error("corrupt or truncated {format} file: {detail}")]
-    Corrupt { format: Format, detail: String },
+    Corrupt {
+        /// The format.
+        format: Format,
+        /// The decoder's words.
+        detail: String,
+    },
+    /// The header gives no pixels.
     #[error("image has zero size ({width}×{height})")]
-    Empty { width: u64, height: u64 },
+    Empty {
+        /// Width (px).
+        width: u64,
+        /// Height (px).
+        height: u64,
+    },
     #[error(
         "image is {width}×{height} pixels, over the limits (max {}×{}, {} pixels)",
         limits.max_width, limits.max_height, limits.max_pixels
     )]
+    /// The header gives more pixels than the limits allow (checked before allocation).
     TooLarge {
+        /// Width (px).
         width: u64,
+        /// Height (px).
         height: u64,
+        /// The limits passed.
         limits: Limits,
     },
+    /// A decoder's own allocation limit was reached.
     #[error("image exceeds the decoding limits: {0}")]
     LimitExceeded(String),
+    /// Float samples that are NaN or infinite.
     #[error("image has {count} non-finite sample values (NaN or infinity)")]
-    NonFinite { count: usize },
+    NonFinite {
+        /// How many samples.
+        count: usize,
+    },
+    /// Float pixels of negative luminance.
     #[error(
         "image has {count} pixels of negative luminance (minimum {min}); HDR input must be non-negative"
     )]
-    Negative { count: usize, min: f64 },
+    Negative {
+        /// How many pixels.
+        count: usize,
+        /// The lowest luminance.
+        min: f64,
+    },
+    /// An encoding name that is none of srgb, linear and gamma:<g>.
     #[error("invalid encoding {0:?} (expected srgb, linear or gamma:<g> with g > 0)")]
     BadEncoding(String),
 }
@@ -175,6 +229,7 @@ pub struct DecodeOptions {
     /// How integer samples are linearized; ignored (with a warning) for float formats.
     /// `None` means the default, sRGB, without a warning.
     pub encoding: Option<Encoding>,
+    /// The size limits, checked on the header.
     pub limits: Limits,
     /// Keep a reduced linear-RGB copy beside the luminance (for a colour measurement).
     pub colour: bool,

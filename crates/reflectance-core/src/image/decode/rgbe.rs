@@ -12,8 +12,11 @@ const FORMAT: Format = Format::Hdr;
 
 /// A decoded Radiance picture: linear RGB (or XYZ) per pixel, rows top to bottom.
 pub struct RgbePicture {
+    /// Width (px).
     pub width: usize,
+    /// Height (px).
     pub height: usize,
+    /// Whether the samples are CIE XYZ (`FORMAT=32-bit_rle_xyze`) rather than RGB.
     pub xyz: bool,
     /// Row-major `[c0, c1, c2]` per pixel.
     pub pixels: Vec<[f64; 3]>,
