@@ -85,5 +85,6 @@ def before_call(ctx, case, **kwargs):
     if isinstance(case.body, dict):
         if path.endswith("/infer"):
             fill_inference(case.body)
-        elif "image" in case.body or path.endswith("classify") or path.endswith("locate"):
+        elif "multipart" in str(case.media_type):
+            # Only forms: a JSON body (a job's) may hold an `image` key of its own.
             fill_form(case.body)

@@ -35,8 +35,9 @@ pub struct MaterialError {
 impl Material {
     /// Check the rules: a name, 0 ≤ ρd, 0 ≤ ρs, ρd + ρs ≤ 1 and 0 ≤ α ≤ 1.
     pub fn validate(&self) -> Result<(), MaterialError> {
-        let ok = self.rho_d >= 0.0
-            && self.rho_s >= 0.0
+        // The sum may exceed 1 by rounding (0.7 + 0.3 in a class file); each part may not.
+        let ok = (0.0..=1.0).contains(&self.rho_d)
+            && (0.0..=1.0).contains(&self.rho_s)
             && self.rho_d + self.rho_s <= 1.0 + 1e-12
             && (0.0..=1.0).contains(&self.alpha)
             && !self.name.is_empty();
@@ -105,4 +106,29 @@ pub fn load_classes(path: &Path) -> Result<Vec<Material>, ClassFileError> {
         return Err(invalid("no classes".into()));
     }
     Ok(file.classes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Material;
+
+    fn material(rho_d: f64, rho_s: f64) -> Material {
+        Material {
+            name: "m".into(),
+            rho_d,
+            rho_s,
+            alpha: 0.05,
+        }
+    }
+
+    #[test]
+    fn each_reflectance_is_at_most_one_and_their_sum_rounds() {
+        assert!(material(1.0, 0.0).validate().is_ok());
+        // A sum above 1 by rounding only, as class files hold.
+        assert!(material(0.700_000_000_000_000_1, 0.3).validate().is_ok());
+        assert!(material(1.000_000_000_000_000_2, 0.0).validate().is_err());
+        assert!(material(0.0, 1.000_000_000_000_000_2).validate().is_err());
+        assert!(material(0.6, 0.5).validate().is_err());
+        assert!(material(-0.0001, 0.5).validate().is_err());
+    }
 }
