@@ -15,6 +15,7 @@ pub(crate) mod highlights;
 pub(crate) mod irradiance;
 pub mod pbr;
 pub mod preview;
+pub mod shapes;
 pub(crate) mod synthetic;
 pub mod ward;
 
@@ -223,6 +224,12 @@ impl Camera {
         }
     }
 
+    /// The world direction of a camera-space one (+X right, +Y image up, +Z toward the viewer).
+    #[inline]
+    fn world(&self, n: Vec3) -> Vec3 {
+        self.right * n.x + self.up * n.y + self.v * n.z
+    }
+
     /// Rotate a world direction about +Y so that its map azimuth φ = atan2(x, −z) decreases
     /// by the view's azimuth (the environment turns by +azimuth).
     #[inline]
@@ -247,20 +254,61 @@ pub fn render(
     quality: &Quality,
     rng: &mut Rng,
 ) -> Rendering {
-    let shader = Shader::new(lighting, material, view, quality, size);
+    let surface = SphereSurface {
+        scale: Grid::new(size).scale,
+    };
+    shade_image(lighting, material, view, quality, size, &surface, rng)
+}
+
+/// Render an object from its camera-space normals ([`shapes::Normals`]) under `lighting`:
+/// each pixel shaded from its normal by the sphere's shader (the normals are interpolated
+/// between pixel centres within a pixel, never across a crease), weighted by the pixel's
+/// coverage. Deterministic for `rng`; the circle is the frame's ([`circle`]).
+pub fn render_normals(
+    lighting: &Lighting,
+    material: &Material,
+    view: &View,
+    normals: &shapes::Normals,
+    quality: &Quality,
+    rng: &mut Rng,
+) -> Rendering {
+    let surface = shapes::MapSurface::new(normals);
+    shade_image(
+        lighting,
+        material,
+        view,
+        quality,
+        normals.size(),
+        &surface,
+        rng,
+    )
+}
+
+/// Shade every pixel `surface` covers: the one shading path of spheres and shapes.
+fn shade_image(
+    lighting: &Lighting,
+    material: &Material,
+    view: &View,
+    quality: &Quality,
+    size: usize,
+    surface: &impl Surface,
+    rng: &mut Rng,
+) -> Rendering {
+    let shader = Shader::new(lighting, material, view, quality, size, surface);
     let mut luminance = vec![0.0f32; size * size];
     let mut coverage = vec![0.0f32; size * size];
     let mut near = Vec::new();
     for row in 0..size {
         for col in 0..size {
-            let pixel = shader.pixel(row, col);
-            if pixel.centre.0.hypot(pixel.centre.1) > 1.0 + shader.scale {
+            let pixel = shader.grid.pixel(row, col);
+            if !surface.covers(&pixel) {
                 continue;
             }
             shader.bright_near(&pixel, &mut near);
             let (value, covered) = shader.shade_pixel(&pixel, &near, rng);
-            luminance[row * size + col] = value as f32;
-            coverage[row * size + col] = covered as f32;
+            let weight = surface.weight(&pixel);
+            luminance[row * size + col] = (value * weight) as f32;
+            coverage[row * size + col] = (covered * weight) as f32;
         }
     }
     Rendering {
@@ -271,15 +319,92 @@ pub fn render(
     }
 }
 
-/// A pixel's square in the image plane: its lower-left corner and centre.
-struct Pixel {
-    corner: (f64, f64),
-    centre: (f64, f64),
+/// A pixel's square in the image plane (sphere radii, +X right, +Y up): its row and column,
+/// lower-left corner and centre.
+pub(crate) struct Pixel {
+    pub(crate) row: usize,
+    pub(crate) col: usize,
+    pub(crate) corner: (f64, f64),
+    pub(crate) centre: (f64, f64),
+}
+
+/// The pixel grid of an N×N image of the frame (half-width [`HALF_WIDTH`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Grid {
+    /// A pixel's side in sphere radii.
+    pub(crate) scale: f64,
+    half: f64,
+}
+
+impl Grid {
+    pub(crate) fn new(size: usize) -> Grid {
+        Grid {
+            scale: 2.0 * HALF_WIDTH / size as f64,
+            half: size as f64 / 2.0,
+        }
+    }
+
+    pub(crate) fn pixel(&self, row: usize, col: usize) -> Pixel {
+        let x0 = (col as f64 - self.half) * self.scale;
+        let y0 = (self.half - row as f64 - 1.0) * self.scale;
+        Pixel {
+            row,
+            col,
+            corner: (x0, y0),
+            centre: (x0 + 0.5 * self.scale, y0 + 0.5 * self.scale),
+        }
+    }
+}
+
+/// What the shader sees of the object: camera-space normals at image-plane points.
+pub(crate) trait Surface {
+    /// Whether `pixel` may hold some of the object.
+    fn covers(&self, pixel: &Pixel) -> bool;
+    /// The camera-space normal at (x, y) of `pixel`, or None where the object is not.
+    fn normal(&self, pixel: &Pixel, x: f64, y: f64) -> Option<Vec3>;
+    /// A camera-space normal for the reflection footprint at (x, y) of `pixel`, also just
+    /// outside the object (pulled onto it).
+    fn footprint_normal(&self, pixel: &Pixel, x: f64, y: f64) -> Vec3;
+    /// The factor of the pixel's shaded value and coverage (a normal map's coverage).
+    fn weight(&self, pixel: &Pixel) -> f64;
+}
+
+/// The camera-space normal of the unit sphere at image-plane point (x, y), or None outside.
+#[inline]
+pub(crate) fn sphere_normal(x: f64, y: f64) -> Option<Vec3> {
+    let r2 = x * x + y * y;
+    (r2 < 1.0).then(|| Vec3::new(x, y, (1.0 - r2).sqrt()))
+}
+
+/// The unit sphere at the origin, exactly.
+struct SphereSurface {
+    scale: f64,
+}
+
+impl Surface for SphereSurface {
+    fn covers(&self, pixel: &Pixel) -> bool {
+        pixel.centre.0.hypot(pixel.centre.1) <= 1.0 + self.scale
+    }
+
+    fn normal(&self, _: &Pixel, x: f64, y: f64) -> Option<Vec3> {
+        sphere_normal(x, y)
+    }
+
+    fn footprint_normal(&self, _: &Pixel, x: f64, y: f64) -> Vec3 {
+        let r = x.hypot(y);
+        let k = if r > 0.999 { 0.999 / r } else { 1.0 };
+        sphere_normal(x * k, y * k).unwrap_or(Vec3::new(0.0, 0.0, 1.0))
+    }
+
+    fn weight(&self, _: &Pixel) -> f64 {
+        1.0
+    }
 }
 
 /// Everything fixed for one image.
-struct Shader<'a> {
+struct Shader<'a, S> {
     lighting: &'a Lighting,
+    surface: &'a S,
     material: &'a Material,
     camera: Camera,
     /// Sub-pixel samples per side.
@@ -288,19 +413,19 @@ struct Shader<'a> {
     lobe_k: usize,
     /// The lobe quadrature: half vectors of a lattice of (u1, u2), the same for every pixel.
     lattice: Vec<LocalHalf>,
-    scale: f64,
-    half: f64,
+    grid: Grid,
     /// Points of every bright source at the spacing this material's lobe needs.
     points: Vec<Vec<SourcePoint>>,
 }
 
-impl<'a> Shader<'a> {
+impl<'a, S: Surface> Shader<'a, S> {
     fn new(
         lighting: &'a Lighting,
         material: &'a Material,
         view: &View,
         quality: &Quality,
         size: usize,
+        surface: &'a S,
     ) -> Self {
         let k = quality.pixel_samples.max(1);
         let glossy = material.rho_s > 0.0 && material.alpha > 0.0;
@@ -318,6 +443,7 @@ impl<'a> Shader<'a> {
         };
         Shader {
             lighting,
+            surface,
             material,
             camera: Camera::new(view),
             k,
@@ -330,33 +456,17 @@ impl<'a> Shader<'a> {
                 .into_iter()
                 .map(|(u1, u2)| local_half(material.alpha, u1, u2))
                 .collect(),
-            scale: 2.0 * HALF_WIDTH / size as f64,
-            half: size as f64 / 2.0,
+            grid: Grid::new(size),
             points,
         }
     }
 
-    fn pixel(&self, row: usize, col: usize) -> Pixel {
-        let x0 = (col as f64 - self.half) * self.scale;
-        let y0 = (self.half - row as f64 - 1.0) * self.scale;
-        Pixel {
-            corner: (x0, y0),
-            centre: (x0 + 0.5 * self.scale, y0 + 0.5 * self.scale),
-        }
-    }
-
-    /// The normal at image-plane point (x, y), or None outside the sphere.
-    fn normal(&self, x: f64, y: f64) -> Option<Vec3> {
-        let r2 = x * x + y * y;
-        (r2 < 1.0)
-            .then(|| self.camera.right * x + self.camera.up * y + self.camera.v * (1.0 - r2).sqrt())
-    }
-
-    /// Mirror direction (map coordinates) at (x, y), with points outside pulled onto the disc.
-    fn reflection(&self, x: f64, y: f64) -> Vec3 {
-        let r = x.hypot(y);
-        let k = if r > 0.999 { 0.999 / r } else { 1.0 };
-        let n = self.normal(x * k, y * k).unwrap_or(self.camera.v);
+    /// Mirror direction (map coordinates) at (x, y) of `pixel`, with points outside the
+    /// object pulled onto it.
+    fn reflection(&self, pixel: &Pixel, x: f64, y: f64) -> Vec3 {
+        let n = self
+            .camera
+            .world(self.surface.footprint_normal(pixel, x, y));
         let v = self.camera.v;
         self.camera.to_map(n * (2.0 * n.dot(v)) - v)
     }
@@ -367,13 +477,13 @@ impl<'a> Shader<'a> {
         if self.material.rho_s <= 0.0 || self.lighting.bright.texels.is_empty() {
             return;
         }
-        let centre = self.reflection(pixel.centre.0, pixel.centre.1);
-        let (x0, y0) = pixel.corner;
+        let centre = self.reflection(pixel, pixel.centre.0, pixel.centre.1);
+        let ((x0, y0), scale) = (pixel.corner, self.grid.scale);
         let footprint = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
             .iter()
             .map(|&(a, b)| {
                 centre
-                    .dot(self.reflection(x0 + a * self.scale, y0 + b * self.scale))
+                    .dot(self.reflection(pixel, x0 + a * scale, y0 + b * scale))
                     .clamp(-1.0, 1.0)
                     .acos()
             })
@@ -455,7 +565,7 @@ impl<'a> Shader<'a> {
     }
 
     /// Mean over a stratified, jittered side×side grid of sub-pixel samples of `f(normal)`
-    /// (0 outside the sphere), and the covered fraction.
+    /// (0 outside the object), and the covered fraction.
     fn integrate(
         &self,
         pixel: &Pixel,
@@ -464,13 +574,13 @@ impl<'a> Shader<'a> {
         f: impl Fn(&Self, Vec3) -> f64,
     ) -> (f64, f64) {
         let (mut sum, mut inside) = (0.0, 0usize);
-        let step = self.scale / side as f64;
+        let step = self.grid.scale / side as f64;
         for index in 0..side * side {
             let x = pixel.corner.0 + ((index % side) as f64 + rng.next_f64()) * step;
             let y = pixel.corner.1 + ((index / side) as f64 + rng.next_f64()) * step;
-            if let Some(n) = self.normal(x, y) {
+            if let Some(n) = self.surface.normal(pixel, x, y) {
                 inside += 1;
-                sum += f(self, n);
+                sum += f(self, self.camera.world(n));
             }
         }
         let count = (side * side) as f64;
