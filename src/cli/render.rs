@@ -1,9 +1,10 @@
 //! `reflectance render --probes DIR|LIST --classes C.json --out DIR [--size N] [--seed S]
-//! [--shard I/N]`.
+//! [--shape SHAPE] [--shard I/N]`.
 
 use super::CliResult;
 use crate::render::Quality;
 use crate::render::batch::{self, Augment, BatchSpec};
+use crate::render::shapes::ShapeSpec;
 use crate::util::shard::Shard;
 use clap::Args;
 use std::path::PathBuf;
@@ -63,6 +64,11 @@ pub struct RenderArgs {
     /// manifest.csv; `reflectance merge` joins the parts.
     #[arg(long, value_name = "I/N")]
     shard: Option<Shard>,
+    /// The object: sphere, torus, superquadric, capsule, blob (seeded by --seed) or
+    /// mesh:PATH (.obj or .ply), fitted to the sphere's circle and shaded from its normals;
+    /// a shape's camera-space normals are written beside each image as <name>.normals.png.
+    #[arg(long, default_value = "sphere", value_name = "SHAPE")]
+    shape: ShapeSpec,
 }
 
 pub fn run(args: RenderArgs) -> CliResult {
@@ -85,6 +91,7 @@ pub fn run(args: RenderArgs) -> CliResult {
             synthetic: args.synthetic,
             captures: args.captures,
             capture_ranges: Default::default(),
+            shape: args.shape,
         },
         shard: args.shard,
     };

@@ -536,3 +536,74 @@ fn assert_summary_matches_rows(report: &serde_json::Value, rows: &[serde_json::V
         );
     }
 }
+
+#[test]
+fn a_shape_renders_from_its_normals_with_the_map_beside() {
+    let dir = temp_dir("render-shape");
+    let probe =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("data/probes/polyhaven_dresden_square.hdr");
+    let list = dir.join("one.txt");
+    std::fs::write(&list, format!("{}\n", probe.display())).unwrap();
+    std::fs::write(
+        dir.join("classes.json"),
+        r#"{"classes": [{"name": "shiny", "rho_d": 0.3, "rho_s": 0.1, "alpha": 0.05}]}"#,
+    )
+    .unwrap();
+    let cube = dir.join("cube.obj");
+    std::fs::write(
+        &cube,
+        "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n\
+         f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 3 4 8 7\nf 2 3 7 6\nf 4 1 5 8\n",
+    )
+    .unwrap();
+    let render_shape = |shape: &str, out: &Path| {
+        run(&[
+            "render",
+            "--probes",
+            list.to_str().unwrap(),
+            "--classes",
+            dir.join("classes.json").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--size",
+            "72",
+            "--pixel-samples",
+            "2",
+            "--shape",
+            shape,
+        ])
+    };
+    // One render (the probe's lighting takes seconds in a debug build): a mesh file.
+    let mesh = format!("mesh:{}", cube.display());
+    let out = dir.join("mesh");
+    common::assert_success(&render_shape(&mesh, &out));
+    let name = "polyhaven_dresden_square__shiny";
+    let png = std::fs::read(out.join(format!("{name}.normals.png"))).unwrap();
+    let limits = reflectance::image::decode::Limits::default();
+    let map = reflectance::image::normals::NormalMap::from_png(&png, &limits).unwrap();
+    assert_eq!((map.width(), map.height()), (72, 72));
+    // The object is lit where the map has normals, and only there.
+    let pfm = out.join(format!("{name}.pfm"));
+    let image = reflectance::image::decode::decode_file(&pfm, &Default::default()).unwrap();
+    let lit = image.luminance.indexed_iter().filter(|(_, v)| **v > 0.0);
+    let lit: Vec<(usize, usize)> = lit.map(|(at, _)| at).collect();
+    assert!(lit.len() > 500, "{}", lit.len());
+    assert!(lit.iter().all(|&(r, c)| map.at(r, c).is_some()));
+    let manifest = std::fs::read_to_string(out.join("manifest.csv")).unwrap();
+    assert!(manifest.contains(&format!(
+        "{name}.pfm,shiny,polyhaven_dresden_square,35.5,35.5"
+    )));
+    // Complete with its normals: a re-run renders nothing.
+    let again = render_shape(&mesh, &out);
+    let stderr = String::from_utf8_lossy(&again.stderr);
+    assert!(
+        stderr.contains("rendered 0 of 1 images (1 already complete)"),
+        "{stderr}"
+    );
+    let unknown = render_shape("cube", &dir.join("bad"));
+    assert!(!unknown.status.success());
+    let stderr = String::from_utf8_lossy(&unknown.stderr);
+    assert!(stderr.contains("unknown shape"), "{stderr}");
+    let missing = render_shape("mesh:/nonexistent/x.ply", &dir.join("missing"));
+    assert!(!missing.status.success());
+}

@@ -5,8 +5,9 @@
 //! same images and writes its part of the manifest ([`crate::util::shard`]).
 
 use super::envmap::{EnvMap, EnvMapError};
+use super::shapes::{Normals, ShapeError, ShapeSpec};
 use super::ward::Material;
-use super::{Lighting, Quality, View, render};
+use super::{Lighting, Quality, View, render, render_normals};
 use crate::capture::{self, CaptureRanges, CaptureSettings, DrawSettings};
 use crate::dataset::{SYNTHETIC_ILLUMINATION, format_f64};
 use crate::image::decode::pfm;
@@ -36,6 +37,8 @@ pub enum RenderError {
     MissingProbe { list: String, name: String },
     #[error("invalid rendering option: {0}")]
     Options(String),
+    #[error(transparent)]
+    Shape(#[from] ShapeError),
     #[error("cancelled")]
     Cancelled,
 }
@@ -109,6 +112,10 @@ pub struct Augment {
     /// linear PNG files, with the white and circle a user would report).
     pub captures: usize,
     pub capture_ranges: CaptureRanges,
+    /// The object: the sphere (the default), or a shape rasterized once
+    /// ([`crate::shapes`], in [`ShapeSpec::pose`], a blob seeded by the run's seed) and
+    /// shaded from its normals, each image with its `<name>.normals.png` beside it.
+    pub shape: ShapeSpec,
 }
 
 /// One view of a probe: the illumination label suffix and the camera.
@@ -336,12 +343,14 @@ pub fn render_dataset_with(
     std::fs::create_dir_all(&spec.out).map_err(io_error(&spec.out))?;
     let probes = probes_of(spec);
     let jobs = jobs_of(spec, &probes)?;
+    let object = Object::new(spec)?;
     let expected_len =
         pfm::encode_gray(spec.size, spec.size, &vec![0.0; spec.size * spec.size]).len() as u64;
     let complete = |job: &Job| {
         let pfm_path = spec.out.join(format!("{}.pfm", job.name));
         std::fs::metadata(&pfm_path).is_ok_and(|m| m.len() == expected_len)
             && spec.out.join(format!("{}.mask.png", job.name)).is_file()
+            && (object.is_none() || spec.out.join(normals_file(&job.name)).is_file())
     };
     let bar = progress::bar(jobs.len() as u64, "render");
     let counter = progress::Counter::new(observer, jobs.len());
@@ -351,7 +360,12 @@ pub fn render_dataset_with(
             if counter.cancelled() {
                 return Err(RenderError::Cancelled);
             }
-            let result = render_job(spec, &probes[job.probe], job, complete(job));
+            let result = render_job(
+                spec,
+                &probes[job.probe],
+                job,
+                (object.as_ref(), complete(job)),
+            );
             bar.inc(1);
             counter.tick();
             result
@@ -428,7 +442,7 @@ fn render_job(
     spec: &BatchSpec,
     probe: &Probe,
     job: &Job,
-    complete: bool,
+    (object, complete): (Option<&Object>, bool),
 ) -> Result<bool, RenderError> {
     let captures: Vec<CaptureView> = (1..=spec.augment.captures)
         .map(|k| CaptureView::new(spec, probe, job, k))
@@ -443,14 +457,16 @@ fn render_job(
         let lighting =
             probe.lightings[k].get_or_init(|| Lighting::new(spec.augment.lighting(map, k)));
         let mut rng = Rng::fork(spec.seed, stable_hash(&job.name));
-        let image = render(
-            lighting,
-            &spec.classes[job.class],
-            spec.size,
-            &job.variant.view,
-            &spec.quality,
-            &mut rng,
-        );
+        let (material, view) = (&spec.classes[job.class], &job.variant.view);
+        let image = match object {
+            None => render(lighting, material, spec.size, view, &spec.quality, &mut rng),
+            Some(object) => {
+                let path = spec.out.join(normals_file(&job.name));
+                write_atomic(&path, &object.png).map_err(io_error(&path))?;
+                let normals = &object.normals;
+                render_normals(lighting, material, view, normals, &spec.quality, &mut rng)
+            }
+        };
         write_image(&spec.out, &job.name, &image)?;
         Some(image)
     };
@@ -483,6 +499,32 @@ fn render_job(
         write_atomic(&path, &shot.bytes).map_err(io_error(&path))?;
     }
     Ok(!complete)
+}
+
+/// A shape's normals for every image of a run, and their PNG.
+struct Object {
+    normals: Normals,
+    png: Vec<u8>,
+}
+
+impl Object {
+    /// The run's shape rasterized, or None for the sphere.
+    fn new(spec: &BatchSpec) -> Result<Option<Object>, RenderError> {
+        let kind = &spec.augment.shape;
+        if *kind == ShapeSpec::Sphere {
+            return Ok(None);
+        }
+        let shape = kind.shape(spec.seed)?;
+        let normals =
+            super::shapes::rasterize(&shape, &kind.pose(), spec.size, spec.quality.pixel_samples)?;
+        let png = normals.to_png()?;
+        Ok(Some(Object { normals, png }))
+    }
+}
+
+/// The normal map written beside image `name`.
+fn normals_file(name: &str) -> String {
+    format!("{name}.normals.png")
 }
 
 /// A capture of one rendered image: `<probe><view>@cap<k>__<class>.<png|jpg>`, its

@@ -93,6 +93,12 @@ impl Mesh {
             normals,
             corners,
         };
+        let (_, radius) = mesh.bounds();
+        if !radius.is_finite() {
+            return Err(ShapeError::Parameter(
+                "the mesh's extent is not finite".into(),
+            ));
+        }
         match (0..mesh.triangles.len()).any(|t| mesh.area_normal(t).dot(mesh.area_normal(t)) > 0.0)
         {
             true => Ok(mesh),
@@ -305,7 +311,7 @@ pub(crate) fn rasterize(mesh: &Mesh, pose: &Pose, size: usize, samples: usize) -
         grid: Grid::new(size),
     };
     let (centre, radius) = mesh.bounds();
-    let fit = (centre, if radius > 0.0 { radius } else { 1.0 });
+    let fit = (centre, radius);
     let projected: Vec<Projected> = (0..mesh.triangles.len())
         .filter_map(|t| project(mesh, pose, fit, &grid, t))
         .collect();

@@ -264,21 +264,58 @@ impl Normals {
 
     /// The unit normal of pixel (row, col), `None` for background.
     pub fn at(&self, row: usize, col: usize) -> Option<[f32; 3]> {
-        let i = row.checked_mul(self.size)? + col;
-        let n = *self.normals.get(i).filter(|_| col < self.size)?;
+        let i = self.index(row, col)?;
+        let n = self.normals[i];
         (n != [0.0; 3]).then_some(n)
+    }
+
+    /// The index of pixel (row, col), if it is in the image.
+    fn index(&self, row: usize, col: usize) -> Option<usize> {
+        let i = row.checked_mul(self.size)?.checked_add(col)?;
+        (col < self.size && i < self.normals.len()).then_some(i)
     }
 
     /// The covered fraction of pixel (row, col) (0 outside the image).
     pub fn coverage(&self, row: usize, col: usize) -> f32 {
-        match col < self.size {
-            true => self
-                .coverage
-                .get(row * self.size + col)
-                .copied()
-                .unwrap_or(0.0),
-            false => 0.0,
+        let i = self.index(row, col);
+        i.and_then(|i| self.coverage.get(i).copied()).unwrap_or(0.0)
+    }
+
+    /// A map of your own: `size`² camera-space normals, row-major ([0, 0, 0] for
+    /// background; others unit within 0.01, then normalized, and z ≥ 0) and the covered
+    /// fraction of each pixel (in [0, 1]; 0 exactly where the normal is background).
+    pub fn new(
+        size: usize,
+        mut normals: Vec<[f32; 3]>,
+        coverage: Vec<f32>,
+    ) -> Result<Normals, ShapeError> {
+        let cells = size.checked_mul(size);
+        if cells != Some(normals.len()) || cells != Some(coverage.len()) {
+            return Err(ShapeError::Parameter(format!(
+                "{} normals and {} coverages for {size}² pixels",
+                normals.len(),
+                coverage.len()
+            )));
         }
+        for (n, &c) in normals.iter_mut().zip(&coverage) {
+            let background = *n == [0.0; 3];
+            let length = n.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>().sqrt();
+            let unit = (length - 1.0).abs() <= 0.01 && n[2] >= 0.0;
+            if !(0.0..=1.0).contains(&c) || background != (c == 0.0) || !(background || unit) {
+                return Err(ShapeError::Parameter(format!(
+                    "normal {n:?} with coverage {c}: give unit normals facing the camera \
+                     where coverage is in (0, 1], and [0, 0, 0] where it is 0"
+                )));
+            }
+            if !background {
+                *n = n.map(|v| (f64::from(v) / length) as f32);
+            }
+        }
+        Ok(Normals {
+            size,
+            normals,
+            coverage,
+        })
     }
 
     /// A square map of the core (a normal map read from a file): coverage 1 on the object.
@@ -454,10 +491,11 @@ impl ShapeSpec {
         })
     }
 
-    /// The pose the command line renders every shape in: turned 30° about +X (toward the
-    /// viewer) and 20° about +Y, so that a torus shows its hole and a capsule its caps.
+    /// The pose the command line renders every shape in: its top (+Y) tipped 30° toward the
+    /// viewer (about +X), then turned 20° about the vertical (+Y), so that a torus shows
+    /// its hole, a capsule its cap and a box three faces.
     pub fn pose(&self) -> Pose {
-        Pose::from_euler_deg(-30.0, 20.0, 0.0)
+        Pose::from_euler_deg(30.0, 20.0, 0.0)
     }
 }
 

@@ -255,6 +255,36 @@ fn every_analytic_shape_fits_the_frame_in_any_pose() {
 }
 
 #[test]
+fn random_poses_are_rotations() {
+    let mut rng = Rng::new(1);
+    for _ in 0..20 {
+        let pose = Pose::random(&mut rng);
+        let axes = [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)];
+        let [x, y, z] = axes.map(|(a, b, c)| pose.apply(Vec3::new(a, b, c)));
+        let cross = Vec3::new(
+            x.y * y.z - x.z * y.y,
+            x.z * y.x - x.x * y.z,
+            x.x * y.y - x.y * y.x,
+        );
+        assert!((x.dot(x) - 1.0).abs() < 1e-12 && x.dot(y).abs() < 1e-12);
+        assert!((cross - z).dot(cross - z) < 1e-20, "right-handed");
+        let back = pose.invert(pose.apply(Vec3::new(0.3, -0.2, 0.9)));
+        assert!((back - Vec3::new(0.3, -0.2, 0.9)).dot(back - Vec3::new(0.3, -0.2, 0.9)) < 1e-24);
+    }
+}
+
+#[test]
+fn own_maps_are_checked() {
+    let ok = Normals::new(1, vec![[0.0, 0.6, 0.8]], vec![0.5]).unwrap();
+    assert_eq!(ok.at(0, 0), Some([0.0, 0.6, 0.8]));
+    assert!(Normals::new(2, vec![[0.0; 3]], vec![0.0]).is_err());
+    assert!(Normals::new(1, vec![[0.0, 0.0, 0.5]], vec![1.0]).is_err());
+    assert!(Normals::new(1, vec![[0.0, 0.0, -1.0]], vec![1.0]).is_err());
+    assert!(Normals::new(1, vec![[0.0; 3]], vec![0.5]).is_err());
+    assert!(Normals::new(1, vec![[0.0, 0.0, 1.0]], vec![f32::NAN]).is_err());
+}
+
+#[test]
 fn blobs_are_seeded() {
     let a = Blob::seeded(7, 4);
     assert_eq!(a, Blob::seeded(7, 4));
