@@ -6,6 +6,9 @@
 //! image right = +X, frame half-width 1.1 radii: the sphere's circle in an N×N image is
 //! `cx = cy = (N−1)/2`, `r = N/2.2`. Each pixel averages stratified sub-pixel samples
 //! (background 0); shiny classes add stratified samples of the Ward lobe per sub-pixel.
+//!
+//! Other objects (issue #44) are rasterized to camera-space normal maps ([`shapes`]) and
+//! shaded through the same path by [`render_normals`].
 
 pub mod batch;
 pub mod capture;

@@ -184,7 +184,7 @@ fn product(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
 /// shape is scaled to fit the frame when rasterized.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Shape {
-    /// The unit sphere: the sphere renderer's geometry exactly.
+    /// The unit sphere: the sphere renderer's geometry exactly (in any pose).
     Sphere,
     /// A ring torus about its +Z axis: radius `major` of the tube's centre circle, radius
     /// `minor` of the tube (0 < minor ≤ major).
