@@ -389,25 +389,27 @@ pub fn rasterize(
     }
 }
 
-/// Sample `raster` over the pixel grid of an N×N image.
-fn cast(raster: &impl Raster, size: usize, samples: usize) -> Normals {
+/// Sample `raster` over the pixel grid of an N×N image, rows in parallel (each pixel on
+/// its own: the same result on any number of threads).
+fn cast(raster: &(impl Raster + Sync), size: usize, samples: usize) -> Normals {
+    use rayon::prelude::*;
     let grid = Grid::new(size);
     let step = grid.scale / samples as f64;
-    let mut normals = vec![[0.0f32; 3]; size * size];
-    let mut coverage = vec![0.0f32; size * size];
-    for row in 0..size {
-        for col in 0..size {
-            let pixel = grid.pixel(row, col);
-            let hits = (0..samples * samples).filter_map(|index| {
-                let x = pixel.corner.0 + ((index % samples) as f64 + 0.5) * step;
-                let y = pixel.corner.1 + ((index / samples) as f64 + 0.5) * step;
-                raster.normal_at(x, y)
-            });
-            let (n, count) = mean_normal(hits);
-            normals[row * size + col] = n;
-            coverage[row * size + col] = (count as f64 / (samples * samples) as f64) as f32;
-        }
-    }
+    let pixel = |row: usize, col: usize| {
+        let pixel = grid.pixel(row, col);
+        let hits = (0..samples * samples).filter_map(|index| {
+            let x = pixel.corner.0 + ((index % samples) as f64 + 0.5) * step;
+            let y = pixel.corner.1 + ((index / samples) as f64 + 0.5) * step;
+            raster.normal_at(x, y)
+        });
+        let (n, count) = mean_normal(hits);
+        (n, (count as f64 / (samples * samples) as f64) as f32)
+    };
+    let cells: Vec<([f32; 3], f32)> = (0..size)
+        .into_par_iter()
+        .flat_map_iter(|row| (0..size).map(move |col| pixel(row, col)))
+        .collect();
+    let (normals, coverage) = cells.into_iter().unzip();
     Normals {
         size,
         normals,

@@ -460,6 +460,17 @@ fn a_fine_mesh_sphere_is_the_sphere() {
             }
         }
         assert!(worst < 0.05, "normals={with_normals}: {worst}");
+        // Sub-pixel coverage: the mesh's silhouette covers the disc's area.
+        let area = |m: &Normals| {
+            (0..32 * 32)
+                .map(|i| f64::from(m.coverage(i / 32, i % 32)))
+                .sum::<f64>()
+        };
+        let (mesh_area, disc) = (area(&shape), area(&sphere));
+        assert!(
+            (mesh_area / disc - 1.0).abs() < 0.01,
+            "{mesh_area} vs {disc}"
+        );
     }
 }
 
