@@ -515,24 +515,31 @@ pub fn load_mesh(path: &Path, limits: &MeshLimits) -> Result<Mesh, ShapeError> {
         Some("ply") => ply::parse,
         _ => return Err(ShapeError::Format(path.display().to_string())),
     };
-    let length = std::fs::metadata(path).map_err(io)?.len();
-    if length > limits.bytes {
-        return Err(ShapeError::TooLarge(format!(
-            "{length} bytes, more than {}",
-            limits.bytes
-        )));
-    }
+    check_bytes(std::fs::metadata(path).map_err(io)?.len(), limits)?;
     let bytes = std::fs::read(path).map_err(io)?;
     parse(&bytes, limits)
 }
 
+/// Whether a file of `length` bytes is within `limits`.
+fn check_bytes(length: u64, limits: &MeshLimits) -> Result<(), ShapeError> {
+    match length > limits.bytes {
+        true => Err(ShapeError::TooLarge(format!(
+            "{length} bytes, more than {}",
+            limits.bytes
+        ))),
+        false => Ok(()),
+    }
+}
+
 /// Parse an OBJ mesh from its bytes, within `limits`.
 pub fn parse_obj(bytes: &[u8], limits: &MeshLimits) -> Result<Mesh, ShapeError> {
+    check_bytes(bytes.len() as u64, limits)?;
     obj::parse(bytes, limits)
 }
 
 /// Parse a PLY mesh (ASCII, binary little- or big-endian) from its bytes, within `limits`.
 pub fn parse_ply(bytes: &[u8], limits: &MeshLimits) -> Result<Mesh, ShapeError> {
+    check_bytes(bytes.len() as u64, limits)?;
     ply::parse(bytes, limits)
 }
 

@@ -643,6 +643,15 @@ fn bad_mesh_files_are_typed_errors() {
         matches!(too_many, Err(ShapeError::TooLarge(_))),
         "{too_many:?}"
     );
+    let few_bytes = MeshLimits {
+        bytes: 16,
+        ..limits
+    };
+    let too_long = parse_obj(CUBE.as_bytes(), &few_bytes);
+    assert!(
+        matches!(too_long, Err(ShapeError::TooLarge(_))),
+        "{too_long:?}"
+    );
     let ply_cases: [&[u8]; 6] = [
         b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n0 0 0\n",
         b"ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
