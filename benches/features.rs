@@ -12,7 +12,7 @@ use reflectance::image::geometry::Circle;
 
 fn main() {
     // As the binary does: see `reflectance::util::heap`.
-    assert!(reflectance::heap::tune(), "heap thresholds refused");
+    assert!(reflectance::tune_heap(), "heap thresholds refused");
     divan::main();
 }
 

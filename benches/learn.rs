@@ -21,7 +21,7 @@ use reflectance::util::rng::Rng;
 
 fn main() {
     // As the binary does: see `reflectance::util::heap`.
-    assert!(reflectance::heap::tune(), "heap thresholds refused");
+    assert!(reflectance::tune_heap(), "heap thresholds refused");
     let path = std::env::temp_dir().join("reflectance_learn_bench.csv");
     table().write(&path).expect("write bench table");
     eprintln!("bench table: {}", path.display());

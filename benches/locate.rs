@@ -8,7 +8,7 @@ use reflectance::image::decode::{self, DecodeOptions};
 use reflectance::image::geometry;
 
 fn main() {
-    assert!(reflectance::heap::tune(), "heap thresholds refused");
+    assert!(reflectance::tune_heap(), "heap thresholds refused");
     divan::main();
 }
 

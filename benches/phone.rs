@@ -24,7 +24,7 @@ use std::sync::{Mutex, OnceLock};
 const WORK_SIZE: usize = 640;
 
 fn main() {
-    assert!(reflectance::heap::tune(), "heap thresholds refused");
+    assert!(reflectance::tune_heap(), "heap thresholds refused");
     divan::main();
 }
 

@@ -11,7 +11,7 @@ use std::sync::OnceLock;
 
 fn main() {
     // As the binary does: see `reflectance::util::heap`.
-    assert!(reflectance::heap::tune(), "heap thresholds refused");
+    assert!(reflectance::tune_heap(), "heap thresholds refused");
     divan::main();
 }
 

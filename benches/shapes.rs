@@ -6,7 +6,7 @@ use ndarray::Array2;
 use reflectance::image::normals::{NormalMap, equivalent_sphere};
 
 fn main() {
-    assert!(reflectance::heap::tune(), "heap thresholds refused");
+    assert!(reflectance::tune_heap(), "heap thresholds refused");
     divan::main();
 }
 

@@ -4,11 +4,12 @@
 //! service and the reports, on `reflectance-core` (the pipeline, without HTTP) and
 //! `reflectance-render` (training data), whose modules it re-exports under their names.
 
-pub mod archive;
-pub mod cli;
-pub mod heap;
-pub(crate) mod report;
-pub mod server;
+mod archive;
+mod cli;
+mod heap;
+mod progress;
+mod report;
+mod server;
 
 pub use reflectance_core::{dataset, features, image, inference, learn, material, model, util};
 pub use reflectance_render as render;
@@ -18,3 +19,20 @@ pub use reflectance_core::{
     ClassifyResponse, DecodeOptions, Extractor, FeatureConfig, Input, LoadedModel, ModelFile,
     Registry, classify, decode, decode_file,
 };
+
+/// The command line, `reflectance --help`: what the binary runs.
+pub use cli::main as command_line;
+/// The allocator's thresholds for this workload (the binary and the benches set them).
+pub use heap::tune as tune_heap;
+
+// The service, for embedding it and for the tests that drive its router.
+pub use server::config::Config as ServerConfig;
+pub use server::listener::serve_plane;
+pub use server::metrics::render as metrics_text;
+pub use server::openapi::{ApiDoc, yaml as openapi_yaml};
+pub use server::router::{admin_router, data_router};
+pub use server::state::{Phase, SharedState};
+pub use server::{StartError, build_state, load_models};
+
+// Dataset archives (`reflectance dataset pack`, `POST /admin/v1/datasets`).
+pub use archive::{ArchiveLimits, pack as pack_archive, unpack as unpack_archive};

@@ -1,6 +1,6 @@
 fn main() -> std::process::ExitCode {
-    if !reflectance::heap::tune() {
+    if !reflectance::tune_heap() {
         eprintln!("warning: the allocator refused the heap thresholds (see src/heap.rs)");
     }
-    reflectance::cli::main()
+    reflectance::command_line()
 }

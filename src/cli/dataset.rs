@@ -5,7 +5,7 @@
 use super::{CliError, CliResult, LimitArgs};
 use crate::dataset::ingest::{self, Coverage};
 use crate::dataset::{Entry, Manifest, read_manifest};
-use crate::util::progress;
+use crate::progress;
 use clap::{Args, Subcommand};
 use std::path::{Path, PathBuf};
 
@@ -102,7 +102,8 @@ pub fn run(command: DatasetCommand) -> CliResult {
         }
         None => manifest_of_layout(&args.folder)?,
     };
-    let checked = ingest::ingest(&manifest, &args.limits.decode_options(), &progress::Silent)?;
+    let options = args.limits.decode_options();
+    let checked = progress::observed("images", |bar| ingest::ingest(&manifest, &options, bar))?;
     for refusal in &checked.refused {
         eprintln!("refused {}: {}", refusal.path, refusal.reason);
     }

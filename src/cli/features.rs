@@ -80,7 +80,9 @@ fn table(
         Some(shard) => manifest.shard(shard),
         None => manifest,
     };
-    let table = dataset::extract_manifest(extractor, &manifest, options)?;
+    let table = crate::progress::observed("features", |bar| {
+        dataset::extract_manifest_with(extractor, &manifest, options, bar)
+    })?;
     let Some(shard) = shard else {
         return Ok(table.write(out)?);
     };

@@ -10,8 +10,8 @@ use crate::material::load_classes;
 use crate::model::publish::{Activate, Current};
 use crate::model::registry::{self, Registry};
 use crate::model::train::{self, TrainOptions};
+use crate::progress;
 use crate::report::estimate::Protocol;
-use crate::util::progress;
 use clap::Args;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -50,7 +50,9 @@ impl DataArgs {
         manifest.require_labels()?;
         let extractor = Extractor::new(config)?;
         let options = limits.decode_options();
-        let table = dataset::extract_manifest(&extractor, &manifest, &options)?;
+        let table = progress::observed("features", |bar| {
+            dataset::extract_manifest_with(&extractor, &manifest, &options, bar)
+        })?;
         Ok((table, path.display().to_string(), Some(manifest)))
     }
 }
@@ -188,9 +190,9 @@ fn cv_estimate(args: &CvArgs, table: &FeatureTable, label: &str) -> CliResult {
         args.spec.gamma,
         args.spec.seed,
     )?;
-    let bar = progress::bar(0, "estimate");
-    let fit = estimate::fit_observed(&ds, "", &materials, &features, &spec, &bar)?;
-    bar.finish();
+    let fit = progress::observed("estimate", |bar| {
+        estimate::fit_observed(&ds, "", &materials, &features, &spec, bar)
+    })?;
     let report = fit.report;
     if let Some(out) = &args.estimate.out {
         let title = format!("{} on {label}", args.spec.features);
@@ -217,9 +219,9 @@ pub fn cv(args: CvArgs) -> CliResult {
     }
     let spec = args.spec.spec(&table.names)?;
     let ds = Dataset::from_table(&table)?;
-    let bar = progress::bar(0, "cv");
-    let report = crate::learn::cross_validate_with(&ds, &spec, args.spec.seed, &bar)?;
-    bar.finish();
+    let report = progress::observed("cv", |bar| {
+        crate::learn::cross_validate_with(&ds, &spec, args.spec.seed, bar)
+    })?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -406,9 +408,9 @@ pub fn train(args: TrainArgs) -> CliResult {
         decode: args.limits.decode_options(),
         estimator: args.estimator.data(args.spec.gamma, &table.names)?,
     };
-    let bar = progress::bar(0, "train");
-    let mut trained = train::train_with(&table, &label, &options, &bar)?;
-    bar.finish();
+    let mut trained = progress::observed("train", |bar| {
+        train::train_with(&table, &label, &options, bar)
+    })?;
     if let Some(report) = &trained.estimate {
         eprint!(
             "estimator: {}",
@@ -482,7 +484,9 @@ pub fn predict(args: PredictArgs) -> CliResult {
     let extractor = Extractor::new(model.features.config)?;
     let manifest = dataset::read_manifest(&args.manifest)?;
     let options = args.limits.decode_options();
-    let table = dataset::extract_manifest(&extractor, &manifest, &options)?;
+    let table = progress::observed("features", |bar| {
+        dataset::extract_manifest_with(&extractor, &manifest, &options, bar)
+    })?;
     let classes = model.classifier.classes();
     let estimator = model.estimator.as_ref();
     let mut csv = String::from("path,label");

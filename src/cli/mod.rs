@@ -15,7 +15,7 @@ mod serve;
 
 pub use error::{CliError, CliResult};
 
-use crate::image::white::{Rect, WhiteError};
+use crate::image::white::Rect;
 use clap::{Args, Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -145,17 +145,6 @@ pub struct SphereArgs {
     pub white_reflectance: f64,
 }
 
-impl SphereArgs {
-    /// The card's reflectance, checked.
-    pub fn card_reflectance(&self) -> CliResult<f64> {
-        let r = self.white_reflectance;
-        match r > 0.0 && r <= 1.0 {
-            true => Ok(r),
-            false => Err(WhiteError::BadReflectance(r).into()),
-        }
-    }
-}
-
 /// An analysis failure in the command line's words: a sphere detection cannot find asks for
 /// the flags that place it.
 fn analysis_error(e: &crate::features::analysis::AnalysisError) -> String {
@@ -172,7 +161,7 @@ fn analysis_error(e: &crate::features::analysis::AnalysisError) -> String {
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     if !matches!(cli.command, Command::Serve(_) | Command::Healthcheck(_)) {
-        crate::util::progress::show_on_stderr();
+        crate::progress::show_on_stderr();
         // A command piped into `head` ends quietly when the reader goes, as Unix tools do,
         // instead of panicking on the write. (The server keeps SIGPIPE ignored: a client
         // that hangs up is an error to handle, not a reason to stop.)

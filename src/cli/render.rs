@@ -96,7 +96,8 @@ pub fn run(args: RenderArgs) -> CliResult {
         shard: args.shard,
     };
     let start = std::time::Instant::now();
-    let summary = batch::render_dataset(&spec)?;
+    let summary =
+        crate::progress::observed("render", |bar| batch::render_dataset_with(&spec, bar))?;
     eprintln!(
         "rendered {} of {} images ({} already complete) in {:.1} s",
         summary.rendered,

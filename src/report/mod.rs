@@ -147,7 +147,9 @@ fn features_of(dir: &Path, options: &DecodeOptions) -> Result<FeatureTable, Repo
     let extractor = Extractor::new(config).map_err(|e| ReportError::Plot(e.to_string()))?;
     let manifest = dataset::read_manifest(&manifest)?;
     manifest.require_labels()?;
-    let table = dataset::extract_manifest(&extractor, &manifest, options)?;
+    let table = crate::progress::observed("features", |bar| {
+        dataset::extract_manifest_with(&extractor, &manifest, options, bar)
+    })?;
     table.write(&cache)?;
     Ok(table)
 }
@@ -235,7 +237,7 @@ pub fn run(
             [(paper, paper_ds), (views, views_ds), (full, full_ds)],
         ));
     }
-    let bar = crate::util::progress::bar(runs.len() as u64, "report");
+    let bar = crate::progress::bar(runs.len() as u64, "report");
     let mut cells = Vec::new();
     for (name, protocol, set, classifier) in runs {
         let (_, variants) = tables

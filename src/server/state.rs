@@ -5,7 +5,7 @@ use super::config::Config;
 use super::error::{ApiError, Kind};
 use super::jobs::JobManager;
 use super::metrics;
-pub use super::store::{Activated, ModelStore};
+pub use super::store::ModelStore;
 pub use crate::inference::LoadedModel;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};

@@ -54,11 +54,11 @@ fn a_folder_of_photographs_is_packed_with_every_sphere_located() {
 
     let unpacked_dir = dir.join("unpacked");
     std::fs::create_dir_all(&unpacked_dir).unwrap();
-    let limits = reflectance::archive::ArchiveLimits {
+    let limits = reflectance::ArchiveLimits {
         members: 100,
         unpacked_bytes: 1 << 24,
     };
-    let unpacked = reflectance::archive::unpack(&out, &unpacked_dir, limits).unwrap();
+    let unpacked = reflectance::unpack_archive(&out, &unpacked_dir, limits).unwrap();
     assert_eq!(unpacked.files.len(), 7, "{:?}", unpacked.files);
     let manifest = reflectance::dataset::read_manifest(&unpacked_dir.join("manifest.csv")).unwrap();
     assert_eq!(manifest.entries.len(), 6);

@@ -3,6 +3,8 @@
 
 use axum::body::Body;
 use axum::http::{Request, Response};
+use reflectance::ServerConfig as Config;
+use reflectance::SharedState;
 use reflectance::dataset::{self, FeatureTable};
 use reflectance::features::{Extractor, FeatureConfig};
 use reflectance::image::decode::DecodeOptions;
@@ -13,9 +15,7 @@ use reflectance::model::train::{EstimatorData, TrainOptions, train};
 use reflectance::render::Quality;
 use reflectance::render::batch::{self, Augment, BatchSpec};
 use reflectance::render::envmap::EnvMap;
-use reflectance::server::config::Config;
-use reflectance::server::state::SharedState;
-use reflectance::server::{build_state, load_models, router};
+use reflectance::{admin_router, build_state, data_router, load_models};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -197,8 +197,8 @@ pub fn start(config: Config) -> TestServer {
     let state = build_state(config).unwrap();
     load_models(&state).unwrap();
     TestServer {
-        data: router::data_router(state.clone()),
-        admin: router::admin_router(state.clone()),
+        data: data_router(state.clone()),
+        admin: admin_router(state.clone()),
         state,
     }
 }

@@ -10,7 +10,7 @@ use common::server::{
     CLASSES_JSON, Part, TOKEN, TestServer, config, fixture, free_port, get, models_copy, post_json,
     post_multipart, send, start, temp_dir, with_token, write_probes,
 };
-use reflectance::server::config::Config;
+use reflectance::ServerConfig as Config;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -717,7 +717,7 @@ async fn a_corrupt_version_is_refused_and_the_old_one_keeps_serving() {
     fixed.replace_range(digit..digit + 1, replacement);
     std::fs::write(models.join("ward6/2/model.json"), fixed).unwrap();
     let failures = || {
-        let text = reflectance::server::metrics::render();
+        let text = reflectance::metrics_text();
         text.lines()
             .find(|l| l.starts_with("reflectance_model_load_failures_total{model=\"ward6\"}"))
             .and_then(|l| l.rsplit(' ').next()?.parse::<f64>().ok())

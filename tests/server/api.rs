@@ -490,8 +490,8 @@ async fn sheds_load_times_out_and_reports_readiness() {
     );
 
     // Readiness: loading, ready, draining.
-    let state = reflectance::server::build_state(config(&models_copy("ready"))).unwrap();
-    let router = reflectance::server::router::data_router(state.clone());
+    let state = reflectance::build_state(config(&models_copy("ready"))).unwrap();
+    let router = reflectance::data_router(state.clone());
     let doc = send(&router, get("/health/ready"))
         .await
         .problem(503, "not-ready");
@@ -504,14 +504,12 @@ async fn sheds_load_times_out_and_reports_readiness() {
     send(&router, get("/v2/models/ward6/ready"))
         .await
         .problem(400, "v2-not-ready");
-    reflectance::server::load_models(&state).unwrap();
+    reflectance::load_models(&state).unwrap();
     assert_eq!(
         send(&router, get("/health/ready")).await.json(),
         json!({"status": "ready"})
     );
-    state
-        .readiness
-        .set(reflectance::server::state::Phase::Draining);
+    state.readiness.set(reflectance::Phase::Draining);
     let doc = send(&router, get("/health/ready"))
         .await
         .problem(503, "not-ready");

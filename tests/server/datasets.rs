@@ -8,7 +8,7 @@ use crate::common;
 use axum::body::Body;
 use axum::http::Request;
 use common::server::{Part, TestServer, fixture, get, post_multipart, send};
-use reflectance::server::config::Config;
+use reflectance::ServerConfig as Config;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
@@ -55,7 +55,7 @@ fn archive(dir: &Path, lights: usize) -> Vec<u8> {
     std::fs::create_dir_all(dir).unwrap();
     let (manifest, members) = dataset_files(dir, lights);
     let path = dir.join("upload.tar.gz");
-    reflectance::archive::pack(&manifest, &members, &path).unwrap();
+    reflectance::pack_archive(&manifest, &members, &path).unwrap();
     std::fs::read(path).unwrap()
 }
 

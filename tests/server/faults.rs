@@ -596,8 +596,8 @@ fn a_fresh_server_says_where_it_listens_and_exports_its_metrics_at_zero() {
 
 #[test]
 fn start_up_falls_back_to_the_newest_version_that_loads() {
-    use reflectance::server::config::Config;
-    use reflectance::server::{build_state, load_models};
+    use reflectance::ServerConfig as Config;
+    use reflectance::{build_state, load_models};
     let base = setup("fallback");
     let models = base.join("models");
     // The model has a name of its own: the counters checked below are process-wide, and
@@ -629,7 +629,7 @@ fn start_up_falls_back_to_the_newest_version_that_loads() {
         "3\n"
     );
     // One fallback, after the two versions that failed to load.
-    let metrics = reflectance::server::metrics::render();
+    let metrics = reflectance::metrics_text();
     let count = |family: &str| {
         let key = format!("{family}{{model=\"fallback\"}} ");
         let line = metrics.lines().find(|l| l.starts_with(&key));
@@ -652,10 +652,7 @@ fn start_up_falls_back_to_the_newest_version_that_loads() {
     let state = build_state(config).unwrap();
     let error = load_models(&state).unwrap_err();
     assert!(
-        matches!(
-            error,
-            reflectance::server::StartError::DefaultNotServed { .. }
-        ),
+        matches!(error, reflectance::StartError::DefaultNotServed { .. }),
         "{error:?}"
     );
     let error = error.to_string();

@@ -1939,7 +1939,7 @@ async fn slow_headers_and_idle_connections_are_closed_at_the_header_deadline() {
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let addr = listener.local_addr().unwrap();
     let deadline = Duration::from_millis(500);
-    tokio::spawn(reflectance::server::listener::serve_plane(
+    tokio::spawn(reflectance::serve_plane(
         listener,
         server.data.clone(),
         deadline,

@@ -17,7 +17,7 @@ fn committed_path() -> std::path::PathBuf {
 
 #[test]
 fn committed_document_matches_the_code() {
-    let generated = reflectance::server::openapi::yaml();
+    let generated = reflectance::openapi_yaml();
     let path = committed_path();
     if std::env::var_os("REFLECTANCE_UPDATE_OPENAPI").is_some() {
         std::fs::write(&path, &generated).unwrap();
@@ -32,11 +32,10 @@ fn committed_document_matches_the_code() {
 }
 
 fn document() -> Value {
-    let yaml = reflectance::server::openapi::yaml();
+    let yaml = reflectance::openapi_yaml();
     // The generator also renders JSON; parse that form.
     let _ = yaml;
-    serde_json::to_value(<reflectance::server::openapi::ApiDoc as utoipa::OpenApi>::openapi())
-        .unwrap()
+    serde_json::to_value(<reflectance::ApiDoc as utoipa::OpenApi>::openapi()).unwrap()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -58,7 +57,7 @@ async fn every_documented_operation_is_routed_and_served() {
     assert_eq!(answer.header("content-type"), Some("application/yaml"));
     assert_eq!(
         String::from_utf8(answer.body).unwrap(),
-        reflectance::server::openapi::yaml()
+        reflectance::openapi_yaml()
     );
 
     // An asset's hashed name, as the page links it.

@@ -278,16 +278,14 @@ pub fn extract_entry(
     Ok(analysis::analyze(extractor, &image, &locate, &white)?.values)
 }
 
-/// `work` on every entry, in parallel, results in manifest order, with a progress bar
-/// labelled `what` and each finished entry reported to `observer`; a cancellation seen
+/// `work` on every entry, in parallel, results in manifest order, each finished entry
+/// reported to `observer`; a cancellation seen
 /// before an entry starts ends the run with [`DatasetError::Cancelled`].
 pub(crate) fn for_each_entry<T: Send>(
     manifest: &Manifest,
-    what: &str,
     observer: &dyn progress::Observer,
     work: impl Fn(&Entry) -> T + Sync,
 ) -> Result<Vec<T>, DatasetError> {
-    let bar = progress::bar(manifest.entries.len() as u64, what);
     let counter = progress::Counter::new(observer, manifest.entries.len());
     let results: Vec<Option<T>> = manifest
         .entries
@@ -297,12 +295,10 @@ pub(crate) fn for_each_entry<T: Send>(
                 return None;
             }
             let result = work(entry);
-            bar.inc(1);
             counter.tick();
             Some(result)
         })
         .collect();
-    bar.finish();
     results
         .into_iter()
         .collect::<Option<Vec<T>>>()
@@ -327,7 +323,7 @@ pub fn extract_manifest_with(
     options: &DecodeOptions,
     observer: &dyn progress::Observer,
 ) -> Result<FeatureTable, DatasetError> {
-    let results = for_each_entry(manifest, "features", observer, |entry| {
+    let results = for_each_entry(manifest, observer, |entry| {
         extract_entry(extractor, entry, options)
     })?;
     let mut samples = Vec::with_capacity(manifest.entries.len());

@@ -352,7 +352,6 @@ pub fn render_dataset_with(
             && spec.out.join(format!("{}.mask.png", job.name)).is_file()
             && (object.is_none() || spec.out.join(normals_file(&job.name)).is_file())
     };
-    let bar = progress::bar(jobs.len() as u64, "render");
     let counter = progress::Counter::new(observer, jobs.len());
     let outcomes: Vec<Result<bool, RenderError>> = jobs
         .par_iter()
@@ -366,12 +365,10 @@ pub fn render_dataset_with(
                 job,
                 (object.as_ref(), complete(job)),
             );
-            bar.inc(1);
             counter.tick();
             result
         })
         .collect();
-    bar.finish();
     let mut rendered = 0;
     for outcome in outcomes {
         rendered += usize::from(outcome?);

@@ -108,8 +108,7 @@ pub fn ingest(
     options: &DecodeOptions,
     observer: &dyn progress::Observer,
 ) -> Result<Ingested, DatasetError> {
-    let results =
-        super::for_each_entry(manifest, "images", observer, |entry| check(entry, options))?;
+    let results = super::for_each_entry(manifest, observer, |entry| check(entry, options))?;
     let mut ingested = Ingested {
         entries: Vec::new(),
         refused: Vec::new(),

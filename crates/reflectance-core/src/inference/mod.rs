@@ -1,0 +1,511 @@
+//! One photograph through the whole pipeline: decode → locate → white → features →
+//! classify, and the answer's JSON. No HTTP here: `POST /v1/classify`, the KServe endpoint
+//! and `reflectance classify` all call [`classify`] and give the same [`ClassifyResponse`].
+
+use crate::features::Extractor;
+use crate::features::analysis::{self, AnalysisError, Locate, WhiteInput};
+use crate::image::decode::{self, DecodeError, DecodeOptions, Encoding};
+use crate::image::display;
+use crate::image::geometry::{self};
+use crate::image::white::Method as WhiteMethod;
+use crate::learn::LearnError;
+use crate::learn::conformal;
+use crate::learn::domain::Verdict;
+use crate::learn::estimate::WardEstimate;
+use crate::model::{Head, ModelError, ModelFile};
+use std::sync::Arc;
+use std::time::Instant;
+
+mod input;
+mod response;
+
+use response::images_of;
+
+pub use input::{Input, InputError, LocateSpec, Placement, WhiteSpec};
+pub use response::{
+    COLOUR_UNKNOWN, CandidateOut, ClassOut, ClassifyResponse, ColourOut, DomainCheckOut, DomainOut,
+    FeaturesOut, GeometryOut, ImagesOut, LabelProbability, LocateResponse, MaterialOut,
+    MaterialsOut, ModelId, NO_SETS_WARNING, NamedValues, Neighbour, OUT_OF_DOMAIN_WARNING,
+    PredictionSetOut, SubbandImage, TimingMs, WITHOUT_WHITE_WARNING, WhiteOut, wire_name,
+};
+
+/// A verified model version, ready to classify: the file and its feature extractor.
+#[derive(Debug)]
+pub struct LoadedModel {
+    /// The model file, its checksum and self-test passed.
+    pub file: ModelFile,
+    /// The feature extractor of the file's extraction configuration.
+    pub extractor: Extractor,
+    /// The canonical feature names of the model's extraction configuration.
+    pub feature_names: Vec<String>,
+    /// The features the classifier and the estimator read (`None`: all of them, e.g. for
+    /// PCA): a request that does not ask for every feature extracts only these.
+    pub needed: Option<Vec<usize>>,
+}
+
+impl LoadedModel {
+    /// Build the extractor for a verified model file.
+    pub fn new(file: ModelFile) -> Result<LoadedModel, ModelError> {
+        let extractor = Extractor::new(file.features.config)?;
+        let feature_names = file.features.config.names();
+        let classifier = &file.classifier;
+        let mut read = classifier.selected_indices.clone();
+        if let Some(estimator) = &file.estimator {
+            read.extend(&estimator.input_indices);
+        }
+        if let Some(no_white) = &file.no_white {
+            read.extend(&no_white.classifier.selected_indices);
+        }
+        let domains = [file.domain.as_ref()]
+            .into_iter()
+            .chain([file.no_white.as_ref().and_then(|n| n.domain.as_ref())]);
+        read.extend(
+            domains
+                .flatten()
+                .flat_map(|d| d.checks.iter().filter_map(|c| c.index)),
+        );
+        read.sort_unstable();
+        read.dedup();
+        let pca = classifier.pca.is_some()
+            || file
+                .no_white
+                .as_ref()
+                .is_some_and(|n| n.classifier.pca.is_some());
+        let needed = (!pca && read.len() < feature_names.len()).then_some(read);
+        Ok(LoadedModel {
+            file,
+            extractor,
+            feature_names,
+            needed,
+        })
+    }
+
+    /// The model's name, e.g. `ward11`.
+    pub fn name(&self) -> &str {
+        &self.file.name
+    }
+
+    /// The model's version in its registry (1, 2, …).
+    pub fn version(&self) -> u32 {
+        self.file.version
+    }
+
+    /// The class (index in the classifier's order) nearest to an estimate, when the model
+    /// has an estimator and knows every class's Ward parameters.
+    pub fn nearest_class(&self, estimate: &WardEstimate) -> Option<usize> {
+        let estimator = self.file.estimator.as_ref()?;
+        let wards: Option<Vec<(f64, f64, f64)>> = self
+            .file
+            .classifier
+            .classes
+            .iter()
+            .map(|name| {
+                let info = self.file.classes.iter().find(|c| &c.name == name)?;
+                info.ward.as_ref().map(|w| (w.rho_d, w.rho_s, w.alpha))
+            })
+            .collect();
+        crate::learn::estimate::nearest_class(estimate, &estimator.half_widths, &wards?)
+    }
+}
+
+/// Why a validated request gives no answer: a part that does not decode, no usable sphere
+/// or white in the image, a model that cannot be read or a classifier that refuses the row.
+#[derive(Debug, thiserror::Error)]
+pub enum InferenceError {
+    /// A file of the request does not decode; `part` is empty for the image, else
+    /// `"white_image: "` or `"mask: "`.
+    #[error("{part}{source}")]
+    Decode {
+        /// Which part: `""` (the image), `"white_image: "` or `"mask: "`, prefixed to the message.
+        part: &'static str,
+        /// Why it does not decode.
+        source: DecodeError,
+    },
+    /// The image decoded but gave no features: no sphere found, a bad white or circle.
+    #[error(transparent)]
+    Analysis(#[from] AnalysisError),
+    /// The model file's configuration or consistency.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    /// The classifier or estimator refused the feature row.
+    #[error(transparent)]
+    Learn(#[from] LearnError),
+}
+
+/// What a model decides about one feature row: the class, how sure it can be, and whether
+/// the input is one it knows.
+#[derive(Clone, Debug)]
+pub struct Decision {
+    /// Classified by the classifier without white.
+    pub without_white: bool,
+    /// The most probable class (index in class order).
+    pub class: usize,
+    /// In class order.
+    pub probabilities: Vec<f64>,
+    /// The prediction set (class indices, most probable first) at `coverage`, when the
+    /// classifier has a calibration.
+    pub set: Option<Vec<usize>>,
+    /// The prediction set's target coverage, in [0.5, 0.999].
+    pub coverage: f64,
+    /// The domain check's verdict, when calibrated.
+    pub verdict: Option<Verdict>,
+    /// Why the input is outside the capture envelope the model was trained for, whatever
+    /// its class.
+    pub envelope: Vec<String>,
+    /// The classifier's standardized inputs.
+    pub z: Vec<f64>,
+}
+
+impl Decision {
+    /// Out of domain: a check failed, or the capture is outside the envelope. The one
+    /// source of the verdict: every surface (`/v1`'s [`Decision::domain`], V2 and gRPC's
+    /// `in_domain`, `reflectance predict`'s CSV, the command line and Python) reads it here.
+    pub fn in_domain(&self) -> bool {
+        self.verdict.as_ref().is_none_or(Verdict::in_domain) && self.envelope.is_empty()
+    }
+}
+
+/// What the decision needs besides the feature row.
+#[derive(Clone, Copy, Debug)]
+pub struct Context<'a> {
+    /// Whether the request gave a white reference (else the classifier without white answers,
+    /// when the model has one).
+    pub white_given: bool,
+    /// The sphere's radius as given (px).
+    pub radius: f64,
+    /// The capture measurements (size, exposure), for the capture-envelope check; `None` skips it.
+    pub measured: Option<&'a crate::features::CaptureMeasurements>,
+    /// The prediction set's target coverage, in [0.5, 0.999].
+    pub coverage: f64,
+}
+
+/// Classify a feature row (canonical order, the model's configuration) as the service
+/// does: the classifier for the white given or not, the prediction set, the domain check
+/// and the capture envelope.
+pub fn decide(model: &ModelFile, values: &[f64], context: Context) -> Result<Decision, LearnError> {
+    let head = model.head(context.white_given);
+    let classifier = head.classifier;
+    let z = classifier.transform(values)?;
+    let output = classifier.classify_transformed(&z);
+    let envelope = match (&model.capture, context.measured) {
+        (Some(envelope), Some(measured)) => envelope.outside_every_class(
+            context.radius,
+            model.features.config.working_radius,
+            measured,
+        ),
+        _ => Vec::new(),
+    };
+    let set = prediction_set(
+        model,
+        &head,
+        &output.probabilities,
+        context.coverage,
+        context.white_given,
+    );
+    let verdict = head.domain.map(|d| d.verdict(&z, values));
+    Ok(Decision {
+        without_white: head.without_white,
+        class: output.class,
+        probabilities: output.probabilities,
+        set,
+        coverage: context.coverage,
+        verdict,
+        envelope,
+        z,
+    })
+}
+
+/// What the CPU work produced.
+pub struct Classified {
+    /// The model that classified.
+    pub model: Arc<LoadedModel>,
+    /// The class, probabilities, prediction set and domain verdict.
+    pub decision: Decision,
+    /// The features, the located circle and the white reference used.
+    pub analysis: analysis::Analysis,
+    /// The classifier's inputs (the selected features, or the principal components).
+    pub selected: Vec<f64>,
+    /// The nearest training images, with `include=explain`.
+    pub explain: Option<Vec<Neighbour>>,
+    /// The annulus and the pyramid's subbands, with `include=images`.
+    pub images: Option<ImagesOut>,
+    /// The Ward parameters estimated directly, when the model has an estimator.
+    pub ward: Option<WardEstimate>,
+    /// Whether the answer lists every extracted feature (`include=features`).
+    pub include_features: bool,
+    /// Decoding time (ms).
+    pub decode_ms: f64,
+    /// Locating, white, feature extraction and the `include=images` pictures (ms).
+    pub features_ms: f64,
+    /// Classification, estimation and explanation time (ms).
+    pub predict_ms: f64,
+}
+
+fn ms(since: Instant) -> f64 {
+    since.elapsed().as_secs_f64() * 1e3
+}
+
+fn decode_part(
+    part: &'static str,
+    bytes: &[u8],
+    options: &DecodeOptions,
+) -> Result<decode::LinearImage, InferenceError> {
+    decode::decode(bytes, options).map_err(|source| InferenceError::Decode { part, source })
+}
+
+/// Decode, locate, extract and classify (blocking).
+pub fn classify(
+    model: Arc<LoadedModel>,
+    input: Input,
+    limits: decode::Limits,
+) -> Result<Classified, InferenceError> {
+    let t = Instant::now();
+    // A colour is read only against a card's colour.
+    let colour = matches!(input.white, WhiteSpec::Card { .. } | WhiteSpec::Rect { .. });
+    let options = DecodeOptions {
+        encoding: input.encoding,
+        limits,
+        colour,
+    };
+    let image = decode_part("", &input.image, &options)?;
+    drop(input.image);
+    let white = match input.white {
+        WhiteSpec::Value(v) => WhiteInput::Value(v),
+        WhiteSpec::Card { bytes, reflectance } => WhiteInput::Card {
+            image: decode_part("white_image: ", &bytes, &options)?,
+            reflectance,
+        },
+        WhiteSpec::Rect { rect, reflectance } => WhiteInput::Rect { rect, reflectance },
+        WhiteSpec::Missing => WhiteInput::Missing,
+    };
+    let locate = match input.locate {
+        LocateSpec::Circle(c) => Locate::Circle(c),
+        LocateSpec::Mask(bytes) => {
+            // A mask holds coverage, not light: its samples are read as stored.
+            let as_stored = DecodeOptions {
+                encoding: Some(Encoding::Linear),
+                colour: false,
+                ..options
+            };
+            let mask = decode_part("mask: ", &bytes, &as_stored)?;
+            Locate::Mask(analysis::mask_from_image(&mask))
+        }
+        LocateSpec::Auto => Locate::Auto,
+    };
+    classify_decoded(model, image, &locate, &white, &input.answer, ms(t))
+}
+
+/// What an answer includes beyond the class, and the prediction set's coverage.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Answer {
+    /// List every extracted feature, not only the classifier's inputs.
+    pub include_features: bool,
+    /// List the nearest training images.
+    pub include_explain: bool,
+    /// Include the unwrapped annulus and the subbands as PNG data URLs.
+    pub include_images: bool,
+    /// `None`: [`conformal::DEFAULT_COVERAGE`].
+    pub coverage: Option<f64>,
+}
+
+impl Answer {
+    /// The answer, if its coverage (when given) is one the prediction sets offer.
+    pub fn checked(self) -> Result<Answer, InputError> {
+        match self.coverage {
+            Some(c) if conformal::check_coverage(c).is_err() => Err(InputError::Coverage(c)),
+            _ => Ok(self),
+        }
+    }
+}
+
+/// Locate, extract and classify an image already decoded (or handed over as an array,
+/// [`decode::from_luminance`]); `decode_ms` is what its decoding took.
+pub fn classify_decoded(
+    model: Arc<LoadedModel>,
+    image: decode::LinearImage,
+    locate: &Locate,
+    white: &WhiteInput,
+    answer: &Answer,
+    decode_ms: f64,
+) -> Result<Classified, InferenceError> {
+    let t = Instant::now();
+    // Unless every feature is asked for, extract only those the classifier reads.
+    let wanted = match &model.needed {
+        Some(needed) if !answer.include_features => Some(needed.as_slice()),
+        _ => None,
+    };
+    let envelope = model.file.capture.as_ref();
+    let mut analysis = analysis::analyze_subset(
+        &model.extractor,
+        &image,
+        locate,
+        white,
+        wanted,
+        envelope.is_some(),
+    )?;
+    let images = answer
+        .include_images
+        .then(|| images_of(&model.extractor, &image, &analysis));
+    drop(image);
+    let features_ms = ms(t);
+    let t = Instant::now();
+    let context = Context {
+        white_given: analysis.white.method != WhiteMethod::None,
+        radius: analysis.geometry.circle().r,
+        measured: analysis.measured.as_ref(),
+        coverage: answer.coverage.unwrap_or(conformal::DEFAULT_COVERAGE),
+    };
+    let decision = decide(&model.file, &analysis.values, context)?;
+    // Outside the predicted class's envelope but not the model's: a warning, not a reason.
+    if let (Some(envelope), Some(measured), true) =
+        (envelope, &analysis.measured, decision.envelope.is_empty())
+    {
+        let class = &model.file.head(context.white_given).classifier.classes[decision.class];
+        let working_radius = model.file.features.config.working_radius;
+        let radius = context.radius;
+        analysis
+            .warnings
+            .extend(envelope.outside(radius, working_radius, class, measured));
+    }
+    let classifier = model.file.head(!decision.without_white).classifier;
+    let selected = if classifier.pca.is_some() {
+        decision.z.clone()
+    } else {
+        classifier
+            .selected_indices
+            .iter()
+            .map(|&i| analysis.values[i])
+            .collect()
+    };
+    let explain = if answer.include_explain {
+        let nearest = model.file.nearest(&analysis.values, 3)?;
+        Some(
+            nearest
+                .into_iter()
+                .map(|(e, distance)| Neighbour {
+                    path: e.path.clone(),
+                    class: e.class.clone(),
+                    illumination: e.illumination.clone(),
+                    distance,
+                    thumbnail: e.thumbnail.clone(),
+                })
+                .collect(),
+        )
+    } else {
+        None
+    };
+    let ward = estimate(&model.file, &decision, &analysis.values);
+    let predict_ms = ms(t);
+    Ok(Classified {
+        decision,
+        analysis,
+        selected,
+        explain,
+        images,
+        ward,
+        include_features: answer.include_features,
+        decode_ms,
+        features_ms,
+        predict_ms,
+        model,
+    })
+}
+
+/// The Ward-parameter estimate of a classification, when the model has an estimator: the
+/// regression's, with its intervals widened to hold the parameters of every class of the
+/// prediction set (of the predicted class without one). The set holds the true class as
+/// often as its coverage says, the regression's intervals a material's parameters 90 % of the
+/// time: their union holds the truth when either does, so the estimate never contradicts the
+/// classes the answer names.
+pub fn estimate(file: &ModelFile, decision: &Decision, values: &[f64]) -> Option<WardEstimate> {
+    let estimate = file.estimator.as_ref()?.estimate(values);
+    let classes = &file.head(!decision.without_white).classifier.classes;
+    let named = match &decision.set {
+        Some(set) => set.clone(),
+        None => vec![decision.class],
+    };
+    let parameters = named.iter().filter_map(|&k| {
+        let info = file.classes.iter().find(|c| c.name == classes[k])?;
+        info.ward.as_ref().map(|w| (w.rho_d, w.rho_s, w.alpha))
+    });
+    Some(estimate.holding(parameters))
+}
+
+/// The prediction set of a classification: the head's calibrated set, and, when there is no
+/// white reference, every class that differs from a member mainly by a brightness scale
+/// ([`crate::model::Ward::same_up_to_scale`]): the exposure of a photograph without a white
+/// card hides that difference, whatever the training captures' exposures taught.
+fn prediction_set(
+    file: &ModelFile,
+    head: &Head,
+    probabilities: &[f64],
+    coverage: f64,
+    white_given: bool,
+) -> Option<Vec<usize>> {
+    let mut set = head.prediction_sets?.set(probabilities, coverage);
+    if !white_given {
+        let classes = &head.classifier.classes;
+        let ward = |k: usize| {
+            let info = file.classes.iter().find(|c| c.name == classes[k])?;
+            info.ward.clone()
+        };
+        for k in 0..classes.len() {
+            let alike = set.iter().any(|&m| match (ward(m), ward(k)) {
+                (Some(a), Some(b)) => a.same_up_to_scale(&b),
+                _ => false,
+            });
+            if alike && !set.contains(&k) {
+                set.push(k);
+            }
+        }
+    }
+    Some(set)
+}
+
+/// Candidates a locate answer offers.
+pub const CANDIDATES: usize = 3;
+
+/// Longest side of a located image's preview, in pixels.
+pub const PREVIEW_SIDE: usize = 1024;
+
+/// Decode and find the sphere as classification would without a circle (blocking).
+pub fn locate(
+    model: &LoadedModel,
+    bytes: &[u8],
+    options: &DecodeOptions,
+    preview: bool,
+) -> Result<LocateResponse, InferenceError> {
+    let image = decode_part("", bytes, options)?;
+    let mut warnings = image.warnings.clone();
+    let (chosen, ranked) = analysis::locate_ranked(&image, &model.extractor);
+    let (width, height) = (image.width(), image.height());
+    let candidates = ranked
+        .iter()
+        .take(CANDIDATES)
+        .map(|g| CandidateOut {
+            geometry: GeometryOut::from(g),
+            rim_visible: geometry::visible_rim(&g.circle(), width, height),
+        })
+        .collect();
+    let geometry = match chosen {
+        Ok((g, more)) => {
+            warnings.extend(more);
+            Some(GeometryOut::from(&g))
+        }
+        Err(e) => {
+            warnings.push(format!("no usable sphere found: {e}"));
+            None
+        }
+    };
+    Ok(LocateResponse {
+        request_id: String::new(),
+        width: image.width(),
+        height: image.height(),
+        geometry,
+        candidates,
+        warnings,
+        preview: preview.then(|| {
+            display::data_url(&display::preview_png(image.luminance.view(), PREVIEW_SIDE))
+        }),
+    })
+}
