@@ -112,11 +112,11 @@ fn features_of_the_shipped_model(bencher: Bencher) {
     let image = decoded();
     let locate = Locate::Circle(circle());
     let white = WhiteInput::Value(1.0);
-    let measure = model.file.capture.is_some();
+    let measure = model.file().capture.is_some();
     bencher.bench(|| {
-        let wanted = model.needed.as_deref();
+        let wanted = model.needed();
         analysis::analyze_subset(
-            &model.extractor,
+            model.extractor(),
             divan::black_box(&image),
             &locate,
             &white,

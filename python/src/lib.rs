@@ -182,12 +182,12 @@ impl Model {
     /// `models/ward6`.
     #[new]
     fn new(py: Python<'_>, path: PathBuf) -> PyResult<Model> {
-        let loaded = py.detach(|| -> Result<LoadedModel, String> {
-            let file = registry::load_path(&path).map_err(|e| e.to_string())?;
-            LoadedModel::new(file).map_err(|e| e.to_string())
-        });
+        let loaded = py.detach(|| -> PyResult<LoadedModel> {
+            let file = registry::load_path(&path).map_err(error)?;
+            LoadedModel::new(file).map_err(error)
+        })?;
         Ok(Model {
-            loaded: Arc::new(loaded.map_err(error)?),
+            loaded: Arc::new(loaded),
         })
     }
 
@@ -204,7 +204,7 @@ impl Model {
     /// The class names, in the model's order.
     #[getter]
     fn classes(&self) -> Vec<String> {
-        self.loaded.file.head(true).classifier.classes().to_vec()
+        self.loaded.file().head(true).classifier.classes().to_vec()
     }
 
     /// [`classify`] with this model.

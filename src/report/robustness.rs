@@ -273,7 +273,7 @@ pub fn evaluate(
                         shot.encoding,
                         Answer::default(),
                     );
-                    let classes = model.file.classifier.classes();
+                    let classes = model.file().classifier.classes();
                     let truth = classes.iter().position(|c| *c == image.class);
                     let classified = input
                         .ok()
@@ -379,7 +379,7 @@ fn classes_of(models: &[(String, Arc<LoadedModel>)], name: &str) -> usize {
     models
         .iter()
         .find(|(n, _)| n == name)
-        .map_or(0, |(_, m)| m.file.classifier.classes().len())
+        .map_or(0, |(_, m)| m.file().classifier.classes().len())
 }
 
 /// FNV-1a of a text: a stable stream index.

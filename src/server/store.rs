@@ -185,7 +185,7 @@ impl ModelStore {
     pub fn activate(&self, name: &str, version: u32) -> Result<Activated, ApiError> {
         let _serial = self.activation.lock().unwrap_or_else(|e| e.into_inner());
         let model = Arc::new(self.load_version(name, version)?);
-        model.file.self_test().map_err(|e| {
+        model.file().self_test().map_err(|e| {
             metrics::model_load_failure(name);
             ApiError::from(e)
         })?;

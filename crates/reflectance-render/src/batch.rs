@@ -18,7 +18,7 @@ use crate::util::shard::Shard;
 use rayon::prelude::*;
 use reflectance_core::material::ClassFileError;
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
@@ -29,8 +29,9 @@ pub enum RenderError {
     },
     #[error(transparent)]
     Classes(#[from] ClassFileError),
+    /// A probe that does not load (shared: each job of the probe reports the one failure).
     #[error(transparent)]
-    Probe(#[from] EnvMapError),
+    Probe(Arc<EnvMapError>),
     #[error("no probes found in {0}")]
     NoProbes(String),
     #[error("probe {name:?} listed in {list} was not found")]
@@ -41,6 +42,12 @@ pub enum RenderError {
     Shape(#[from] ShapeError),
     #[error("cancelled")]
     Cancelled,
+}
+
+impl From<EnvMapError> for RenderError {
+    fn from(e: EnvMapError) -> Self {
+        RenderError::Probe(Arc::new(e))
+    }
 }
 
 fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> RenderError + '_ {
@@ -231,7 +238,7 @@ enum Source {
 struct Probe {
     source: Source,
     stem: String,
-    map: OnceLock<Result<EnvMap, String>>,
+    map: OnceLock<Result<EnvMap, Arc<EnvMapError>>>,
     /// One lighting per dynamic range (see [`Variant::lighting`]).
     lightings: Vec<OnceLock<Lighting>>,
 }
@@ -240,12 +247,12 @@ impl Probe {
     /// The map, loaded once.
     fn map(&self) -> Result<&EnvMap, RenderError> {
         let loaded = self.map.get_or_init(|| match &self.source {
-            Source::File(path) => EnvMap::load(path).map_err(|e| e.to_string()),
+            Source::File(path) => EnvMap::load(path).map_err(Arc::new),
             Source::Synthetic { seed, index } => Ok(super::synthetic::map(*seed, *index)),
         });
         loaded
             .as_ref()
-            .map_err(|e| RenderError::Probe(EnvMapError::Other(e.clone())))
+            .map_err(|e| RenderError::Probe(Arc::clone(e)))
     }
 }
 

@@ -32,9 +32,6 @@ pub enum EnvMapError {
         width: usize,
         height: usize,
     },
-    /// A load error seen earlier by another thread, as text.
-    #[error("{0}")]
-    Other(String),
 }
 
 fn read_picture(path: &Path) -> Result<(rgbe::RgbePicture, String), EnvMapError> {

@@ -138,7 +138,7 @@ pub struct ModelDetail {
 }
 
 pub fn detail(model: &LoadedModel, versions: Vec<u32>) -> ModelDetail {
-    let f = &model.file;
+    let f = model.file();
     let (c, gamma) = match f.classifier.model() {
         crate::learn::pipeline::Model::Svm(m) => (Some(m.c), Some(m.gamma)),
         _ => (None, None),
@@ -152,7 +152,7 @@ pub fn detail(model: &LoadedModel, versions: Vec<u32>) -> ModelDetail {
         features: FeatureSetOut {
             set: f.features.set.clone(),
             selected: f.features.selected.clone(),
-            extracted: model.feature_names.len(),
+            extracted: model.feature_names().len(),
         },
         classifier: ClassifierOut {
             kind: f.classifier.kind().to_string(),
@@ -191,8 +191,8 @@ pub async fn list(State(state): State<SharedState>) -> Json<ModelList> {
             name: m.name().to_string(),
             active_version: m.version(),
             default: m.name() == state.config.default_model,
-            classes: m.file.classifier.classes().to_vec(),
-            feature_set: m.file.features.set.clone(),
+            classes: m.file().classifier.classes().to_vec(),
+            feature_set: m.file().features.set.clone(),
         })
         .collect();
     Json(ModelList {

@@ -779,7 +779,7 @@ impl JobManager {
         let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
             run::execute(&request, &self.data, &self.limits, &self.models, &observer)
         }))
-        .unwrap_or_else(|_| Err(run::Failure::Error("the job panicked".into())));
+        .unwrap_or_else(|_| Err(run::JobError::Panicked.into()));
         self.conclude(&id, outcome);
         self.publish_metrics();
     }
@@ -848,13 +848,13 @@ fn finish(record: &mut JobRecord, finished: String, outcome: Result<JobResult, r
             record.state = JobState::Cancelled;
             record.error = Some("cancelled".into());
         }
-        Err(run::Failure::Error(message)) => {
+        Err(run::Failure::Error(e)) => {
             record.state = JobState::Failed;
-            record.error = Some(message);
+            record.error = Some(e.to_string());
         }
-        Err(run::Failure::Partial(message, result)) => {
+        Err(run::Failure::Partial(e, result)) => {
             record.state = JobState::Failed;
-            record.error = Some(message);
+            record.error = Some(e.to_string());
             record.result = Some(*result);
         }
     }

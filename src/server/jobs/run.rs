@@ -4,7 +4,7 @@
 use super::paths::{DataDir, PathError};
 use super::{JobRequest, LearnParams};
 use crate::dataset::{self, DatasetError, FeatureTable, Manifest};
-use crate::features::{Extractor, FeatureConfig, Preprocessing};
+use crate::features::{ConfigError, Extractor, FeatureConfig, Preprocessing};
 use crate::image::decode::{DecodeOptions, Limits};
 use crate::learn::estimate::{self, EstimateReport};
 use crate::learn::{self, CvSummary, Dataset, FeatureSet, LearnError, SpecText, TrainSpec};
@@ -67,47 +67,109 @@ pub struct JobResult {
 /// How a job ended, when not successfully.
 pub enum Failure {
     Cancelled,
-    Error(String),
+    Error(Box<JobError>),
     /// Failed after producing something (e.g. published, then activation refused).
-    Partial(String, Box<JobResult>),
+    Partial(Box<JobError>, Box<JobResult>),
 }
 
-/// A cancelled run of any layer is a cancelled job; any other error fails it.
-macro_rules! failure_from {
-    ($($error:ident),*) => {$(
+/// Why a job failed: the error of the layer that failed, kept typed until the job's record
+/// states it.
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    #[error(transparent)]
+    Dataset(DatasetError),
+    #[error(transparent)]
+    Learn(LearnError),
+    #[error(transparent)]
+    Render(RenderError),
+    #[error(transparent)]
+    Train(TrainError),
+    #[error(transparent)]
+    Path(#[from] PathError),
+    #[error(transparent)]
+    Classes(#[from] ClassFileError),
+    #[error(transparent)]
+    Features(#[from] ConfigError),
+    /// A request the submission's checks let through but execution refuses.
+    #[error("{}", .0.detail)]
+    Request(ApiError),
+    #[error("version {version} was published but its activation failed: {}", .cause.detail)]
+    Activation { version: u32, cause: ApiError },
+    #[error("the job panicked")]
+    Panicked,
+    #[error("a {0} job was given to another job's runner")]
+    WrongKind(&'static str),
+}
+
+impl From<TrainError> for JobError {
+    fn from(e: TrainError) -> JobError {
+        match e {
+            TrainError::Learn(e) => JobError::Learn(e),
+            other => JobError::Train(other),
+        }
+    }
+}
+
+impl From<DatasetError> for JobError {
+    fn from(e: DatasetError) -> JobError {
+        JobError::Dataset(e)
+    }
+}
+
+impl From<LearnError> for JobError {
+    fn from(e: LearnError) -> JobError {
+        JobError::Learn(e)
+    }
+}
+
+impl From<RenderError> for JobError {
+    fn from(e: RenderError) -> JobError {
+        JobError::Render(e)
+    }
+}
+
+impl JobError {
+    /// Whether the layer stopped because the job was cancelled.
+    fn cancels(&self) -> bool {
+        matches!(
+            self,
+            JobError::Dataset(DatasetError::Cancelled)
+                | JobError::Learn(LearnError::Cancelled)
+                | JobError::Render(RenderError::Cancelled)
+        )
+    }
+}
+
+impl From<JobError> for Failure {
+    /// A cancelled run of any layer is a cancelled job; any other error fails it.
+    fn from(e: JobError) -> Failure {
+        match e.cancels() {
+            true => Failure::Cancelled,
+            false => Failure::Error(Box::new(e)),
+        }
+    }
+}
+
+/// `?` on any layer's error in a job's run.
+macro_rules! fails_a_job {
+    ($($error:ty),*) => {$(
         impl From<$error> for Failure {
             fn from(e: $error) -> Failure {
-                match e {
-                    $error::Cancelled => Failure::Cancelled,
-                    other => Failure::Error(other.to_string()),
-                }
+                JobError::from(e).into()
             }
         }
     )*};
 }
 
-failure_from!(DatasetError, LearnError, RenderError);
-
-impl From<PathError> for Failure {
-    fn from(e: PathError) -> Failure {
-        Failure::Error(e.to_string())
-    }
-}
-
-impl From<ClassFileError> for Failure {
-    fn from(e: ClassFileError) -> Failure {
-        Failure::Error(e.to_string())
-    }
-}
-
-impl From<TrainError> for Failure {
-    fn from(e: TrainError) -> Failure {
-        match e {
-            TrainError::Learn(e) => e.into(),
-            other => Failure::Error(other.to_string()),
-        }
-    }
-}
+fails_a_job!(
+    DatasetError,
+    LearnError,
+    RenderError,
+    TrainError,
+    PathError,
+    ClassFileError,
+    ConfigError
+);
 
 fn invalid(detail: impl Into<String>) -> ApiError {
     ApiError::new(Kind::InvalidJob, detail)
@@ -302,7 +364,7 @@ fn load_table(
     for entry in &manifest.entries {
         data.check_resolved(&format!("manifest line {} image", entry.line), &entry.file)?;
     }
-    let extractor = Extractor::new(config).map_err(|e| Failure::Error(e.to_string()))?;
+    let extractor = Extractor::new(config)?;
     let options = DecodeOptions {
         encoding: None,
         limits: *limits,
@@ -354,7 +416,7 @@ pub fn execute(
 }
 
 fn detail(e: ApiError) -> Failure {
-    Failure::Error(e.detail)
+    JobError::Request(e).into()
 }
 
 impl Context<'_> {
@@ -371,7 +433,7 @@ impl Context<'_> {
             estimator_features,
         } = request
         else {
-            return Err(Failure::Error("not a train job".into()));
+            return Err(JobError::WrongKind("train").into());
         };
         let (data, observer) = (self.data, self.observer);
         let spec = spec_of(p).map_err(detail)?;
@@ -435,7 +497,7 @@ impl Context<'_> {
         let registry = self.models.registry();
         let served = self.models.active(name).map(|m| Current {
             version: m.version(),
-            accuracy: m.file.training.cv.as_ref().map(|cv| cv.accuracy),
+            accuracy: m.file().training.cv.as_ref().map(|cv| cv.accuracy),
         });
         let current = served.or_else(|| Current::in_registry(registry, name));
         let published = trained.publish_by(registry, current, activate)?;
@@ -468,13 +530,13 @@ impl Context<'_> {
                 });
                 Ok(result)
             }
-            Err(e) => {
-                result.activation = Some(e.detail.clone());
-                let message = format!(
-                    "version {} was published but its activation failed: {}",
-                    published.version, e.detail
-                );
-                Err(Failure::Partial(message, Box::new(result)))
+            Err(cause) => {
+                result.activation = Some(cause.detail.clone());
+                let e = JobError::Activation {
+                    version: published.version,
+                    cause,
+                };
+                Err(Failure::Partial(Box::new(e), Box::new(result)))
             }
         }
     }

@@ -32,15 +32,10 @@ pub use response::{
 /// A verified model version, ready to classify: the file and its feature extractor.
 #[derive(Debug)]
 pub struct LoadedModel {
-    /// The model file, its checksum and self-test passed.
-    pub file: ModelFile,
-    /// The feature extractor of the file's extraction configuration.
-    pub extractor: Extractor,
-    /// The canonical feature names of the model's extraction configuration.
-    pub feature_names: Vec<String>,
-    /// The features the classifier and the estimator read (`None`: all of them, e.g. for
-    /// PCA): a request that does not ask for every feature extracts only these.
-    pub needed: Option<Vec<usize>>,
+    file: ModelFile,
+    extractor: Extractor,
+    feature_names: Vec<String>,
+    needed: Option<Vec<usize>>,
 }
 
 impl LoadedModel {
@@ -78,6 +73,27 @@ impl LoadedModel {
             feature_names,
             needed,
         })
+    }
+
+    /// The model file, its checksum and self-test passed.
+    pub fn file(&self) -> &ModelFile {
+        &self.file
+    }
+
+    /// The feature extractor of the file's extraction configuration.
+    pub fn extractor(&self) -> &Extractor {
+        &self.extractor
+    }
+
+    /// The canonical feature names of the model's extraction configuration.
+    pub fn feature_names(&self) -> &[String] {
+        &self.feature_names
+    }
+
+    /// The features the classifier and the estimator read (`None`: all of them, e.g. for
+    /// PCA): a request that does not ask for every feature extracts only these.
+    pub fn needed(&self) -> Option<&[usize]> {
+        self.needed.as_deref()
     }
 
     /// The model's name, e.g. `ward11`.

@@ -47,7 +47,7 @@ pub fn inputs() -> Vec<TensorMetadata> {
 
 /// Every output of `model`, in the order an answer lists them.
 pub fn outputs(model: &LoadedModel) -> Vec<TensorMetadata> {
-    let k = model.file.classifier.classes().len() as i64;
+    let k = model.file().classifier.classes().len() as i64;
     let mut outputs = vec![
         meta("label", "BYTES", vec![1]),
         meta("probabilities", "FP64", vec![k]),
@@ -55,7 +55,7 @@ pub fn outputs(model: &LoadedModel) -> Vec<TensorMetadata> {
         meta("prediction_set", "BYTES", vec![-1]),
         meta("in_domain", "BOOL", vec![1]),
     ];
-    if model.file.estimator.is_some() {
+    if model.file().estimator.is_some() {
         // `ward` only when a white reference is given.
         outputs.push(meta("ward", "FP64", vec![3, 3]));
         outputs.push(meta("specular_fraction", "FP64", vec![3]));
@@ -181,7 +181,7 @@ pub fn raw_input(tensors: Vec<Tensor>) -> Result<RawInput, ApiError> {
 
 /// The answer as output tensors, in the order of [`outputs`].
 pub fn answer(c: &Classified) -> Vec<Tensor> {
-    let classes = c.model.file.classifier.classes();
+    let classes = c.model.file().classifier.classes();
     let k = classes.len() as i64;
     let mut tensors = vec![
         Tensor::bytes("label", vec![classes[c.decision.class].clone()]),
