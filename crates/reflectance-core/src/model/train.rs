@@ -206,27 +206,8 @@ pub fn train_with(
         return Err(TrainError::Columns);
     }
     let ds = Dataset::from_table(table)?;
-    if observer.cancelled() {
-        return Err(LearnError::Cancelled.into());
-    }
-    observer.stage("fit");
-    observer.progress(0, 2);
-    let rows: Vec<usize> = (0..ds.n_rows()).collect();
     let column = |name: &str| table.names.iter().position(|n| n == name);
-    let (classifier, held_out) = fit_rows_held_out(&ds, &rows, &options.spec, options.seed)?;
-    let (prediction_sets, domain) = reliability(
-        &ds,
-        &rows,
-        &classifier,
-        held_out.as_ref(),
-        &column,
-        options.seed,
-    )?;
-    observer.progress(1, 2);
-    if observer.cancelled() {
-        return Err(LearnError::Cancelled.into());
-    }
-    observer.progress(2, 2);
+    let (classifier, prediction_sets, domain) = fit_classifier(&ds, options, &column, observer)?;
     let no_white = match (&options.images, config.log_domain) {
         (Some(manifest), true) => {
             let table = without_white(manifest, config, &options.decode, observer)?;
@@ -252,26 +233,137 @@ pub fn train_with(
         .map(|data| fit_estimator(data, table, options, observer))
         .transpose()?
         .unzip();
-    // Self-test: the first original (non-augmented) training image.
+    let model = ModelFile {
+        schema: model::SCHEMA.into(),
+        schema_version: model::SCHEMA_VERSION,
+        name: options.name.clone(),
+        version: 1,
+        created: model::now_rfc3339(),
+        classes: class_infos(&classifier.classes, options.classes.as_deref()),
+        features: FeatureSpec {
+            config,
+            set: classifier.feature_set.clone(),
+            selected: classifier.selected.clone(),
+        },
+        training: provenance(table, &ds, dataset, options, report.as_ref()),
+        self_test: self_test(&ds, &classifier, no_white.as_ref())?,
+        exemplars: exemplars(table, &ds, &classifier, options.images.as_ref())?,
+        classifier,
+        capture: capture_envelope(table),
+        estimator,
+        prediction_sets,
+        domain,
+        no_white,
+        sha256: String::new(),
+    };
+    model.verify()?;
+    Ok(Trained {
+        model,
+        report,
+        estimate,
+    })
+}
+
+/// The classifier on every row, with its prediction sets and domain check.
+fn fit_classifier(
+    ds: &Dataset,
+    options: &TrainOptions,
+    column: &dyn Fn(&str) -> Option<usize>,
+    observer: &dyn Observer,
+) -> Result<(Classifier, Option<PredictionSets>, Option<DomainCheck>), TrainError> {
+    if observer.cancelled() {
+        return Err(LearnError::Cancelled.into());
+    }
+    observer.stage("fit");
+    observer.progress(0, 2);
+    let rows: Vec<usize> = (0..ds.n_rows()).collect();
+    let (classifier, held_out) = fit_rows_held_out(ds, &rows, &options.spec, options.seed)?;
+    let (prediction_sets, domain) = reliability(
+        ds,
+        &rows,
+        &classifier,
+        held_out.as_ref(),
+        column,
+        options.seed,
+    )?;
+    observer.progress(1, 2);
+    if observer.cancelled() {
+        return Err(LearnError::Cancelled.into());
+    }
+    observer.progress(2, 2);
+    Ok((classifier, prediction_sets, domain))
+}
+
+/// The classes in the classifier's order, with their Ward parameters when a class file
+/// gave them.
+fn class_infos(names: &[String], materials: Option<&[Material]>) -> Vec<ClassInfo> {
+    let ward_of = |name: &str| {
+        materials?.iter().find(|m| m.name == name).map(|m| Ward {
+            rho_d: m.rho_d,
+            rho_s: m.rho_s,
+            alpha: m.alpha,
+        })
+    };
+    names
+        .iter()
+        .map(|name| ClassInfo {
+            name: name.clone(),
+            ward: ward_of(name),
+        })
+        .collect()
+}
+
+/// What the model learned from, and how.
+fn provenance(
+    table: &FeatureTable,
+    ds: &Dataset,
+    dataset: &str,
+    options: &TrainOptions,
+    report: Option<&CvReport>,
+) -> Provenance {
+    let spec = &options.spec;
+    Provenance {
+        dataset: dataset.to_string(),
+        dataset_sha256: model::sha256_hex(&table.to_csv()),
+        images: table.samples.len(),
+        illuminations: ds.group_names.len(),
+        seed: options.seed,
+        options: json!({
+            "features": spec.features.to_string(),
+            "classifier": spec.classifier.to_string(),
+            "c": spec.c,
+            "gamma": spec.gamma,
+            "grid": spec.grid,
+        }),
+        cv: report.map(|r| StoredCv::from(&r.summary)),
+    }
+}
+
+/// The self-test: the first original (non-augmented) training image and its answers.
+fn self_test(
+    ds: &Dataset,
+    classifier: &Classifier,
+    no_white: Option<&NoWhite>,
+) -> Result<SelfTest, LearnError> {
     let probe = ds.augmented.iter().position(|a| !a).unwrap_or(0);
     let features = ds.x.row(probe).to_vec();
-    let probabilities = classifier.predict_proba(&features)?;
-    let no_white_probabilities = no_white
-        .as_ref()
-        .map(|n| n.classifier.predict_proba(&features))
-        .transpose()?;
-    let ward_of = |name: &str| {
-        options
-            .classes
-            .as_ref()?
-            .iter()
-            .find(|m| m.name == name)
-            .map(|m| Ward {
-                rho_d: m.rho_d,
-                rho_s: m.rho_s,
-                alpha: m.alpha,
-            })
-    };
+    Ok(SelfTest {
+        probabilities: classifier.predict_proba(&features)?,
+        no_white_probabilities: no_white
+            .map(|n| n.classifier.predict_proba(&features))
+            .transpose()?,
+        features,
+    })
+}
+
+/// The original (non-augmented) training images, with their thumbnails when the images
+/// are at hand, for `explain`.
+fn exemplars(
+    table: &FeatureTable,
+    ds: &Dataset,
+    classifier: &Classifier,
+    images: Option<&Manifest>,
+) -> Result<Vec<Exemplar>, LearnError> {
     let mut exemplars = Vec::new();
     for (i, sample) in table
         .samples
@@ -287,64 +379,10 @@ pub fn train_with(
             thumbnail: None,
         });
     }
-    if let Some(manifest) = &options.images {
+    if let Some(manifest) = images {
         attach_thumbnails(&mut exemplars, manifest);
     }
-    let spec = &options.spec;
-    let model = ModelFile {
-        schema: model::SCHEMA.into(),
-        schema_version: model::SCHEMA_VERSION,
-        name: options.name.clone(),
-        version: 1,
-        created: model::now_rfc3339(),
-        classes: classifier
-            .classes
-            .iter()
-            .map(|name| ClassInfo {
-                name: name.clone(),
-                ward: ward_of(name),
-            })
-            .collect(),
-        features: FeatureSpec {
-            config,
-            set: classifier.feature_set.clone(),
-            selected: classifier.selected.clone(),
-        },
-        training: Provenance {
-            dataset: dataset.to_string(),
-            dataset_sha256: model::sha256_hex(&table.to_csv()),
-            images: table.samples.len(),
-            illuminations: ds.group_names.len(),
-            seed: options.seed,
-            options: json!({
-                "features": spec.features.to_string(),
-                "classifier": spec.classifier.to_string(),
-                "c": spec.c,
-                "gamma": spec.gamma,
-                "grid": spec.grid,
-            }),
-            cv: report.as_ref().map(|r| StoredCv::from(&r.summary)),
-        },
-        classifier,
-        self_test: SelfTest {
-            features,
-            probabilities,
-            no_white_probabilities,
-        },
-        exemplars,
-        capture: capture_envelope(table),
-        estimator,
-        prediction_sets,
-        domain,
-        no_white,
-        sha256: String::new(),
-    };
-    model.verify()?;
-    Ok(Trained {
-        model,
-        report,
-        estimate,
-    })
+    Ok(exemplars)
 }
 
 /// The prediction sets and the domain check of a classifier, from the rows its calibration
