@@ -49,6 +49,8 @@ pub enum CliError {
     Json(#[from] serde_json::Error),
     #[error(transparent)]
     Serve(#[from] crate::server::StartError),
+    #[error(transparent)]
+    ServeConfig(#[from] crate::server::config::InvalidConfig),
     /// A failure about one thing (a file, an address): what it is, then what went wrong.
     #[error("{what}: {source}")]
     At {

@@ -114,13 +114,6 @@ fn seconds(what: &str, value: f64) -> CliResult<Duration> {
     }
 }
 
-fn positive_seconds(what: &str, value: f64) -> CliResult<Duration> {
-    match seconds(what, value)? {
-        d if d.is_zero() => Err(CliError::Invalid(format!("{what} must be > 0"))),
-        d => Ok(d),
-    }
-}
-
 impl ServeArgs {
     /// Validate the flags and read the admin token (`env_token`: REFLECTANCE_ADMIN_TOKEN).
     pub fn into_config(self, env_token: Option<String>) -> CliResult<Config> {
@@ -133,42 +126,11 @@ impl ServeArgs {
             (None, Some(token)) => Some(token.trim().to_string()),
             (None, None) => None,
         };
-        if token
-            .as_ref()
-            .is_some_and(|t| t.len() < defaults::MIN_TOKEN_LEN)
-        {
-            return Err(CliError::Invalid(format!(
-                "the admin token must be at least {} characters",
-                defaults::MIN_TOKEN_LEN
-            )));
-        }
-        if token.is_none() && !self.admin_listen.ip().is_loopback() {
-            return Err(CliError::Invalid(format!(
-                "--admin-listen {} is not a loopback address and no admin token is configured \
-                 (--admin-token-file or REFLECTANCE_ADMIN_TOKEN)",
-                self.admin_listen
-            )));
-        }
-        if !crate::model::registry::valid_name(&self.default_model) {
-            return Err(CliError::Invalid(format!(
-                "invalid --default-model {:?} (use 1–64 of a-z, 0-9, '_' and '-')",
-                self.default_model
-            )));
-        }
-        let positive = |what: &str, n: usize| {
-            if n == 0 {
-                Err(CliError::Invalid(format!("{what} must be at least 1")))
-            } else {
-                Ok(n)
-            }
-        };
         let jobs_dir = self
             .jobs_dir
             .clone()
             .unwrap_or_else(|| self.data_dir.join(defaults::JOBS_SUBDIR));
-        let request_timeout = positive_seconds("--request-timeout", self.request_timeout)?;
-        let header_timeout = positive_seconds("--header-timeout", self.header_timeout)?;
-        Ok(Config {
+        let config = Config {
             models: self.models,
             default_model: self.default_model,
             listen: self.listen,
@@ -177,17 +139,14 @@ impl ServeArgs {
             admin_token: token,
             data_dir: self.data_dir,
             jobs_dir,
-            workers: positive("--workers", self.workers)?,
-            job_queue: positive("--job-queue", self.job_queue)?,
-            job_history: positive("--job-history", self.job_history)?,
-            cpu_threads: positive(
-                "--cpu-threads",
-                self.cpu_threads.unwrap_or_else(config::default_cpu_threads),
-            )?,
-            max_inflight: positive("--max-inflight", self.max_inflight)?,
-            body_limit: positive("--body-limit", self.body_limit)?,
-            request_timeout,
-            header_timeout,
+            workers: self.workers,
+            job_queue: self.job_queue,
+            job_history: self.job_history,
+            cpu_threads: self.cpu_threads.unwrap_or_else(config::default_cpu_threads),
+            max_inflight: self.max_inflight,
+            body_limit: self.body_limit,
+            request_timeout: seconds("--request-timeout", self.request_timeout)?,
+            header_timeout: seconds("--header-timeout", self.header_timeout)?,
             shutdown_grace: seconds("--shutdown-grace", self.shutdown_grace)?,
             drain_delay: seconds("--drain-delay", self.drain_delay)?,
             model_cache: self.model_cache,
@@ -195,14 +154,16 @@ impl ServeArgs {
             datasets: DatasetLimits {
                 archive_bytes: self.dataset_max_archive,
                 archive: ArchiveLimits {
-                    members: positive("--dataset-max-members", self.dataset_max_members)?,
+                    members: self.dataset_max_members,
                     unpacked_bytes: self.dataset_max_unpacked,
                 },
-                timeout: positive_seconds("--dataset-timeout", self.dataset_timeout)?,
+                timeout: seconds("--dataset-timeout", self.dataset_timeout)?,
             },
             log_format: self.log_format,
             log: self.log,
-        })
+        };
+        config.check()?;
+        Ok(config)
     }
 }
 

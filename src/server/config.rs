@@ -1,5 +1,7 @@
-//! The server's configuration: a plain struct with its defaults. The command line
-//! (`reflectance serve`, `src/cli/serve.rs`) builds it from flags and environment.
+//! The server's configuration: a plain struct with its defaults and the rules it must keep
+//! ([`Config::check`], which the server applies at start however the struct was built). The
+//! command line (`reflectance serve`, `src/cli/serve.rs`) builds it from flags and
+//! environment.
 
 use crate::archive::ArchiveLimits;
 use crate::image::decode::Limits;
@@ -173,6 +175,64 @@ impl Config {
     pub fn admin_enabled(&self) -> bool {
         self.admin_token.is_some()
     }
+
+    /// The rules a configuration must keep, however it was built (flags, tests, embedding):
+    /// [`crate::server::build_state`] refuses a configuration that breaks one.
+    pub fn check(&self) -> Result<(), InvalidConfig> {
+        if let Some(token) = &self.admin_token
+            && token.len() < defaults::MIN_TOKEN_LEN
+        {
+            return Err(InvalidConfig::ShortToken);
+        }
+        if self.admin_token.is_none() && !self.admin_listen.ip().is_loopback() {
+            return Err(InvalidConfig::OpenAdmin(self.admin_listen));
+        }
+        if !crate::model::registry::valid_name(&self.default_model) {
+            return Err(InvalidConfig::DefaultModel(self.default_model.clone()));
+        }
+        let counts = [
+            ("--workers", self.workers),
+            ("--job-queue", self.job_queue),
+            ("--job-history", self.job_history),
+            ("--cpu-threads", self.cpu_threads),
+            ("--max-inflight", self.max_inflight),
+            ("--body-limit", self.body_limit),
+            ("--dataset-max-members", self.datasets.archive.members),
+        ];
+        if let Some((flag, _)) = counts.iter().find(|(_, n)| *n == 0) {
+            return Err(InvalidConfig::Zero(flag));
+        }
+        let durations = [
+            ("--request-timeout", self.request_timeout),
+            ("--header-timeout", self.header_timeout),
+            ("--dataset-timeout", self.datasets.timeout),
+        ];
+        match durations.iter().find(|(_, d)| d.is_zero()) {
+            Some((flag, _)) => Err(InvalidConfig::NoTime(flag)),
+            None => Ok(()),
+        }
+    }
+}
+
+/// A configuration the server refuses to run with (each names the flag to change).
+#[derive(Debug, thiserror::Error)]
+pub enum InvalidConfig {
+    #[error(
+        "the admin token must be at least {} characters",
+        defaults::MIN_TOKEN_LEN
+    )]
+    ShortToken,
+    #[error(
+        "--admin-listen {0} is not a loopback address and no admin token is configured \
+         (--admin-token-file or REFLECTANCE_ADMIN_TOKEN)"
+    )]
+    OpenAdmin(SocketAddr),
+    #[error("invalid --default-model {0:?} (use 1–64 of a-z, 0-9, '_' and '-')")]
+    DefaultModel(String),
+    #[error("{0} must be at least 1")]
+    Zero(&'static str),
+    #[error("{0} must be > 0")]
+    NoTime(&'static str),
 }
 
 /// The number of CPUs (2 when it cannot be told).
@@ -191,5 +251,46 @@ mod tests {
         let text = format!("{config:?}");
         assert!(!text.contains("super-secret"), "{text}");
         assert!(text.contains("<redacted>"), "{text}");
+    }
+
+    #[test]
+    fn a_configuration_is_checked_however_it_was_built() {
+        let base = || Config::new("models", "ward6");
+        assert!(base().check().is_ok());
+        let refused = |change: &dyn Fn(&mut Config)| {
+            let mut config = base();
+            change(&mut config);
+            config.check().map_err(|e| e.to_string()).unwrap_err()
+        };
+        let short = refused(&|c| c.admin_token = Some("fifteen-chars-x".into()));
+        assert_eq!(short, "the admin token must be at least 16 characters");
+        let open = refused(&|c| c.admin_listen = "0.0.0.0:8081".parse().unwrap());
+        assert!(
+            open.starts_with("--admin-listen 0.0.0.0:8081 is not a loopback"),
+            "{open}"
+        );
+        let mut open_with_token = base();
+        open_with_token.admin_listen = "0.0.0.0:8081".parse().unwrap();
+        open_with_token.admin_token = Some("sixteen-chars-xx".into());
+        assert!(open_with_token.check().is_ok());
+        let name = refused(&|c| c.default_model = "../ward6".into());
+        assert!(name.starts_with("invalid --default-model"), "{name}");
+        assert_eq!(refused(&|c| c.workers = 0), "--workers must be at least 1");
+        assert_eq!(
+            refused(&|c| c.datasets.archive.members = 0),
+            "--dataset-max-members must be at least 1"
+        );
+        assert_eq!(
+            refused(&|c| c.header_timeout = Duration::ZERO),
+            "--header-timeout must be > 0"
+        );
+        let mut zero = base();
+        zero.cpu_threads = 0;
+        assert!(matches!(
+            crate::server::build_state(zero),
+            Err(crate::server::StartError::Config(InvalidConfig::Zero(
+                "--cpu-threads"
+            )))
+        ));
     }
 }

@@ -50,6 +50,8 @@ pub enum StartError {
     Registry(#[from] crate::model::registry::RegistryError),
     #[error("the model registry: {0}")]
     Models(String),
+    #[error(transparent)]
+    Config(#[from] config::InvalidConfig),
     #[error("cannot start the runtime: {0}")]
     Runtime(std::io::Error),
     #[error("cannot listen on {address}: {source}")]
@@ -67,6 +69,7 @@ pub enum StartError {
 /// (when the admin plane is on) and the CPU pool. Models are not loaded yet (the server
 /// reports `loading`); call [`load_models`].
 pub fn build_state(config: Config) -> Result<SharedState, StartError> {
+    config.check()?;
     let _ = metrics::handle();
     let registry = crate::model::registry::Registry::new(&config.models);
     match registry.clean_staging() {
