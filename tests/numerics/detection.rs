@@ -741,3 +741,71 @@ fn refusals_say_why() {
         }
     }
 }
+
+/// scikit-image's sample data: `REFLECTANCE_SKIMAGE_DATA`, else where `python3` finds it.
+fn skimage_data() -> Option<PathBuf> {
+    if let Some(dir) = std::env::var_os("REFLECTANCE_SKIMAGE_DATA") {
+        return Some(PathBuf::from(dir));
+    }
+    let out = std::process::Command::new("python3")
+        .args([
+            "-c",
+            "import os, skimage.data; print(os.path.dirname(skimage.data.__file__))",
+        ])
+        .output()
+        .ok()?;
+    let dir = String::from_utf8(out.stdout).ok()?;
+    out.status.success().then(|| PathBuf::from(dir.trim()))
+}
+
+/// The most sample photographs of scikit-image (26 PNG and JPEG files, none of them a ball:
+/// a camera man, coins, a colour wheel, a retina, …) in which a circle may be chosen
+/// (docs/accuracy.md).
+const SKIMAGE_CHOSEN_CEILING: usize = 8;
+
+#[test]
+#[ignore = "needs scikit-image's sample data (python3 -m pip install scikit-image, or REFLECTANCE_SKIMAGE_DATA)"]
+fn few_circles_are_chosen_in_scikit_image_samples() {
+    let dir = skimage_data().expect("scikit-image's sample data");
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .expect("scikit-image's data directory")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| matches!(e, "png" | "jpg"))
+        })
+        .collect();
+    paths.sort();
+    let options = DecodeOptions {
+        encoding: None,
+        colour: false,
+        limits: Limits::default(),
+    };
+    let mut chosen = Vec::new();
+    for path in &paths {
+        let Ok(image) = reflectance::image::decode::decode_file(path, &options) else {
+            continue;
+        };
+        if let Ok(g) = geometry::detect(image.luminance.view()) {
+            let name = path.file_name().unwrap_or_default().to_string_lossy();
+            chosen.push(format!(
+                "{name} ({:.0}, {:.0}, r {:.0}) at {:.2}",
+                g.cx,
+                g.cy,
+                g.r,
+                g.confidence.unwrap_or(1.0)
+            ));
+        }
+    }
+    eprintln!("a circle chosen in {} of {}:", chosen.len(), paths.len());
+    for c in &chosen {
+        eprintln!("  {c}");
+    }
+    assert!(
+        chosen.len() <= SKIMAGE_CHOSEN_CEILING,
+        "a circle chosen in {} of {} of scikit-image's sample photographs: {chosen:#?}",
+        chosen.len(),
+        paths.len()
+    );
+}

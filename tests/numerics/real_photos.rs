@@ -8,7 +8,10 @@
 //! prints the table per kind (a photo counts under each of its tags) and per source, the
 //! time per photo (decoding and detection), and a line per photo (with where the true
 //! circle is among the alternatives offered); `REFLECTANCE_REAL_PHOTOS_VERBOSE=1` also
-//! lists the first five alternatives.
+//! lists the first five alternatives. `REFLECTANCE_REAL_PHOTOS_HOLDOUT=a,b` names sources
+//! (parts of their repository names) held out while tuning: they are left out of the lines
+//! and tables, and their figure is printed apart; `REFLECTANCE_REAL_PHOTOS_ONLY=name` runs the
+//! photos whose file name contains it (no floor then).
 
 use reflectance::image::decode::{DecodeOptions, decode_file};
 use reflectance::image::geometry::{self, GeometryError};
@@ -101,9 +104,10 @@ fn print_table(title: &str, tallies: &BTreeMap<String, Tally>) {
     }
 }
 
-/// The found count measured on the development set (docs/accuracy.md; 15 before the
-/// calibrated acceptance): detection must not fall below it.
-const FOUND_FLOOR: usize = 17;
+/// The found count measured on the development set (docs/accuracy.md: 20; 17 before the
+/// vote cells grew with the radius), less one for a photo on the edge of 4 %: detection
+/// must not fall below it.
+const FOUND_FLOOR: usize = 19;
 
 #[test]
 #[cfg_attr(
@@ -120,8 +124,16 @@ fn real_photographs() {
     let mut per_kind: BTreeMap<String, Tally> = BTreeMap::new();
     let mut per_source: BTreeMap<String, Tally> = BTreeMap::new();
     let mut total: Tally = [0; 3];
+    let mut held_out: Tally = [0; 3];
+    let holdout: Vec<String> = std::env::var("REFLECTANCE_REAL_PHOTOS_HOLDOUT")
+        .unwrap_or_default()
+        .split(',')
+        .filter(|s| !s.is_empty())
+        .map(str::to_string)
+        .collect();
     let started = Instant::now();
-    for photo in &photos {
+    let only = std::env::var("REFLECTANCE_REAL_PHOTOS_ONLY").unwrap_or_default();
+    for photo in photos.iter().filter(|p| p.path.contains(only.as_str())) {
         let t = Instant::now();
         let image = decode_file(&dev_set().join(&photo.path), &options).unwrap();
         // What `classify` does without a circle: the alpha channel, else detection.
@@ -158,6 +170,11 @@ fn real_photographs() {
             Err(GeometryError::DetectionFailed { reason }) => reason.clone(),
             Err(e) => e.to_string(),
         };
+        total[outcome as usize] += 1;
+        if holdout.iter().any(|h| photo.source.contains(h.as_str())) {
+            held_out[outcome as usize] += 1;
+            continue;
+        }
         let mark = ["found", "WRONG", "refused"][outcome as usize];
         // Where the true circle is among the alternatives offered (confidence ≥ 0.3).
         let offered = match ranked.iter().position(close) {
@@ -187,11 +204,17 @@ fn real_photographs() {
             add(&mut per_kind, tag, outcome);
         }
         add(&mut per_source, &photo.source, outcome);
-        total[outcome as usize] += 1;
     }
     let elapsed = started.elapsed().as_secs_f64();
     print_table("kind (each tag)", &per_kind);
     print_table("source", &per_source);
+    if !holdout.is_empty() {
+        let [found, wrong, refused] = held_out;
+        eprintln!(
+            "held out ({}): found {found}, wrong {wrong}, refused {refused}",
+            holdout.join(", ")
+        );
+    }
     let [found, wrong, refused] = total;
     eprintln!(
         "all: found {found} / {}, wrong {wrong}, refused {refused}; {:.2} s per photo",
@@ -199,7 +222,7 @@ fn real_photographs() {
         elapsed / photos.len() as f64
     );
     assert!(
-        found >= FOUND_FLOOR,
+        !only.is_empty() || found >= FOUND_FLOOR,
         "found {found} of {} real photographs, below the floor of {FOUND_FLOOR}",
         photos.len()
     );

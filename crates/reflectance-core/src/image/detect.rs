@@ -157,14 +157,14 @@ pub fn find_spheres(
         return Err(NotFound("the image is too small to hold a sphere".into()));
     }
     let mut candidates: Vec<(Circle, f64)> = clean.into_iter().collect();
-    for (cx, cy, r_bin) in vote(&edges, (wh, ww), min_r, max_r) {
+    for (cx, cy, r_bin, cell) in vote(&edges, (wh, ww), min_r, max_r) {
         for r in radii(&edges, cx, cy, r_bin / RADIUS_RATIO, r_bin * RADIUS_RATIO) {
             let rough = Circle {
                 cx: (cx + 0.5) / scale - 0.5,
                 cy: (cy + 0.5) / scale - 0.5,
                 r: r / scale,
             };
-            candidates.push((rough, 2.5 / scale));
+            candidates.push((rough, (1.5 + 0.5 * cell) / scale));
         }
     }
     let found: Vec<Found> = candidates
@@ -351,26 +351,84 @@ fn edge_points(image: ArrayView2<f64>) -> Vec<Edge> {
 
 /// Consecutive radius bins of the vote differ by this factor.
 const RADIUS_RATIO: f64 = 1.08;
-/// Vote cells are this many working pixels across.
+/// Vote cells are at least this many working pixels across ...
 const CELL: f64 = 2.0;
+/// ... and this share of the bin's radius: a ball drawn a few percent elongated (a lens
+/// off-axis, a crop rescaled unevenly) spreads its centre's votes over a few percent of r.
+const CELL_SHARE: f64 = 0.015;
 /// Gradient directions are told apart in this many sectors.
 const SECTORS: f64 = 16.0;
+
+/// One radius bin's vote map: its cell size and dimensions, the votes and, per cell, the
+/// sectors they came from.
+struct VoteMap {
+    cell: f64,
+    cw: usize,
+    ch: usize,
+    votes: Vec<f32>,
+    directions: Vec<u16>,
+}
+
+impl VoteMap {
+    fn new(cell: f64, (h, w): (usize, usize)) -> Self {
+        let (ch, cw) = (
+            (h as f64 / cell).ceil() as usize,
+            (w as f64 / cell).ceil() as usize,
+        );
+        VoteMap {
+            cell,
+            cw,
+            ch,
+            votes: vec![0.0; ch * cw],
+            directions: vec![0; ch * cw],
+        }
+    }
+
+    /// A vote at (x, y) (working pixels) from `sector`; false when outside the map.
+    fn add(&mut self, x: f64, y: f64, sector: u16) -> bool {
+        let (x, y) = (x / self.cell, y / self.cell);
+        if x < 0.0 || y < 0.0 || x >= self.cw as f64 || y >= self.ch as f64 {
+            return false;
+        }
+        let at = y as usize * self.cw + x as usize;
+        self.votes[at] += 1.0;
+        self.directions[at] |= 1 << sector;
+        true
+    }
+
+    /// The sectors seen in the cell (x, y) and its neighbours.
+    fn seen_around(&self, x: usize, y: usize) -> u16 {
+        let mut around = 0u16;
+        for yy in y.saturating_sub(1)..(y + 2).min(self.ch) {
+            for xx in x.saturating_sub(1)..(x + 2).min(self.cw) {
+                around |= self.directions[yy * self.cw + xx];
+            }
+        }
+        around
+    }
+}
+
+/// The centre radius of vote bin `bin`.
+fn bin_radius(min_r: f64, bin: usize) -> f64 {
+    min_r * RADIUS_RATIO.powf(bin as f64 + 0.5)
+}
 
 /// Every edge point votes, at every radius between `min_r` and `max_r`, for the centre
 /// that far along its gradient line, on both sides, in a map per radius bin; each cell
 /// also records from which directions its votes came. A texture's straight edges spread
 /// their votes over every bin and come from few directions; a circle's gather in one bin
-/// and come from all around. Returns the [`CANDIDATES`] best peaks as (x, y, radius),
+/// and come from all around. Returns the [`CANDIDATES`] best peaks as (x, y, radius, cell),
 /// scored by votes per unit of circumference times the share of directions seen.
-fn vote(edges: &[Edge], (h, w): (usize, usize), min_r: f64, max_r: f64) -> Vec<(f64, f64, f64)> {
+fn vote(
+    edges: &[Edge],
+    (h, w): (usize, usize),
+    min_r: f64,
+    max_r: f64,
+) -> Vec<(f64, f64, f64, f64)> {
     let bins = ((max_r / min_r).ln() / RADIUS_RATIO.ln()).ceil() as usize + 1;
-    let (ch, cw) = (
-        (h as f64 / CELL).ceil() as usize,
-        (w as f64 / CELL).ceil() as usize,
-    );
-    // Per bin, row-major over the cells.
-    let mut votes = vec![vec![0f32; ch * cw]; bins];
-    let mut directions = vec![vec![0u16; ch * cw]; bins];
+    let mut maps: Vec<VoteMap> = (0..bins)
+        .map(|bin| VoteMap::new((CELL_SHARE * bin_radius(min_r, bin)).max(CELL), (h, w)))
+        .collect();
     // Radii one working pixel apart, and the bin of each.
     let steps: Vec<(f64, usize)> = (0..)
         .map(|k| min_r + k as f64)
@@ -387,49 +445,59 @@ fn vote(edges: &[Edge], (h, w): (usize, usize), min_r: f64, max_r: f64) -> Vec<(
             // The direction from the centre to the edge point.
             let angle = (-side * e.uy).atan2(-side * e.ux) + std::f64::consts::PI;
             let sector = ((angle / std::f64::consts::TAU * SECTORS) as u16).min(SECTORS as u16 - 1);
-            let (dx, dy) = (side * e.ux / CELL, side * e.uy / CELL);
-            let (x0, y0) = (e.x / CELL, e.y / CELL);
+            let (dx, dy) = (side * e.ux, side * e.uy);
             for &(r, bin) in &steps {
-                let (x, y) = (x0 + r * dx, y0 + r * dy);
-                if x < 0.0 || y < 0.0 || x >= cw as f64 || y >= ch as f64 {
+                if !maps[bin].add(e.x + r * dx, e.y + r * dy, sector) {
                     break;
                 }
-                let cell = y as usize * cw + x as usize;
-                votes[bin][cell] += 1.0;
-                directions[bin][cell] |= 1 << sector;
             }
         }
     }
-    let mut found: Vec<(f64, f64, f64, f64)> = Vec::new();
-    for (bin, (map, seen)) in votes.iter().zip(&directions).enumerate() {
-        let r = min_r * RADIUS_RATIO.powf(bin as f64 + 0.5);
-        let map = Array2::from_shape_fn((ch, cw), |(y, x)| f64::from(map[y * cw + x]));
-        let smooth = crate::image::blur::gaussian_blur(map.view(), 1.0);
-        let circumference = std::f64::consts::TAU * r;
-        for (y, x) in peaks(&smooth, CANDIDATES, (0.5 * r / CELL).max(2.0)) {
-            let (y, x) = (y as usize, x as usize);
-            let mut around = 0u16;
-            for yy in y.saturating_sub(1)..(y + 2).min(ch) {
-                for xx in x.saturating_sub(1)..(x + 2).min(cw) {
-                    around |= seen[yy * cw + xx];
-                }
-            }
-            let centre = |c: usize| (c as f64 + 0.5) * CELL - 0.5;
-            let (cx, cy) = (centre(x), centre(y));
-            // Judged on the part of the circle inside the picture.
-            let visible = visible_sectors(cx, cy, r, (h, w));
-            if visible.count_ones() < SECTORS as u32 / 2 {
-                continue;
-            }
-            let inside = (f64::from(visible.count_ones()) / SECTORS).max(UNCUT);
-            let share = f64::from((around & visible).count_ones()) / (inside * SECTORS);
-            let score = smooth[[y, x]] / (circumference * inside) * share * share;
-            found.push((score, cx, cy, r));
-        }
+    let mut found: Vec<(f64, f64, f64, f64, f64)> = Vec::new();
+    for (bin, map) in maps.iter().enumerate() {
+        let r = bin_radius(min_r, bin);
+        found.extend(
+            bin_peaks(map, r, (h, w))
+                .into_iter()
+                .map(|(score, x, y)| (score, x, y, r, map.cell)),
+        );
     }
     found.sort_by(|a, b| b.0.total_cmp(&a.0));
     found.truncate(CANDIDATES);
-    found.into_iter().map(|(_, x, y, r)| (x, y, r)).collect()
+    found
+        .into_iter()
+        .map(|(_, x, y, r, cell)| (x, y, r, cell))
+        .collect()
+}
+
+/// The best peaks of one bin's vote map (radius `r`) as (score, x, y): votes per unit of
+/// circumference (and of cell size) times the square of the share of directions seen, on
+/// the part of the circle inside the picture.
+fn bin_peaks(map: &VoteMap, r: f64, (h, w): (usize, usize)) -> Vec<(f64, f64, f64)> {
+    let (ch, cw, cell) = (map.ch, map.cw, map.cell);
+    let grid = Array2::from_shape_fn((ch, cw), |(y, x)| f64::from(map.votes[y * cw + x]));
+    let smooth = crate::image::blur::gaussian_blur(grid.view(), 1.0);
+    // A circle's centre cell gathers about one vote per edge point per pixel of cell.
+    let circumference = std::f64::consts::TAU * r * cell / CELL;
+    let mut found = Vec::new();
+    for (y, x) in peaks(&smooth, CANDIDATES, (0.5 * r / cell).max(2.0)) {
+        let (y, x) = (y as usize, x as usize);
+        let around = map.seen_around(x, y);
+        let centre = |c: usize| (c as f64 + 0.5) * cell - 0.5;
+        let (cx, cy) = (centre(x), centre(y));
+        let visible = visible_sectors(cx, cy, r, (h, w));
+        if visible.count_ones() < SECTORS as u32 / 2 {
+            continue;
+        }
+        let inside = (f64::from(visible.count_ones()) / SECTORS).max(UNCUT);
+        let share = f64::from((around & visible).count_ones()) / (inside * SECTORS);
+        found.push((
+            smooth[[y, x]] / (circumference * inside) * share * share,
+            cx,
+            cy,
+        ));
+    }
+    found
 }
 
 /// The direction sectors (as [`vote`] numbers them) in which the circle's rim lies inside a
