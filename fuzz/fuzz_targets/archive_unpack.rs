@@ -5,7 +5,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use reflectance::archive::{ArchiveLimits, unpack};
+use reflectance::{ArchiveLimits, unpack_archive as unpack};
 use reflectance::dataset::{ingest, read_manifest};
 use std::path::{Component, Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};

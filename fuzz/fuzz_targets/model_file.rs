@@ -6,7 +6,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use reflectance::model::{ModelFile, checksum};
-use reflectance::server::state::LoadedModel;
+use reflectance::LoadedModel;
 use serde_json::Value;
 
 fn exercise(model: ModelFile) {

@@ -6,8 +6,8 @@
 use axum::body::Body;
 use axum::http::Request;
 use libfuzzer_sys::fuzz_target;
-use reflectance::server::config::Config;
-use reflectance::server::{build_state, load_models, router};
+use reflectance::ServerConfig as Config;
+use reflectance::{build_state, data_router, load_models};
 use std::sync::OnceLock;
 use tower::ServiceExt;
 
@@ -31,7 +31,7 @@ fn server() -> &'static Server {
                 .enable_all()
                 .build()
                 .expect("runtime"),
-            router: router::data_router(state),
+            router: data_router(state),
         }
     })
 }
