@@ -5,7 +5,7 @@
 //! Along y the edge is `reflect1`; along x it is periodic (the angle wraps) or `reflect1`
 //! (which reproduces pyrtools' `WaveletPyramid(img, 'qmf9', 'reflect1')` exactly).
 
-use ndarray::{Array2, ArrayView2};
+use ndarray::{Array2, ArrayView2, Axis};
 
 /// qmf9 lowpass taps, not renormalized (they sum to √2).
 pub const QMF9_LO: [f64; 9] = [
@@ -63,15 +63,16 @@ impl Edge {
     }
 }
 
-/// The three oriented subbands of one level.
+/// The three oriented subbands of one level (their coefficients, or with `T = bool` which
+/// of them are [`supported`]).
 #[derive(Clone, Debug)]
-pub struct Level {
+pub struct Level<T = f64> {
     /// HI along y, LO along x: horizontal structure.
-    pub h: Array2<f64>,
+    pub h: Array2<T>,
     /// LO along y, HI along x: vertical (on the sphere, radial) structure.
-    pub v: Array2<f64>,
+    pub v: Array2<T>,
     /// HI along both.
-    pub d: Array2<f64>,
+    pub d: Array2<T>,
 }
 
 /// The QMF wavelet pyramid of an image: each level's three oriented subbands and the
@@ -234,6 +235,42 @@ fn build_portable(image: ArrayView2<f64>, levels: usize, x_edge: Edge) -> Pyrami
     }
 }
 
+/// Which coefficients of each level [`build`] computes from observed samples only: a
+/// coefficient is supported when every sample its filters read, through every coarser
+/// step, is observed (edges folded as `build` folds them). Over an image with missing
+/// regions (the equivalent sphere of an object, issue #44), statistics over the supported
+/// coefficients do not depend on what fills the missing samples.
+pub fn supported(observed: ArrayView2<bool>, levels: usize, x_edge: Edge) -> Vec<Level<bool>> {
+    let mut current = observed.to_owned();
+    let mut out = Vec::with_capacity(levels);
+    for _ in 0..levels {
+        let lo_y = all_down(current.view(), Axis(0), 0, Edge::Reflect1);
+        let hi_y = all_down(current.view(), Axis(0), 1, Edge::Reflect1);
+        out.push(Level {
+            h: all_down(hi_y.view(), Axis(1), 0, x_edge),
+            v: all_down(lo_y.view(), Axis(1), 1, x_edge),
+            d: all_down(hi_y.view(), Axis(1), 1, x_edge),
+        });
+        current = all_down(lo_y.view(), Axis(1), 0, x_edge);
+    }
+    out
+}
+
+/// `out[m]`: whether all nine samples a stride-2 correlation from `start` reads along
+/// `axis` are set.
+fn all_down(input: ArrayView2<bool>, axis: Axis, start: usize, edge: Edge) -> Array2<bool> {
+    let n = input.len_of(axis);
+    let mut shape = input.raw_dim();
+    shape[axis.index()] = out_len(n, start);
+    let mut out = Array2::from_elem(shape, true);
+    for (mut out_lane, in_lane) in out.lanes_mut(axis).into_iter().zip(input.lanes(axis)) {
+        for (m, o) in out_lane.iter_mut().enumerate() {
+            *o = (0..9).all(|k| in_lane[edge.index((start + 2 * m + k) as isize - HALF, n)]);
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -340,6 +377,56 @@ mod tests {
                     assert!((bb[[y, (x + s) % w]] - v).abs() < 1e-12, "level {k}");
                 }
             }
+        }
+    }
+
+    /// Supported coefficients are exactly those the missing samples cannot reach: filling
+    /// a hole with 0 or with 1000 leaves them bit-identical and changes every other one.
+    #[test]
+    fn supported_coefficients_are_those_a_hole_cannot_reach() {
+        let (h, w) = (40, 72);
+        let mut rng = crate::util::rng::Rng::new(7);
+        let base = Array2::from_shape_fn((h, w), |_| rng.next_f64());
+        // A hole inside, and one across the angle's wrap (x = 0) to test the periodic edge.
+        let observed = Array2::from_shape_fn((h, w), |(y, x)| {
+            let inside = (14..20).contains(&y) && (30..37).contains(&x);
+            let wrap = (28..31).contains(&y) && (x < 2 || x > 69);
+            !(inside || wrap)
+        });
+        for edge in [Edge::Periodic, Edge::Reflect1] {
+            let filled = |value: f64| {
+                Array2::from_shape_fn((h, w), |i| if observed[i] { base[i] } else { value })
+            };
+            let (zero, big) = (
+                build(filled(0.0).view(), 3, edge),
+                build(filled(1e3).view(), 3, edge),
+            );
+            let support = supported(observed.view(), 3, edge);
+            let mut counts = (0, 0);
+            for ((a, b), s) in zero.levels.iter().zip(&big.levels).zip(&support) {
+                for (a, b, s) in [(&a.h, &b.h, &s.h), (&a.v, &b.v, &s.v), (&a.d, &b.d, &s.d)] {
+                    assert_eq!(a.dim(), s.dim());
+                    for ((x, y), ok) in a.iter().zip(b).zip(s) {
+                        assert_eq!(x == y, *ok, "{edge:?}: {x} vs {y}, supported {ok}");
+                        counts = (counts.0 + usize::from(*ok), counts.1 + usize::from(!ok));
+                    }
+                }
+            }
+            assert!(counts.0 > 0 && counts.1 > 0, "{edge:?}: {counts:?}");
+        }
+    }
+
+    #[test]
+    fn every_coefficient_of_a_whole_image_is_supported() {
+        let observed = Array2::from_elem((33, 64), true);
+        let support = supported(observed.view(), 4, Edge::Periodic);
+        let pyramid = build(Array2::zeros((33, 64)).view(), 4, Edge::Periodic);
+        for (s, l) in support.iter().zip(&pyramid.levels) {
+            assert_eq!(
+                (s.h.dim(), s.v.dim(), s.d.dim()),
+                (l.h.dim(), l.v.dim(), l.d.dim())
+            );
+            assert!(s.h.iter().chain(&s.v).chain(&s.d).all(|&ok| ok));
         }
     }
 }
