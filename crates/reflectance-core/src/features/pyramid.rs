@@ -390,7 +390,7 @@ mod tests {
         // A hole inside, and one across the angle's wrap (x = 0) to test the periodic edge.
         let observed = Array2::from_shape_fn((h, w), |(y, x)| {
             let inside = (14..20).contains(&y) && (30..37).contains(&x);
-            let wrap = (28..31).contains(&y) && (x < 2 || x > 69);
+            let wrap = (28..31).contains(&y) && !(2..=69).contains(&x);
             !(inside || wrap)
         });
         for edge in [Edge::Periodic, Edge::Reflect1] {
