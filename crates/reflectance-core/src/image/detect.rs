@@ -384,9 +384,8 @@ impl VoteMap {
         }
     }
 
-    /// A vote at (x, y) (working pixels) from `sector`; false when outside the map.
+    /// A vote at (x, y) (in cells) from `sector`; false when outside the map.
     fn add(&mut self, x: f64, y: f64, sector: u16) -> bool {
-        let (x, y) = (x / self.cell, y / self.cell);
         if x < 0.0 || y < 0.0 || x >= self.cw as f64 || y >= self.ch as f64 {
             return false;
         }
@@ -429,26 +428,26 @@ fn vote(
     let mut maps: Vec<VoteMap> = (0..bins)
         .map(|bin| VoteMap::new((CELL_SHARE * bin_radius(min_r, bin)).max(CELL), (h, w)))
         .collect();
-    // Radii one working pixel apart, and the bin of each.
-    let steps: Vec<(f64, usize)> = (0..)
-        .map(|k| min_r + k as f64)
-        .take_while(|&r| r <= max_r)
-        .map(|r| {
-            (
-                r,
-                (((r / min_r).ln() / RADIUS_RATIO.ln()) as usize).min(bins - 1),
-            )
-        })
-        .collect();
+    // Radii one working pixel apart, per bin.
+    let mut radii: Vec<Vec<f64>> = vec![Vec::new(); bins];
+    for r in (0..).map(|k| min_r + k as f64).take_while(|&r| r <= max_r) {
+        let bin = (((r / min_r).ln() / RADIUS_RATIO.ln()) as usize).min(bins - 1);
+        radii[bin].push(r);
+    }
     for e in edges {
         for side in [-1.0, 1.0] {
             // The direction from the centre to the edge point.
             let angle = (-side * e.uy).atan2(-side * e.ux) + std::f64::consts::PI;
             let sector = ((angle / std::f64::consts::TAU * SECTORS) as u16).min(SECTORS as u16 - 1);
-            let (dx, dy) = (side * e.ux, side * e.uy);
-            for &(r, bin) in &steps {
-                if !maps[bin].add(e.x + r * dx, e.y + r * dy, sector) {
-                    break;
+            'along: for (map, radii) in maps.iter_mut().zip(&radii) {
+                // In the map's cells.
+                let k = 1.0 / map.cell;
+                let (x0, y0) = (e.x * k, e.y * k);
+                let (dx, dy) = (side * e.ux * k, side * e.uy * k);
+                for &r in radii {
+                    if !map.add(x0 + r * dx, y0 + r * dy, sector) {
+                        break 'along;
+                    }
                 }
             }
         }
