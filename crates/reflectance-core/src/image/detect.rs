@@ -5,7 +5,8 @@
 //!    and JPEG blocks): Sobel gradients, thinned to their ridges; every edge point votes for
 //!    the centres along its gradient line, on both sides and at every radius up to 0.6 of
 //!    the shorter side (a sphere can be brighter than its background on one side and darker
-//!    on the other; it can fill the frame); the strongest peaks of the vote map are
+//!    on the other; it can fill the frame), in cells that grow with the radius (a ball drawn
+//!    a few percent elongated spreads its votes over as much); the strongest peaks are
 //!    candidate centres, and each takes the radius at which the most of its circumference
 //!    has an edge pointing at it. The circle a clean background gives (the caller's
 //!    segmentation, on the same copy) is one more.
