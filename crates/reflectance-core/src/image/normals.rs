@@ -11,7 +11,7 @@
 //! n = 2v / max − 1 per channel (8 or 16 bits); (0, 0, 0) or alpha 0 is background.
 
 use super::circle::Circle;
-use super::decode::{DecodeError, Limits};
+use super::decode::{DecodeError, Limits, exr_file};
 use ndarray::Array2;
 use std::io::Cursor;
 
@@ -40,9 +40,14 @@ pub enum NormalsError {
     /// The bytes are not a PNG image this decoder reads.
     #[error("the normal map does not decode as a PNG image: {0}")]
     NotPng(#[source] image::ImageError),
-    /// The map is larger than the limits.
-    #[error(transparent)]
-    Limits(#[from] DecodeError),
+    /// The map does not decode (an EXR's error), or is larger than the limits.
+    #[error("the normal map: {0}")]
+    Decode(#[from] DecodeError),
+    /// An EXR normal map without its three channels.
+    #[error(
+        "the EXR normal map has no R, G and B channels: store the normal's X, Y, Z as float R, G, B"
+    )]
+    NoXyz,
     /// The map's size differs from the photograph's.
     #[error(
         "the normal map is {found_w}×{found_h} but the photograph is {want_w}×{want_h}: give a map of the photograph's size"
@@ -95,6 +100,24 @@ impl NormalMap {
             *cell = v;
         }
         NormalMap::from_encoded(&samples)
+    }
+
+    /// Decode an OpenEXR normal map: float R, G, B are the normal's X, Y, Z (the zero vector
+    /// is background; an A channel of 0 too), within `limits`.
+    pub fn from_exr(bytes: &[u8], limits: &Limits) -> Result<NormalMap, NormalsError> {
+        let layer = exr_file::read_channels(bytes, limits)?;
+        let (Some(x), Some(y), Some(z)) = (layer.get("R"), layer.get("G"), layer.get("B")) else {
+            return Err(NormalsError::NoXyz);
+        };
+        let alpha = layer.get("A");
+        let normals = Array2::from_shape_fn((layer.height, layer.width), |(row, col)| {
+            let i = row * layer.width + col;
+            match alpha.is_some_and(|a| a[i] == 0.0) {
+                true => [0.0; 3],
+                false => [x[i], y[i], z[i]],
+            }
+        });
+        NormalMap::from_vectors(normals)
     }
 
     /// Normals from encoded samples v ∈ [0, 1] per channel (RGBA): n = 2v − 1; black or
@@ -467,5 +490,66 @@ mod tests {
         }
         let e = NormalMap::from_png(b"not a png", &Limits::default()).unwrap_err();
         assert!(matches!(e, NormalsError::NotPng(_)));
+    }
+
+    /// An OpenEXR file of the normals of `map` (X, Y, Z as float R, G, B; zero background).
+    fn exr_of(map: &NormalMap) -> Vec<u8> {
+        use exr::prelude::*;
+        let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
+            let n = map.at(p.y(), p.x()).unwrap_or([0.0; 3]);
+            (n[0], n[1], n[2])
+        });
+        let image = Image::from_channels((map.width(), map.height()), channels);
+        let mut out = Cursor::new(Vec::new());
+        image.write().to_buffered(&mut out).unwrap();
+        out.into_inner()
+    }
+
+    #[test]
+    fn exr_normal_maps_round_trip_and_say_what_is_wrong() {
+        let (_, normals) = sphere(37, 16.0);
+        let bytes = exr_of(&normals);
+        let decoded = NormalMap::from_exr(&bytes, &Limits::default()).unwrap();
+        assert_eq!((decoded.width(), decoded.height()), (37, 37));
+        for row in 0..37 {
+            for col in 0..37 {
+                match (normals.at(row, col), decoded.at(row, col)) {
+                    (Some(a), Some(b)) => {
+                        assert!(
+                            a.iter().zip(b).all(|(p, q)| (p - q).abs() < 1e-6),
+                            "{a:?} {b:?}"
+                        )
+                    }
+                    (None, None) => {}
+                    other => panic!("({row}, {col}): {other:?}"),
+                }
+            }
+        }
+        let small = Limits {
+            max_width: 36,
+            ..Limits::default()
+        };
+        let e = NormalMap::from_exr(&bytes, &small).unwrap_err();
+        assert!(
+            matches!(e, NormalsError::Decode(DecodeError::TooLarge { .. })),
+            "{e}"
+        );
+        let e = NormalMap::from_exr(&bytes[..bytes.len() / 2], &Limits::default()).unwrap_err();
+        assert!(matches!(e, NormalsError::Decode(_)), "{e}");
+        let grey = {
+            use exr::prelude::*;
+            let channels = SpecificChannels::build()
+                .with_channel("Y")
+                .with_pixel_fn(|_: Vec2<usize>| (0.5f32,));
+            let mut out = Cursor::new(Vec::new());
+            Image::from_channels((8, 8), channels)
+                .write()
+                .to_buffered(&mut out)
+                .unwrap();
+            out.into_inner()
+        };
+        let e = NormalMap::from_exr(&grey, &Limits::default()).unwrap_err();
+        assert!(matches!(e, NormalsError::NoXyz), "{e}");
+        assert!(e.to_string().contains("X, Y, Z as float R, G, B"), "{e}");
     }
 }

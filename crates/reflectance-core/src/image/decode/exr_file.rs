@@ -1,6 +1,6 @@
 //! OpenEXR through the `exr` crate: the first layer's R, G, B (or Y) and A channels.
 
-use super::{DecodeError, DecodeOptions, FloatPlane, Format, luminance, validate_float};
+use super::{DecodeError, DecodeOptions, FloatPlane, Format, Limits, luminance, validate_float};
 use crate::image::colour::ColourCopy;
 use exr::prelude::{ReadChannels, ReadLayers};
 use ndarray::Array2;
@@ -18,8 +18,25 @@ fn map_error(error: exr::error::Error) -> DecodeError {
     }
 }
 
-pub(crate) fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<FloatPlane, DecodeError> {
-    let limits = &options.limits;
+/// The first valid layer's channels (their names without a layer prefix), read as f32
+/// once the header's sizes pass the limits.
+pub(crate) struct Channels {
+    pub width: usize,
+    pub height: usize,
+    list: Vec<(String, Vec<f32>)>,
+}
+
+impl Channels {
+    /// The samples of channel `name` (`R`, `G`, `B`, `Y`, `A`), row-major.
+    pub fn get(&self, name: &str) -> Option<&[f32]> {
+        self.list
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, samples)| samples.as_slice())
+    }
+}
+
+pub(crate) fn read_channels(bytes: &[u8], limits: &Limits) -> Result<Channels, DecodeError> {
     let meta =
         exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(map_error)?;
     for header in &meta.headers {
@@ -35,14 +52,40 @@ pub(crate) fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<FloatPlane
         .from_buffered(Cursor::new(bytes))
         .map_err(map_error)?;
     let layer = image.layer_data;
+    let list: Vec<(String, Vec<f32>)> = layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| {
+            let name = c.name.to_string();
+            let short = name.rsplit('.').next().unwrap_or_default().to_string();
+            (short, c.sample_data.values_as_f32().collect())
+        })
+        .collect();
     let (width, height) = (layer.size.width(), layer.size.height());
+    if list
+        .iter()
+        .any(|(_, samples): &(String, Vec<f32>)| samples.len() != width * height)
+    {
+        return Err(DecodeError::corrupt(
+            FORMAT,
+            "channel size does not match the layer",
+        ));
+    }
+    Ok(Channels {
+        width,
+        height,
+        list,
+    })
+}
+
+pub(crate) fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<FloatPlane, DecodeError> {
+    let layer = read_channels(bytes, &options.limits)?;
+    let (width, height) = (layer.width, layer.height);
     let channel = |name: &str| -> Option<Vec<f64>> {
         layer
-            .channel_data
-            .list
-            .iter()
-            .find(|c| c.name.to_string().rsplit('.').next() == Some(name))
-            .map(|c| c.sample_data.values_as_f32().map(f64::from).collect())
+            .get(name)
+            .map(|c| c.iter().copied().map(f64::from).collect())
     };
     let mut colour = None;
     let values = match (channel("R"), channel("G"), channel("B"), channel("Y")) {

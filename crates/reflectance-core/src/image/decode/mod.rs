@@ -6,7 +6,7 @@
 //! Every path checks the header's dimensions against [`Limits`] before allocating pixels.
 
 mod color;
-mod exr_file;
+pub(crate) mod exr_file;
 mod integer;
 pub mod pfm;
 pub mod rgbe;
