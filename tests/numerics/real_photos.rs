@@ -104,10 +104,10 @@ fn print_table(title: &str, tallies: &BTreeMap<String, Tally>) {
     }
 }
 
-/// The found count measured on the development set (docs/accuracy.md: 20; 17 before the
-/// vote cells grew with the radius), less one for a photo on the edge of 4 %: detection
-/// must not fall below it.
-const FOUND_FLOOR: usize = 19;
+/// The found count measured on the development set (docs/accuracy.md: 21; 17 before the
+/// vote cells grew with the radius and small balls were searched for on a larger copy),
+/// less one for a photo on the edge of 4 %: detection must not fall below it.
+const FOUND_FLOOR: usize = 20;
 
 #[test]
 #[cfg_attr(

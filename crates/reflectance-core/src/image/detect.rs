@@ -8,8 +8,10 @@
 //!    on the other; it can fill the frame), in cells that grow with the radius (a ball drawn
 //!    a few percent elongated spreads its votes over as much); the strongest peaks are
 //!    candidate centres, and each takes the radius at which the most of its circumference
-//!    has an edge pointing at it. The circle a clean background gives (the caller's
-//!    segmentation, on the same copy) is one more.
+//!    has an edge pointing at it. In a photograph over twice [`WORK_SIZE`] across, the
+//!    vote again on a copy twice as large for radii under a tenth of its shorter side (a
+//!    ball of r 190 px in a 4096 px room is 29 px on the small copy). The circle a clean
+//!    background gives (the caller's segmentation, on the same copy) is one more.
 //! 2. **Sub-pixel fit** (on the full-resolution linear image): along 360 rays through the
 //!    candidate's rim, the position of the steepest luminance change, interpolated between
 //!    samples, kept where the luminance there changes across the rim rather than along it;
@@ -158,15 +160,9 @@ pub fn find_spheres(
         return Err(NotFound("the image is too small to hold a sphere".into()));
     }
     let mut candidates: Vec<(Circle, f64)> = clean.into_iter().collect();
-    for (cx, cy, r_bin, cell) in vote(&edges, (wh, ww), min_r, max_r) {
-        for r in radii(&edges, cx, cy, r_bin / RADIUS_RATIO, r_bin * RADIUS_RATIO) {
-            let rough = Circle {
-                cx: (cx + 0.5) / scale - 0.5,
-                cy: (cy + 0.5) / scale - 0.5,
-                r: r / scale,
-            };
-            candidates.push((rough, (1.5 + 0.5 * cell) / scale));
-        }
+    candidates.extend(rough_circles(&edges, (wh, ww), scale, (min_r, max_r)));
+    if scale < 0.5 {
+        candidates.extend(small_balls(luminance));
     }
     let found: Vec<Found> = candidates
         .into_iter()
@@ -249,9 +245,11 @@ fn flat_band(work: ArrayView2<f64>, circle: &Circle, inner: f64, outer: f64) -> 
     let (near, far) = (inner * r, outer * r);
     let rows = (cy - far).max(0.0) as usize..((cy + far).ceil().max(0.0) as usize).min(h);
     let cols = (cx - far).max(0.0) as usize..((cx + far).ceil().max(0.0) as usize).min(w);
+    // Every pixel of a small band; of a large one, a grid of about 128 across.
+    let stride = ((far / 64.0).ceil() as usize).max(1);
     let mut band: Vec<f64> = Vec::new();
-    for y in rows {
-        for x in cols.clone() {
+    for y in rows.step_by(stride) {
+        for x in cols.clone().step_by(stride) {
             let d = (x as f64 - cx).hypot(y as f64 - cy);
             if (near..=far).contains(&d) {
                 band.push(work[[y, x]]);
@@ -265,10 +263,52 @@ fn flat_band(work: ArrayView2<f64>, circle: &Circle, inner: f64, outer: f64) -> 
     high - quantile(band, 0.1) < FLAT_SPREAD
 }
 
+/// The rough circles (full-image coordinates) and their uncertainty from the vote over
+/// `edges` of a working copy `dims` at `scale`, between `radii` (working pixels).
+fn rough_circles(
+    edges: &[Edge],
+    dims: (usize, usize),
+    scale: f64,
+    (min_r, max_r): (f64, f64),
+) -> Vec<(Circle, f64)> {
+    let mut out = Vec::new();
+    for (cx, cy, r_bin, cell) in vote(edges, dims, min_r, max_r) {
+        for r in radii(edges, cx, cy, r_bin / RADIUS_RATIO, r_bin * RADIUS_RATIO) {
+            let rough = Circle {
+                cx: (cx + 0.5) / scale - 0.5,
+                cy: (cy + 0.5) / scale - 0.5,
+                r: r / scale,
+            };
+            out.push((rough, (1.5 + 0.5 * cell) / scale));
+        }
+    }
+    out
+}
+
+/// Small balls in a large photograph (under a tenth of the shorter side): the vote again on a
+/// copy twice [`WORK_SIZE`] across, where they are twice as many pixels across.
+fn small_balls(luminance: ArrayView2<f64>) -> Vec<(Circle, f64)> {
+    let (small, scale) = reduced_to(luminance, 2 * WORK_SIZE);
+    let work = working_copy(small.view());
+    let edges = edge_points(work.view());
+    let (wh, ww) = work.dim();
+    let min_r = (MIN_RADIUS * scale).max(6.0);
+    let max_r = 0.1 * wh.min(ww) as f64;
+    if edges.len() < 32 || max_r <= min_r {
+        return Vec::new();
+    }
+    rough_circles(&edges, (wh, ww), scale, (min_r, max_r))
+}
+
 /// A copy at most [`WORK_SIZE`] across, and its scale.
 fn reduced(luminance: ArrayView2<f64>) -> (Array2<f64>, f64) {
+    reduced_to(luminance, WORK_SIZE)
+}
+
+/// A copy at most `size` across, and its scale.
+fn reduced_to(luminance: ArrayView2<f64>, size: usize) -> (Array2<f64>, f64) {
     let (h, w) = luminance.dim();
-    let scale = (WORK_SIZE as f64 / h.max(w) as f64).min(1.0);
+    let scale = (size as f64 / h.max(w) as f64).min(1.0);
     if scale < 1.0 {
         (crate::image::resample::downsample(luminance, scale), scale)
     } else {
