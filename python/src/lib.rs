@@ -60,6 +60,8 @@ fn locate(
         Placement::Circle(circle) => Locate::Circle(circle),
         Placement::Mask(mask) => Locate::Mask(mask.into_mask()?),
         Placement::Auto => Locate::Auto,
+        // `Placement::new` places a sphere; only `with_normals` makes an object's placement.
+        Placement::Normals { .. } => return Err(error("normals are not taken by this call")),
     })
 }
 

@@ -1,5 +1,5 @@
 //! `reflectance classify IMAGE --model DIR/NAME[/VERSION] [--white W | --white-image F]
-//! [--cx X --cy Y --r R | --mask F] [--json]`: one photograph, without a server or a
+//! [--cx X --cy Y --r R | --mask F | --normals N [--mask M]] [--json]`: one photograph, without a server or a
 //! manifest; the same pipeline and, with `--json`, the same JSON as `POST /v1/classify`.
 
 use super::{CliError, CliResult, LimitArgs, SphereArgs};
@@ -30,6 +30,12 @@ pub struct ClassifyArgs {
     model: PathBuf,
     #[command(flatten)]
     sphere: SphereArgs,
+    /// An object of any shape instead of a sphere: its camera-space unit normals per pixel,
+    /// the image's size (+X right, +Y up, +Z toward the camera), as PNG (n = 2v/max − 1;
+    /// background black or transparent) or OpenEXR (float R, G, B = X, Y, Z); --mask then
+    /// gives the object's pixels.
+    #[arg(long, conflicts_with_all = ["cx", "cy", "r"])]
+    normals: Option<PathBuf>,
     /// How integer samples are linearized: srgb (default), linear or gamma:<g>.
     #[arg(long)]
     encoding: Option<Encoding>,
@@ -89,7 +95,12 @@ fn input(args: &ClassifyArgs) -> CliResult<Input> {
         .as_deref()
         .map(|m| read(m, "mask"))
         .transpose()?;
-    let locate = LocateSpec::new(sphere.cx, sphere.cy, sphere.r, mask)?;
+    let normals = args
+        .normals
+        .as_deref()
+        .map(|n| read(n, "normals"))
+        .transpose()?;
+    let locate = LocateSpec::new(sphere.cx, sphere.cy, sphere.r, mask)?.with_normals(normals)?;
     let answer = Answer {
         include_features: args.all_features,
         include_explain: args.explain,
@@ -183,6 +194,13 @@ fn error_text(e: &InferenceError, args: &ClassifyArgs) -> String {
             format!("{file}{source}")
         }
         InferenceError::Analysis(e) => super::analysis_error(e),
+        InferenceError::Normals(e) => {
+            let file = args
+                .normals
+                .as_ref()
+                .map_or(String::new(), |f| format!("{}: ", f.display()));
+            format!("{file}{e}")
+        }
         other => other.to_string(),
     }
 }
@@ -221,14 +239,18 @@ fn summary(answer: &ClassifyResponse) -> String {
         false => out.push_str(&format!("domain: OUT{score}: {}\n", d.reasons.join("; "))),
     }
     let g = &answer.geometry;
+    let how = match answer.observed_fraction {
+        Some(f) => format!(" of the object, {:.0} % of it observed", f * 100.0),
+        None => g
+            .confidence
+            .map_or(String::new(), |c| format!(", confidence {c:.2}")),
+    };
     out.push_str(&format!(
-        "sphere: cx {:.2}, cy {:.2}, r {:.2} ({}{}); white {} ({})\n",
+        "sphere: cx {:.2}, cy {:.2}, r {:.2} ({}{how}); white {} ({})\n",
         g.cx,
         g.cy,
         g.r,
         inference::wire_name(&g.method),
-        g.confidence
-            .map_or(String::new(), |c| format!(", confidence {c:.2}")),
         crate::dataset::format_f64(answer.white.value),
         inference::wire_name(&answer.white.method)
     ));

@@ -126,7 +126,7 @@ pub struct SphereArgs {
     #[arg(long, requires_all = ["cx", "cy"], allow_negative_numbers = true)]
     pub r: Option<f64>,
     /// A mask image of the sphere (same size: alpha, or luminance ≥ 0.5); a circle is
-    /// fitted to its edge.
+    /// fitted to its edge. With --normals, the object's pixels.
     #[arg(long, conflicts_with_all = ["cx", "cy", "r"])]
     pub mask: Option<std::path::PathBuf>,
     /// Linear luminance of an ideal white surface facing the viewer at the sphere.

@@ -460,7 +460,7 @@ impl From<crate::inference::InputError> for ApiError {
             E::White(e) => return e.into(),
             E::EmptyImage => Kind::MissingField,
             E::SeveralWhites | E::ReflectanceWithoutCard => Kind::BadWhite,
-            E::CircleAndMask => Kind::BadGeometry,
+            E::CircleAndMask | E::CircleAndNormals => Kind::BadGeometry,
             E::Coverage(_) => Kind::InvalidField,
         };
         ApiError::new(kind, e.to_string())
@@ -498,6 +498,22 @@ impl From<AnalysisError> for ApiError {
             AnalysisError::Geometry(e) => e.into(),
             AnalysisError::White(e) => e.into(),
             AnalysisError::Scale { .. } => ApiError::new(Kind::InvalidImage, e.to_string()),
+            AnalysisError::Normals(e) => e.into(),
+            AnalysisError::Observed(_) => ApiError::new(Kind::BadGeometry, e.to_string()),
+        }
+    }
+}
+
+impl From<crate::image::normals::NormalsError> for ApiError {
+    fn from(e: crate::image::normals::NormalsError) -> ApiError {
+        use crate::image::normals::NormalsError as E;
+        match e {
+            E::Decode(source) => {
+                let mut e = ApiError::from(source);
+                e.detail = format!("normals: {}", e.detail);
+                e
+            }
+            other => ApiError::new(Kind::BadGeometry, format!("normals: {other}")),
         }
     }
 }
@@ -512,6 +528,7 @@ impl From<crate::inference::InferenceError> for ApiError {
                 e
             }
             E::Analysis(e) => e.into(),
+            E::Normals(e) => e.into(),
             E::Model(e) => e.into(),
             E::Learn(e) => e.into(),
         }

@@ -600,6 +600,41 @@ fn a_shape_renders_from_its_normals_with_the_map_beside() {
         stderr.contains("rendered 0 of 1 images (1 already complete)"),
         "{stderr}"
     );
+    // Classified from its normals: a cube shows three of them, too little of the sphere, and
+    // the answer says so; a torus shows all of it.
+    let ward6 = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/ward6");
+    let classify = |out: &Path| {
+        let (image, normals) = (
+            out.join(format!("{name}.pfm")),
+            out.join(format!("{name}.normals.png")),
+        );
+        run(&[
+            "classify",
+            image.to_str().unwrap(),
+            "--model",
+            ward6.to_str().unwrap(),
+            "--white",
+            "1",
+            "--normals",
+            normals.to_str().unwrap(),
+        ])
+    };
+    let cube = classify(&out);
+    assert!(!cube.status.success());
+    let stderr = String::from_utf8_lossy(&cube.stderr);
+    assert!(
+        stderr.contains("the features need at least 20 %"),
+        "{stderr}"
+    );
+    let torus = dir.join("torus");
+    common::assert_success(&render_shape("torus", &torus));
+    let answer = classify(&torus);
+    common::assert_success(&answer);
+    let stdout = String::from_utf8_lossy(&answer.stdout);
+    assert!(
+        stdout.contains("(normals of the object, 100 % of it observed)"),
+        "{stdout}"
+    );
     let unknown = render_shape("cube", &dir.join("bad"));
     assert!(!unknown.status.success());
     let stderr = String::from_utf8_lossy(&unknown.stderr);

@@ -12,4 +12,5 @@ mod honest;
 mod hostile;
 mod openapi;
 mod page;
+mod shapes;
 mod v2;

@@ -78,6 +78,13 @@ pub struct RawInput {
     /// A mask image of the sphere (same size; alpha, or luminance ≥ 0.5); not with cx/cy/r.
     #[schema(value_type = String, format = Binary, required = false)]
     pub mask: Option<Bytes>,
+    /// An object of any shape instead of a sphere: its camera-space unit normals per pixel,
+    /// the image's size (+X right, +Y up, +Z toward the camera), as an 8- or 16-bit PNG
+    /// (n = 2v/max − 1; background (0, 0, 0) or alpha 0) or an OpenEXR file (float R, G, B =
+    /// X, Y, Z; background the zero vector); with it, `mask` is the object's pixels. Not with
+    /// cx/cy/r.
+    #[schema(value_type = String, format = Binary, required = false)]
+    pub normals: Option<Bytes>,
     /// How integer samples are linearized: `srgb` (default), `linear` or `gamma:<g>`.
     #[schema(value_type = String, required = false, example = "srgb", pattern = "^(srgb|linear|gamma:[0-9]+(\\.[0-9]+)?)$")]
     pub encoding: Option<String>,
@@ -118,7 +125,8 @@ impl RawInput {
             circle_number("cy", &self.cy)?,
             circle_number("r", &self.r)?,
             self.mask,
-        )?;
+        )?
+        .with_normals(self.normals)?;
         let encoding = self
             .encoding
             .as_deref()
@@ -173,11 +181,12 @@ pub(crate) async fn read_form(mut multipart: Multipart) -> Result<RawInput, ApiE
             )
         };
         match name.as_str() {
-            "image" | "white_image" | "mask" => {
+            "image" | "white_image" | "mask" | "normals" => {
                 let bytes = field.bytes().await?;
                 let slot = match name.as_str() {
                     "image" => &mut raw.image,
                     "white_image" => &mut raw.white_image,
+                    "normals" => &mut raw.normals,
                     _ => &mut raw.mask,
                 };
                 if slot.replace(bytes).is_some() {
@@ -222,8 +231,8 @@ pub(crate) async fn read_form(mut multipart: Multipart) -> Result<RawInput, ApiE
                     Kind::UnknownField,
                     format!(
                         "unknown field {other:?} (expected image, white, white_image, \
-                         white_rect, white_reflectance, cx, cy, r, mask, encoding, include, \
-                         coverage)"
+                         white_rect, white_reflectance, cx, cy, r, mask, normals, encoding, \
+                         include, coverage)"
                     ),
                 ));
             }
@@ -333,7 +342,7 @@ pub enum MultipartProblems {
         MultipartClassification,
         MultipartProblems,
         (status = 404, description = "Default model not served (`model-not-found`)", body = Problem, content_type = "application/problem+json"),
-        (status = 422, description = "Missing image (`missing-field`), unknown or invalid field (`unknown-field`, `invalid-field`), corrupt or unusable image (`corrupt-image`, `invalid-image`), bad circle or mask (`bad-geometry`), bad white reference (`bad-white`)", body = Problem, content_type = "application/problem+json"),
+        (status = 422, description = "Missing image (`missing-field`), unknown or invalid field (`unknown-field`, `invalid-field`), corrupt or unusable image (`corrupt-image`, `invalid-image`), bad circle, mask or normals (`bad-geometry`), bad white reference (`bad-white`)", body = Problem, content_type = "application/problem+json"),
         ClassificationProblems,
     )
 )]
@@ -356,7 +365,7 @@ pub async fn classify_default(
         MultipartClassification,
         MultipartProblems,
         (status = 404, description = "Unknown model or version (`model-not-found`, `version-not-found`)", body = Problem, content_type = "application/problem+json"),
-        (status = 422, description = "Missing image (`missing-field`), unknown or invalid field or query parameter (`unknown-field`, `invalid-field`), corrupt or unusable image (`corrupt-image`, `invalid-image`), bad circle or mask (`bad-geometry`), bad white reference (`bad-white`), refused model file (`invalid-model`)", body = Problem, content_type = "application/problem+json"),
+        (status = 422, description = "Missing image (`missing-field`), unknown or invalid field or query parameter (`unknown-field`, `invalid-field`), corrupt or unusable image (`corrupt-image`, `invalid-image`), bad circle, mask or normals (`bad-geometry`), bad white reference (`bad-white`), refused model file (`invalid-model`)", body = Problem, content_type = "application/problem+json"),
         ClassificationProblems,
     )
 )]

@@ -2,11 +2,13 @@
 //! image plus where the sphere is and how bright white is → features, with what was used
 //! and every warning.
 
+use crate::features::observed::ObservedError;
 use crate::features::polar::UnwrapConfig;
 use crate::features::{CaptureMeasurements, Extractor};
 use crate::image::colour::{self, Rgb};
 use crate::image::decode::{DecodeError, LinearImage};
 use crate::image::geometry::{self, Geometry, GeometryError, Method};
+use crate::image::normals::{self, EquivalentSphere, NormalMap, NormalsError};
 use crate::image::white::{self, White, WhiteError};
 use ndarray::Array2;
 use serde::Serialize;
@@ -21,6 +23,15 @@ pub enum Locate {
     Mask(Array2<bool>),
     /// The image's alpha channel if it has one, else automatic detection.
     Auto,
+    /// An object of any shape: its camera-space normals per pixel (the image's size), and
+    /// which pixels are the object (`None`: every pixel with a normal). The features read
+    /// its equivalent sphere (docs/design.md §9).
+    Normals {
+        /// The object's normals.
+        normals: NormalMap,
+        /// The object's pixels, when given apart from the normals.
+        mask: Option<Array2<bool>>,
+    },
 }
 
 /// How bright white is.
@@ -59,6 +70,12 @@ pub enum AnalysisError {
     /// No usable white reference.
     #[error(transparent)]
     White(#[from] WhiteError),
+    /// The normals do not fit the image, or show the object nowhere.
+    #[error("normals: {0}")]
+    Normals(#[from] NormalsError),
+    /// Too little of the object's equivalent sphere is observed.
+    #[error(transparent)]
+    Observed(#[from] ObservedError),
     /// Pixels are f32 once divided by white: the ratio must neither overflow nor vanish.
     #[error(
         "the image divided by white ({white:e}) is out of range: its brightest pixel becomes \
@@ -88,6 +105,13 @@ pub struct Analysis {
     /// The capture measurements, when asked for.
     #[serde(skip)]
     pub measured: Option<CaptureMeasurements>,
+    /// The fraction of the annulus an object's normals let the features read (`None`: a
+    /// sphere, all of it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub observed: Option<f64>,
+    /// An object's equivalent sphere, for the pictures of `include=images`.
+    #[serde(skip)]
+    pub equivalent: Option<EquivalentSphere>,
     /// The sphere's RGB over white's ([`colour::appearance`]), when both were decoded
     /// with their colour.
     #[serde(skip)]
@@ -145,6 +169,7 @@ pub(crate) fn locate_for(image: &LinearImage, how: &Locate, unwrap: &UnwrapConfi
             }
             geometry::fit_mask(mask.view(), Method::Mask)?
         }
+        Locate::Normals { .. } => return Err(GeometryError::ObjectByNormals),
         Locate::Auto => match &image.alpha_mask {
             Some(alpha) => geometry::fit_mask(alpha.view(), Method::Alpha)?,
             None => geometry::detect(image.luminance.view())?,
@@ -271,6 +296,9 @@ pub fn analyze_subset(
     wanted: Option<&[usize]>,
     measure: bool,
 ) -> Result<Analysis, AnalysisError> {
+    if let Locate::Normals { normals, mask } = how {
+        return analyze_object(extractor, image, normals, mask.as_ref(), white_input);
+    }
     let Placed {
         geometry,
         white,
@@ -292,12 +320,155 @@ pub fn analyze_subset(
         white,
         warnings,
         measured,
+        observed: None,
+        equivalent: None,
         appearance,
+    })
+}
+
+/// [`analyze`] of an object of any shape from its normals: the white reference, the
+/// object's equivalent sphere at the working radius, its features over the observed part.
+fn analyze_object(
+    extractor: &Extractor,
+    image: &LinearImage,
+    normals: &NormalMap,
+    mask: Option<&Array2<bool>>,
+    white_input: &WhiteInput,
+) -> Result<Analysis, AnalysisError> {
+    let mut warnings = image.warnings.clone();
+    let (white, white_warning) = resolve_white(white_input, image)?;
+    check_scale(image, white.value)?;
+    let config = extractor.config();
+    let radius = config.working_radius.unwrap_or(config.unwrap.r0);
+    let sphere = normals::equivalent_sphere(&image.luminance, normals, mask, radius)?;
+    let full_scale = (!image.is_float).then_some(1.0);
+    let (values, observed) = extractor.extract_equivalent(&sphere, white.value, full_scale)?;
+    if normals.back_facing() > 0 {
+        warnings.push(format!(
+            "{} normals face away from the camera (z < 0) and were left out",
+            normals.back_facing()
+        ));
+    }
+    warnings.extend(white_warning);
+    let circle = sphere.circle;
+    Ok(Analysis {
+        values,
+        geometry: Geometry {
+            cx: circle.cx,
+            cy: circle.cy,
+            r: circle.r,
+            method: Method::Normals,
+            confidence: None,
+        },
+        white,
+        warnings,
+        measured: None,
+        observed: Some(observed.fraction),
+        equivalent: Some(sphere),
+        appearance: None,
     })
 }
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+    use crate::features::{FeatureConfig, MIN_OBSERVED, default_names};
+    use crate::image::decode::{self, Limits};
+    use crate::image::geometry::Circle;
+
+    /// A shiny sphere of radius `r` centred in a `size`² image under a sky with a sun: its
+    /// luminance and its normal map (the shading depends on the normal only).
+    fn glossy_sphere(size: usize, r: f64) -> (LinearImage, NormalMap, Circle) {
+        let c = (size - 1) as f64 / 2.0;
+        let sun = [-0.45f64, 0.55, 0.70];
+        let normal = |row: usize, col: usize| {
+            let (x, y) = ((col as f64 - c) / r, (c - row as f64) / r);
+            let z2 = 1.0 - x * x - y * y;
+            (z2 > 0.0).then(|| [x, y, z2.sqrt()])
+        };
+        let shade = |n: [f64; 3]| {
+            // The mirror direction of the view (0, 0, 1) about n, against the sun.
+            let reflected = [
+                2.0 * n[2] * n[0],
+                2.0 * n[2] * n[1],
+                2.0 * n[2] * n[2] - 1.0,
+            ];
+            let cos = reflected.iter().zip(sun).map(|(a, b)| a * b).sum::<f64>();
+            let diffuse = n.iter().zip(sun).map(|(a, b)| a * b).sum::<f64>().max(0.0);
+            // A sky of soft bands seen in the mirror direction: structure at every scale.
+            let sky = 0.5 + 0.4 * (6.0 * reflected[0]).sin() * (4.0 * reflected[1]).cos();
+            0.3 * diffuse + 0.2 * sky + 2.0 * cos.max(0.0).powf(40.0)
+        };
+        let luminance = Array2::from_shape_fn((size, size), |(row, col)| {
+            normal(row, col).map_or(0.02, shade)
+        });
+        let normals = Array2::from_shape_fn((size, size), |(row, col)| {
+            normal(row, col).map_or([0.0; 3], |n| n.map(|v| v as f32))
+        });
+        let image = decode::from_luminance(luminance, &Limits::default()).unwrap();
+        let circle = Circle { cx: c, cy: c, r };
+        (image, NormalMap::from_vectors(normals).unwrap(), circle)
+    }
+
+    fn extractor() -> Extractor {
+        let config = FeatureConfig {
+            working_radius: Some(116.36),
+            ..FeatureConfig::default()
+        };
+        Extractor::new(config).unwrap()
+    }
+
+    #[test]
+    fn a_sphere_given_by_its_normals_has_the_features_of_its_circle() {
+        let extractor = extractor();
+        let (image, normals, circle) = glossy_sphere(300, 130.0);
+        let white = WhiteInput::Value(1.0);
+        let by_circle = analyze(&extractor, &image, &Locate::Circle(circle), &white).unwrap();
+        let how = Locate::Normals {
+            normals,
+            mask: None,
+        };
+        let by_normals = analyze(&extractor, &image, &how, &white).unwrap();
+        assert_eq!(by_normals.geometry.method, Method::Normals);
+        let fraction = by_normals.observed.unwrap();
+        assert!(fraction > 0.99, "{fraction}");
+        let names = default_names();
+        for (name, tolerance) in [
+            ("pix.mean", 0.02),
+            ("pix.var", 0.05),
+            ("pix.p50", 0.02),
+            ("wav.s2.v.var", 0.15),
+            ("wav.s3.h.var", 0.15),
+        ] {
+            let at = names.iter().position(|n| n == name).unwrap();
+            let (a, b) = (by_normals.values[at], by_circle.values[at]);
+            assert!(
+                (a - b).abs() < tolerance,
+                "{name}: {a} by normals, {b} by circle"
+            );
+        }
+    }
+
+    #[test]
+    fn an_object_showing_too_little_of_the_sphere_is_refused_with_the_fraction() {
+        let extractor = extractor();
+        let (image, normals, _) = glossy_sphere(300, 130.0);
+        // A thin vertical strip through the centre: normals of a narrow band of the sphere.
+        let strip = Array2::from_shape_fn((300, 300), |(_, col)| (140..160).contains(&col));
+        let how = Locate::Normals {
+            normals,
+            mask: Some(strip),
+        };
+        let e = analyze(&extractor, &image, &how, &WhiteInput::Value(1.0)).unwrap_err();
+        match e {
+            AnalysisError::Observed(ObservedError::TooLittle { fraction, needed }) => {
+                assert!(fraction < MIN_OBSERVED && fraction > 0.0, "{fraction}");
+                assert_eq!(needed, MIN_OBSERVED);
+            }
+            other => panic!("{other}"),
+        }
+    }
+
     #[test]
     fn the_peak_is_the_largest_sample_wherever_it_stands() {
         let mut rng = crate::util::rng::Rng::new(11);

@@ -6,13 +6,15 @@ use super::centre;
 use super::config::{ConfigError, FeatureConfig};
 use super::layout::{BlockLayout, Layout, STATS};
 use super::noise;
+use super::observed::{Observed, ObservedError, Support, kept};
 use super::outline;
 use super::polar::{AngleTable, angle_table, unwrap};
-use super::pyramid::{self, Edge};
+use super::pyramid::{self, Edge, Level};
 use super::spectrum::{BandPowers, SpectrumPlan};
 use super::stats::{Moments, Summary, moments, percentiles_with, summarize};
 use super::{CENTRE_NAMES, LOG_PIXEL_FLOOR, ORIENTATION_PAIRS, RADIAL_RINGS};
 use crate::image::geometry::Circle;
+use crate::image::normals::EquivalentSphere;
 use ndarray::{Array2, ArrayView2};
 use std::sync::{Arc, OnceLock};
 
@@ -56,8 +58,16 @@ impl CaptureMeasurements {
 /// Pearson correlations of the coefficient magnitudes of a level's orientations, in
 /// [`ORIENTATION_PAIRS`] order (the paper's §7: neighbouring orientations depend on each
 /// other at edges, and a blur changes how much). 0 where a band is constant.
-fn orientation_dependencies(level: &pyramid::Level) -> [f64; 3] {
-    let bands = [&level.h, &level.v, &level.d].map(values_of);
+fn orientation_dependencies(level: &pyramid::Level, support: Option<&Level<bool>>) -> [f64; 3] {
+    // Over the coefficients supported in all three bands.
+    let alike = |s: &&Level<bool>| s.h.dim() == s.v.dim() && s.h.dim() == s.d.dim();
+    let both = support.filter(alike).map(|s| {
+        ndarray::Zip::from(&s.h)
+            .and(&s.v)
+            .and(&s.d)
+            .map_collect(|&h, &v, &d| h && v && d)
+    });
+    let bands = [&level.h, &level.v, &level.d].map(|b| kept(b, both.as_ref()));
     let n = bands[0].len().max(1) as f64;
     let means = bands
         .each_ref()
@@ -303,39 +313,127 @@ impl Extractor {
 
     /// The feature vector of computed stages: one block ([`BlockLayout`]).
     pub fn features_of(&self, stages: &Stages) -> Vec<f64> {
+        self.block_features(stages, None)
+    }
+
+    /// One block's features of computed stages, over the observed part `support` says
+    /// (everything for `None`; see [`observed`]).
+    fn block_features(&self, stages: &Stages, support: Option<&Support>) -> Vec<f64> {
         let layout = &self.layout.block;
         let mut out = vec![f64::NAN; layout.count()];
         let mut scratch: Vec<u64> = Vec::new();
-        let mut summary = |values: &Array2<f64>| summarize(&values_of(values), &mut scratch);
-        put_summary(&mut out[BlockLayout::PIXELS..], &summary(&stages.unwrapped));
+        let mut summary = |values: &Array2<f64>, keep: Option<&Array2<bool>>| {
+            summarize(&kept(values, keep), &mut scratch)
+        };
+        let pixels = support.map(|s| s.pixels);
+        let level_support = |level: usize| support.and_then(|s| s.levels.get(level));
+        put_summary(
+            &mut out[BlockLayout::PIXELS..],
+            &summary(&stages.unwrapped, pixels),
+        );
         // Raw subband variances, [level][band], for the ratios.
         let mut variances = vec![[0.0; 3]; self.config.levels];
         for (level, bands) in stages.pyramid.levels.iter().enumerate() {
+            let keeps = oriented(level_support(level));
             for (band, values) in [&bands.h, &bands.v, &bands.d].into_iter().enumerate() {
-                let s = summary(values);
+                let s = summary(values, keeps[band]);
                 variances[level][band] = s.var;
                 put_summary(&mut out[layout.band(level, band)..], &s);
             }
         }
         put_ratios(layout, &variances, |_, _| true, &mut out);
-        put_band_powers(&mut out[layout.band_powers()], &stages.band_powers);
+        let powers = match support {
+            Some(s) => stages.band_powers.scaled(1.0 / s.fraction),
+            None => stages.band_powers,
+        };
+        put_band_powers(&mut out[layout.band_powers()], &powers);
         if layout.radial {
-            put_ring_changes(layout, &stages.unwrapped, None, |_| true, &mut out);
+            let all = |_| true;
+            put_ring_changes(layout, &stages.unwrapped, pixels, None, all, &mut out);
             for (level, bands) in stages.pyramid.levels.iter().enumerate() {
+                let keeps = oriented(level_support(level));
                 for (band, values) in [&bands.h, &bands.v, &bands.d].into_iter().enumerate() {
-                    let slot = BlockLayout::radial_band_slot(level, band);
-                    put_ring_changes(layout, values, Some(slot), |_| true, &mut out);
+                    let slot = Some(BlockLayout::radial_band_slot(level, band));
+                    put_ring_changes(layout, values, keeps[band], slot, all, &mut out);
                 }
             }
         }
         if layout.dependencies {
             for (level, bands) in stages.pyramid.levels.iter().enumerate() {
-                for (pair, value) in orientation_dependencies(bands).into_iter().enumerate() {
+                let dependencies = orientation_dependencies(bands, level_support(level));
+                for (pair, value) in dependencies.into_iter().enumerate() {
                     out[layout.dependency(level, pair)] = value;
                 }
             }
         }
         out
+    }
+
+    /// The blocks' features of an annulus with missing cells (an object's equivalent
+    /// sphere, unwrapped): the statistics over the observed part ([`observed`]).
+    pub fn features_over(&self, unwrapped: &Array2<f64>, observed: &Observed) -> Vec<f64> {
+        let support = observed.support(self.config.levels);
+        let stages = self.stages_of_unwrapped(observed.filled(unwrapped));
+        let mut values = self.block_features(&stages, Some(&support));
+        if self.config.log_domain {
+            let log = self.stages_of_unwrapped(log_pixels(&stages.unwrapped));
+            values.extend(self.block_features(&log, Some(&support)));
+        }
+        values
+    }
+
+    /// An object's equivalent sphere unwrapped as a sphere's annulus (it is built at the
+    /// working radius), in units of white, with the cells it observes.
+    pub fn unwrap_equivalent(
+        &self,
+        sphere: &EquivalentSphere,
+        white: f64,
+    ) -> Result<(Array2<f64>, Observed), ObservedError> {
+        let seen = sphere.observed.mapv(f64::from);
+        let angles = self.angles(self.config.unwrap.supersampling(sphere.circle.r));
+        let unwrap_cfg = &self.config.unwrap;
+        let coverage = unwrap(seen.view(), &sphere.circle, unwrap_cfg, &angles, 1.0);
+        let observed = Observed::from_coverage(&coverage)?;
+        let unwrapped = self.unwrap_as_is(sphere.luminance.view(), &sphere.circle, white);
+        Ok((unwrapped, observed))
+    }
+
+    /// The stages of an object's equivalent sphere: its unwrapped annulus with the missing
+    /// cells as they are (0), for pictures.
+    pub fn stages_of_equivalent(&self, sphere: &EquivalentSphere, white: f64) -> Stages {
+        let unwrapped = self.unwrap_as_is(sphere.luminance.view(), &sphere.circle, white);
+        self.stages_of_unwrapped(unwrapped)
+    }
+
+    /// Every feature of an object's equivalent sphere, and which of its annulus is observed:
+    /// the blocks over the observed part; the capture family as far as it can be told (the
+    /// clipped share of the observed cells; noise and rim blur at their floors, since
+    /// averaging pixels into cells hides the noise and the sphere has no rim); the centre
+    /// and domain families of the sphere with its missing cells filled.
+    pub fn extract_equivalent(
+        &self,
+        sphere: &EquivalentSphere,
+        white: f64,
+        full_scale: Option<f64>,
+    ) -> Result<(Vec<f64>, Observed), ObservedError> {
+        let (unwrapped, observed) = self.unwrap_equivalent(sphere, white)?;
+        let mut values = self.features_over(&unwrapped, &observed);
+        if self.config.capture {
+            let ceiling = full_scale.map_or(f64::INFINITY, |f| noise::CLIPPED * f / white);
+            let kept = kept(&unwrapped, Some(&observed.mask));
+            let clipped = kept.iter().filter(|&&v| v >= ceiling).count();
+            let floor = NOISE_FLOOR.log10();
+            values.extend([floor, clipped as f64 / kept.len().max(1) as f64, floor]);
+        }
+        let filled = sphere.filled();
+        if self.config.centre {
+            let family = centre::centre_features(filled.view(), &sphere.circle, white);
+            values.extend(&family[..self.layout.centre().len()]);
+        }
+        if self.config.domain {
+            values.push(outline::outline(filled.view(), &sphere.circle));
+        }
+        Ok((values, observed))
     }
 
     /// Number of features of this configuration (117 with the default one).
@@ -411,7 +509,7 @@ impl Extractor {
         }
         fill_summary(&values_of(unwrapped), BlockLayout::PIXELS, false, need, out);
         if radial_needed(0) || radial_needed(1) {
-            put_ring_changes(layout, unwrapped, None, |i| need[i], out);
+            put_ring_changes(layout, unwrapped, None, None, |i| need[i], out);
         }
         if let Some(deepest) = deepest {
             let pyramid = pyramid::build(unwrapped.view(), deepest + 1, Edge::Periodic);
@@ -430,11 +528,14 @@ impl Extractor {
                     }
                     let slot = BlockLayout::radial_band_slot(level, band);
                     if radial_needed(slot) {
-                        put_ring_changes(layout, values, Some(slot), |i| need[i], out);
+                        put_ring_changes(layout, values, None, Some(slot), |i| need[i], out);
                     }
                 }
                 if dependencies_needed(level) {
-                    for (pair, value) in orientation_dependencies(bands).into_iter().enumerate() {
+                    for (pair, value) in orientation_dependencies(bands, None)
+                        .into_iter()
+                        .enumerate()
+                    {
                         let at = layout.dependency(level, pair);
                         if need[at] {
                             out[at] = value;
@@ -509,11 +610,12 @@ fn put_ratios(
 fn put_ring_changes(
     layout: &BlockLayout,
     values: &Array2<f64>,
+    keep: Option<&Array2<bool>>,
     subband: Option<usize>,
     wanted: impl Fn(usize) -> bool,
     out: &mut [f64],
 ) {
-    for (pair, [mean, var]) in ring_changes(values).into_iter().enumerate() {
+    for (pair, [mean, var]) in ring_changes(values, keep).into_iter().enumerate() {
         let changes = match subband {
             None => [
                 (layout.radial(pair, 0), mean),
@@ -548,14 +650,18 @@ fn values_of(a: &Array2<f64>) -> std::borrow::Cow<'_, [f64]> {
     }
 }
 
-/// `[mean, log10 variance]` of each ring of rows minus those of the ring inside it. Ring k
-/// (from 0, innermost) holds rows ⌊k·n/R⌋ .. ⌊(k+1)·n/R⌋ of n, R = [`RADIAL_RINGS`].
-fn ring_changes(a: &Array2<f64>) -> [[f64; 2]; RADIAL_RINGS - 1] {
-    let values = values_of(a);
-    let (rows, cols) = a.dim();
-    let start = |k: usize| k * rows / RADIAL_RINGS * cols;
-    let rings: [Moments; RADIAL_RINGS] =
-        std::array::from_fn(|k| moments(&values[start(k)..start(k + 1)]));
+/// `[mean, log10 variance]` of each ring of rows minus those of the ring inside it, over
+/// the values `keep` keeps ([`kept`]). Ring k (from 0, innermost) holds rows
+/// ⌊k·n/R⌋ .. ⌊(k+1)·n/R⌋ of n, R = [`RADIAL_RINGS`].
+fn ring_changes(a: &Array2<f64>, keep: Option<&Array2<bool>>) -> [[f64; 2]; RADIAL_RINGS - 1] {
+    let rows = a.nrows();
+    let ring = |k: usize| {
+        let span = ndarray::s![k * rows / RADIAL_RINGS..(k + 1) * rows / RADIAL_RINGS, ..];
+        let values = a.slice(span).to_owned();
+        let keep = keep.map(|m| m.slice(span).to_owned());
+        moments(&kept(&values, keep.as_ref()))
+    };
+    let rings: [Moments; RADIAL_RINGS] = std::array::from_fn(ring);
     std::array::from_fn(|t| {
         let (inner, outer) = (&rings[t], &rings[t + 1]);
         [
@@ -563,6 +669,14 @@ fn ring_changes(a: &Array2<f64>) -> [[f64; 2]; RADIAL_RINGS - 1] {
             log10_floor(outer.var) - log10_floor(inner.var),
         ]
     })
+}
+
+/// The keeps of a level's three bands, in h, v, d order (none without support).
+fn oriented(support: Option<&Level<bool>>) -> [Option<&Array2<bool>>; 3] {
+    match support {
+        Some(s) => [Some(&s.h), Some(&s.v), Some(&s.d)],
+        None => [None; 3],
+    }
 }
 
 /// The seven statistics of a summary at the start of `out`, in [`STAT_NAMES`] order.
@@ -830,6 +944,78 @@ mod tests {
         assert_ne!(features(&free), features(&clipped));
     }
 
+    /// A rows × cols field of uniform noise around 0.5 (a stationary texture).
+    fn noise_field(rows: usize, cols: usize, seed: u64) -> Array2<f64> {
+        let mut rng = crate::util::rng::Rng::new(seed);
+        Array2::from_shape_fn((rows, cols), |_| 0.25 + 0.5 * rng.next_f64())
+    }
+
+    fn observed_where(rows: usize, cols: usize, seen: impl Fn(usize, usize) -> bool) -> Observed {
+        let coverage = Array2::from_shape_fn((rows, cols), |(r, c)| f64::from(seen(r, c)));
+        Observed::from_coverage(&coverage).unwrap()
+    }
+
+    #[test]
+    fn features_over_a_fully_observed_annulus_are_the_features() {
+        let config = FeatureConfig {
+            log_domain: true,
+            radial: true,
+            dependencies: true,
+            ..FeatureConfig::default()
+        };
+        let extractor = Extractor::new(config).unwrap();
+        let (rows, cols) = (config.unwrap.rows, config.unwrap.cols);
+        let unwrapped = noise_field(rows, cols, 3);
+        let everything = observed_where(rows, cols, |_, _| true);
+        let over = extractor.features_over(&unwrapped, &everything);
+        let mut want = extractor.features_of(&extractor.stages_of_unwrapped(unwrapped.clone()));
+        let log = extractor.stages_of_unwrapped(log_pixels(&unwrapped));
+        want.extend(extractor.features_of(&log));
+        assert_eq!(over.len(), want.len());
+        for (k, (a, b)) in over.iter().zip(&want).enumerate() {
+            assert_eq!(a.to_bits(), b.to_bits(), "feature {k}: {a} against {b}");
+        }
+    }
+
+    #[test]
+    fn features_over_half_a_texture_estimate_the_whole_textures_statistics() {
+        let extractor = Extractor::new(FeatureConfig::default()).unwrap();
+        let config = extractor.config();
+        let (rows, cols) = (config.unwrap.rows, config.unwrap.cols);
+        let names = extractor.layout.names();
+        let at = |name: &str| names.iter().position(|n| n == name).unwrap();
+        let unwrapped = noise_field(rows, cols, 5);
+        let whole = extractor.features_of(&extractor.stages_of_unwrapped(unwrapped.clone()));
+        // Half the angles seen, and what fills the other half must not matter.
+        let half = observed_where(rows, cols, |_, c| c < cols / 2);
+        let mut hidden = unwrapped.clone();
+        for ((_, c), v) in hidden.indexed_iter_mut() {
+            if c >= cols / 2 {
+                *v = 40.0;
+            }
+        }
+        let over = extractor.features_over(&hidden, &half);
+        for name in [
+            "pix.mean",
+            "pix.var",
+            "pix.p50",
+            "wav.s1.h.var",
+            "wav.s2.v.var",
+            "wav.s3.d.var",
+        ] {
+            let (a, b) = (over[at(name)], whole[at(name)]);
+            assert!((a - b).abs() < 0.05, "{name}: {a} over half, {b} whole");
+        }
+        // The band powers still sum to the (observed) variance.
+        let layout = &extractor.layout.block;
+        let total: f64 = over[layout.band_powers()]
+            .iter()
+            .map(|p| 10f64.powf(*p))
+            .sum();
+        let var = 10f64.powf(over[at("pix.var")]);
+        assert!((total / var - 1.0).abs() < 1e-6, "{total} against {var}");
+    }
+
     #[test]
     fn subsets_are_bit_identical_to_the_full_extraction() {
         let size = 200;
@@ -932,7 +1118,7 @@ mod tests {
             h: pattern,
         };
         // |v| = 3|h| exactly; d is constant, so it correlates with nothing.
-        let [hv, hd, vd] = orientation_dependencies(&level);
+        let [hv, hd, vd] = orientation_dependencies(&level, None);
         assert!((hv - 1.0).abs() < 1e-12, "{hv}");
         assert_eq!((hd, vd), (0.0, 0.0));
         let opposite = Array2::from_shape_fn((8, 16), |(i, _)| if i < 4 { 1.0 } else { 2.0 });
@@ -941,7 +1127,7 @@ mod tests {
             v: opposite.mapv(|x| 3.0 - x),
             d: opposite,
         };
-        let [hv, hd, _] = orientation_dependencies(&level);
+        let [hv, hd, _] = orientation_dependencies(&level, None);
         assert!(
             (hv + 1.0).abs() < 1e-12 && (hd - 1.0).abs() < 1e-12,
             "{hv} {hd}"

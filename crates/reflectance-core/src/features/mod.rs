@@ -15,6 +15,7 @@ pub(crate) mod extract;
 pub(crate) mod layout;
 pub(crate) mod log10;
 pub(crate) mod noise;
+pub mod observed;
 pub(crate) mod outline;
 pub(crate) mod polar;
 pub mod pyramid;
@@ -27,6 +28,7 @@ pub use config::{
 };
 pub use extract::{CaptureMeasurements, Extractor, Stages};
 pub use layout::{BlockLayout, Layout};
+pub use observed::{MIN_OBSERVED, Observed, ObservedError};
 pub use sets::{NAMED_SETS, named_set};
 
 /// Pyramid levels of the default configuration.

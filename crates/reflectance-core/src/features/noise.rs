@@ -32,7 +32,7 @@ const BINS: usize = 8;
 /// Fewer blocks than this give no estimate.
 const MIN_BLOCKS: usize = 64;
 /// Samples at or above this fraction of full scale count as clipped.
-const CLIPPED: f64 = 0.999;
+pub(crate) const CLIPPED: f64 = 0.999;
 
 /// Pixel (x, y) lies in the annulus: beyond its hole and within its outer edge. Squared
 /// distances decide all but the points within a hair of an edge, which `hypot` decides as it

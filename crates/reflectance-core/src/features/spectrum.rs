@@ -36,6 +36,14 @@ impl BandPowers {
     pub fn total(&self) -> f64 {
         self.oriented.iter().flatten().sum::<f64>() + self.lo
     }
+
+    /// Every band multiplied by `factor`.
+    pub fn scaled(&self, factor: f64) -> BandPowers {
+        BandPowers {
+            oriented: self.oriented.map(|band| band.map(|p| p * factor)),
+            lo: self.lo * factor,
+        }
+    }
 }
 
 /// FFT plans and the bin classification for one grid size; build once, share freely.

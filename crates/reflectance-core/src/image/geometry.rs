@@ -23,6 +23,9 @@ pub enum Method {
     Alpha,
     /// Detected against the background.
     Auto,
+    /// An object of any shape seen as its equivalent sphere (from its normals): the circle
+    /// is that sphere's, in its own pixels, not in the photograph's.
+    Normals,
 }
 
 /// The circle used, how it was found, and (for detection) how sure we are.
@@ -129,6 +132,13 @@ pub enum GeometryError {
         /// RMS distance of the edge from the best-fitting circle (px).
         rms: f64,
     },
+    /// An object given by its normals is read as its equivalent sphere: it has no circle in
+    /// the photograph to locate or unwrap.
+    #[error(
+        "the object is given by its normals: it has no circle in the photograph (classify it \
+         instead)"
+    )]
+    ObjectByNormals,
     /// Each surface says what to do in its own words (fields, flags or the page's circle).
     #[error("could not find the sphere automatically: {reason}")]
     DetectionFailed {

@@ -38,7 +38,7 @@ pub struct NormalMap {
 #[derive(Debug, thiserror::Error)]
 pub enum NormalsError {
     /// The bytes are not a PNG image this decoder reads.
-    #[error("the normal map does not decode as a PNG image: {0}")]
+    #[error("the normal map does not decode as a PNG image (give a PNG or an OpenEXR file): {0}")]
     NotPng(#[source] image::ImageError),
     /// The map does not decode (an EXR's error), or is larger than the limits.
     #[error("the normal map: {0}")]
@@ -83,6 +83,15 @@ pub enum NormalsError {
 }
 
 impl NormalMap {
+    /// Decode a normal map file, PNG or OpenEXR (told by their signatures), within `limits`.
+    pub fn decode(bytes: &[u8], limits: &Limits) -> Result<NormalMap, NormalsError> {
+        const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+        match bytes.starts_with(&EXR_MAGIC) {
+            true => NormalMap::from_exr(bytes, limits),
+            false => NormalMap::from_png(bytes, limits),
+        }
+    }
+
     /// Decode a PNG normal map (8 or 16 bits, RGB or RGBA), within `limits`.
     pub fn from_png(bytes: &[u8], limits: &Limits) -> Result<NormalMap, NormalsError> {
         use image::ImageDecoder;
@@ -205,6 +214,106 @@ impl NormalMap {
     }
 }
 
+/// The equivalent sphere's image spans this many radii each side of its centre.
+const MARGIN: f64 = 1.35;
+
+/// Passes of [`fill_holes`]: pixels sparser than the sphere's cells leave gaps of a cell or
+/// two between the cells they reach.
+const FILL_PASSES: usize = 2;
+
+/// A missing cell with at least this many observed cells among its eight neighbours is
+/// a gap between observed cells, not outside them (a cell beside a straight edge of an
+/// observed region has three).
+const FILL_NEIGHBOURS: usize = 5;
+
+/// Fill the missing cells of the disc that lie between observed ones with the mean of their
+/// observed neighbours (one pass: cells filled in it do not count as neighbours).
+fn fill_holes(luminance: &mut Array2<f64>, observed: &mut Array2<bool>, centre: f64, r: f64) {
+    let (h, w) = observed.dim();
+    let mut filled = Vec::new();
+    for row in 1..h.saturating_sub(1) {
+        for col in 1..w.saturating_sub(1) {
+            let (dx, dy) = (col as f64 - centre, row as f64 - centre);
+            if observed[(row, col)] || dx * dx + dy * dy > r * r {
+                continue;
+            }
+            let (mut n, mut sum) = (0usize, 0.0);
+            for (y, x) in (row - 1..=row + 1).flat_map(|y| (col - 1..=col + 1).map(move |x| (y, x)))
+            {
+                if observed[(y, x)] {
+                    n += 1;
+                    sum += luminance[(y, x)];
+                }
+            }
+            if n >= FILL_NEIGHBOURS {
+                filled.push((row, col, sum / n as f64));
+            }
+        }
+    }
+    for (row, col, v) in filled {
+        luminance[(row, col)] = v;
+        observed[(row, col)] = true;
+    }
+}
+
+/// Where one pixel lands on the equivalent sphere: centred `at` (cell coordinates), with
+/// `across` and `down` the sphere positions of half the way to its neighbours. Its value
+/// spreads with tent weights over the parallelogram reaching its neighbours' centres (so
+/// neighbouring pixels interpolate, as bilinear resampling does, and an object with fewer
+/// pixels than the sphere has cells leaves no holes between them); a pixel smaller than a
+/// cell spreads over the four cells around it, bilinearly.
+struct Footprint {
+    at: [f64; 2],
+    across: [f64; 2],
+    down: [f64; 2],
+}
+
+/// Cells a footprint reaches at most on each side of its centre (a pixel whose normal turns
+/// faster is at a crease, where [`EDGE_ANGLE_DEG`] leaves it out anyway).
+const MAX_REACH: f64 = 8.0;
+
+impl Footprint {
+    /// Call `visit` with the index and weight of each cell of a `side`-wide grid the
+    /// footprint covers.
+    fn cover(&self, side: usize, mut visit: impl FnMut(usize, f64)) {
+        let [x, y] = self.at;
+        // To the neighbours' centres: twice the half-steps.
+        let reach_x = (2.0 * (self.across[0].abs() + self.down[0].abs())).min(MAX_REACH);
+        let reach_y = (2.0 * (self.across[1].abs() + self.down[1].abs())).min(MAX_REACH);
+        let det = self.across[0] * self.down[1] - self.across[1] * self.down[0];
+        let last = (side - 1) as f64;
+        let mut put = |cx: f64, cy: f64, w: f64| {
+            if w > 0.0 && (0.0..=last).contains(&cx) && (0.0..=last).contains(&cy) {
+                visit(cy as usize * side + cx as usize, w);
+            }
+        };
+        if reach_x < 1.0 && reach_y < 1.0 || det.abs() < 1e-9 {
+            let (x0, y0) = (x.floor(), y.floor());
+            let (fx, fy) = (x - x0, y - y0);
+            put(x0, y0, (1.0 - fx) * (1.0 - fy));
+            put(x0 + 1.0, y0, fx * (1.0 - fy));
+            put(x0, y0 + 1.0, (1.0 - fx) * fy);
+            put(x0 + 1.0, y0 + 1.0, fx * fy);
+            return;
+        }
+        let (x0, x1) = ((x - reach_x).ceil(), (x + reach_x).floor());
+        let (y0, y1) = ((y - reach_y).ceil(), (y + reach_y).floor());
+        let mut cy = y0;
+        while cy <= y1 {
+            let mut cx = x0;
+            while cx <= x1 {
+                // The cell's centre in pixel steps along the two sides (s, t ∈ [−1, 1]).
+                let (dx, dy) = (cx - x, cy - y);
+                let s = (dx * self.down[1] - dy * self.down[0]) / det / 2.0;
+                let t = (self.across[0] * dy - self.across[1] * dx) / det / 2.0;
+                put(cx, cy, (1.0 - s.abs()).max(0.0) * (1.0 - t.abs()).max(0.0));
+                cx += 1.0;
+            }
+            cy += 1.0;
+        }
+    }
+}
+
 /// Whether a normal is background.
 fn is_background(n: &[f32; 3]) -> bool {
     *n == [0.0; 3]
@@ -234,6 +343,33 @@ pub struct EquivalentSphere {
     pub fraction: f64,
 }
 
+impl EquivalentSphere {
+    /// The luminance with the disc's missing cells set to the mean of its observed ones
+    /// (outside the disc: 0, a sphere on black).
+    pub fn filled(&self) -> Array2<f64> {
+        let (mut sum, mut n) = (0.0, 0usize);
+        for (&v, _) in self
+            .luminance
+            .iter()
+            .zip(&self.observed)
+            .filter(|(_, o)| **o)
+        {
+            sum += v;
+            n += 1;
+        }
+        let mean = sum / n.max(1) as f64;
+        let Circle { cx, cy, r } = self.circle;
+        let mut filled = self.luminance.clone();
+        for ((row, col), v) in filled.indexed_iter_mut() {
+            let (dx, dy) = (col as f64 - cx, row as f64 - cy);
+            if !self.observed[(row, col)] && dx * dx + dy * dy <= r * r {
+                *v = mean;
+            }
+        }
+        filled
+    }
+}
+
 /// The equivalent sphere of radius `radius` (px) of a photograph's `luminance` and its
 /// normals, over the pixels `mask` keeps (all object pixels when `None`). Pixels across
 /// depth edges, creases and silhouettes are left out ([`EDGE_ANGLE_DEG`]).
@@ -255,10 +391,11 @@ pub fn equivalent_sphere(
             want_h: h,
         });
     }
-    let side = (2.0 * radius).ceil() as usize + 3;
+    // A margin of a third of the radius around the disc, for the outline's rays.
+    let side = 2 * (MARGIN * radius).ceil() as usize + 3;
     let centre = (side - 1) as f64 / 2.0;
     let mut sum = Array2::<f64>::zeros((side, side));
-    let mut count = Array2::<u32>::zeros((side, side));
+    let mut weight = Array2::<f64>::zeros((side, side));
     let cos_edge = EDGE_ANGLE_DEG.to_radians().cos();
     let map = normals.normals.as_standard_layout();
     let map = map.as_slice().unwrap_or_default();
@@ -266,29 +403,47 @@ pub fn equivalent_sphere(
     let values = luminance.as_slice().unwrap_or_default();
     let keep = mask.map(|m| m.as_standard_layout());
     let keep = keep.as_ref().and_then(|m| m.as_slice());
-    let (sums, counts) = (sum.as_slice_mut(), count.as_slice_mut());
-    let (Some(sums), Some(counts)) = (sums, counts) else {
+    let (sums, weights) = (sum.as_slice_mut(), weight.as_slice_mut());
+    let (Some(sums), Some(weights)) = (sums, weights) else {
         return Err(NormalsError::Empty);
     };
     // The border rows and columns are edges; each inner pixel is read with its neighbours.
+    let place = |n: &[f32; 3]| {
+        [
+            centre + radius * f64::from(n[0]),
+            centre - radius * f64::from(n[1]),
+        ]
+    };
     for row in 1..h.saturating_sub(1) {
-        for col in 1..w - 1 {
+        for col in 1..w.saturating_sub(1) {
             let i = row * w + col;
             let n = &map[i];
             if is_background(n) || keep.is_some_and(|k| !k[i]) || on_edge(map, w, i, cos_edge) {
                 continue;
             }
-            let x = (centre + radius * f64::from(n[0])).round() as usize;
-            let y = (centre - radius * f64::from(n[1])).round() as usize;
-            let cell = y * side + x;
-            sums[cell] += values[i];
-            counts[cell] += 1;
+            // Half the step to each neighbour: the pixel's footprint on the sphere.
+            let half = |a: usize, b: usize| {
+                let (p, q) = (place(&map[a]), place(&map[b]));
+                [(q[0] - p[0]) / 4.0, (q[1] - p[1]) / 4.0]
+            };
+            let footprint = Footprint {
+                at: place(n),
+                across: half(i - 1, i + 1),
+                down: half(i - w, i + w),
+            };
+            footprint.cover(side, |cell, w| {
+                sums[cell] += w * values[i];
+                weights[cell] += w;
+            });
         }
     }
-    let observed = count.mapv(|c| c > 0);
-    let luminance = ndarray::Zip::from(&sum)
-        .and(&count)
-        .map_collect(|&s, &c| if c > 0 { s / f64::from(c) } else { 0.0 });
+    let mut observed = weight.mapv(|w| w > 0.0);
+    let mut luminance = ndarray::Zip::from(&sum)
+        .and(&weight)
+        .map_collect(|&s, &w| if w > 0.0 { s / w } else { 0.0 });
+    for _ in 0..FILL_PASSES {
+        fill_holes(&mut luminance, &mut observed, centre, radius);
+    }
     let circle = Circle {
         cx: centre,
         cy: centre,

@@ -75,6 +75,14 @@ pub enum Placement<M> {
     Mask(M),
     /// Found by detection (or the image's alpha channel).
     Auto,
+    /// An object of any shape, read as its equivalent sphere: its normal map (PNG or
+    /// OpenEXR), and a mask of its pixels when the normals alone do not say.
+    Normals {
+        /// The normal map, the image's size.
+        normals: M,
+        /// The object's pixels (alpha, else luminance ≥ 0.5).
+        mask: Option<M>,
+    },
 }
 
 impl<M> Placement<M> {
@@ -92,6 +100,26 @@ impl<M> Placement<M> {
             (None, Some(mask)) => Placement::Mask(mask),
             (None, None) => Placement::Auto,
         })
+    }
+
+    /// With an object's normals, the placement of an object of any shape: a mask given
+    /// becomes the object's mask; a circle cannot go with normals.
+    pub fn with_normals(self, normals: Option<M>) -> Result<Placement<M>, InputError> {
+        let Some(normals) = normals else {
+            return Ok(self);
+        };
+        match self {
+            Placement::Circle(_) => Err(InputError::CircleAndNormals),
+            Placement::Mask(mask) => Ok(Placement::Normals {
+                normals,
+                mask: Some(mask),
+            }),
+            Placement::Auto => Ok(Placement::Normals {
+                normals,
+                mask: None,
+            }),
+            normals @ Placement::Normals { .. } => Ok(normals),
+        }
     }
 }
 
@@ -119,6 +147,9 @@ pub enum InputError {
     /// Both a circle and a mask were given.
     #[error("give cx, cy and r, or a mask, not both")]
     CircleAndMask,
+    /// A circle and normals were both given.
+    #[error("give cx, cy and r for a sphere, or normals for an object of any shape, not both")]
+    CircleAndNormals,
     /// A prediction-set coverage outside [0.5, 0.999].
     #[error("coverage must be a number from 0.5 to 0.999, not {0}")]
     Coverage(f64),
@@ -261,6 +292,31 @@ mod tests {
             Placement::<()>::new(Some(50.0), None, Some(40.0), None).unwrap_err(),
             InputError::Geometry(GeometryError::Incomplete)
         );
+    }
+
+    #[test]
+    fn normals_take_the_mask_as_the_objects_and_refuse_a_circle() {
+        let auto = LocateSpec::new(None, None, None, None).unwrap();
+        let n = Bytes::from_static(b"normals");
+        assert!(matches!(
+            auto.with_normals(Some(n.clone())),
+            Ok(Placement::Normals { mask: None, .. })
+        ));
+        let masked = LocateSpec::new(None, None, None, Some(Bytes::from_static(b"m"))).unwrap();
+        assert!(matches!(
+            masked.with_normals(Some(n.clone())),
+            Ok(Placement::Normals { mask: Some(_), .. })
+        ));
+        let circle = LocateSpec::new(Some(100.0), Some(100.0), Some(50.0), None).unwrap();
+        assert_eq!(
+            circle.with_normals(Some(n)).unwrap_err(),
+            InputError::CircleAndNormals
+        );
+        let circle = LocateSpec::new(Some(100.0), Some(100.0), Some(50.0), None).unwrap();
+        assert!(matches!(
+            circle.with_normals(None),
+            Ok(Placement::Circle(_))
+        ));
     }
 
     #[test]

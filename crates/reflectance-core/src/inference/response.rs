@@ -285,7 +285,8 @@ pub struct GeometryOut {
     pub cy: f64,
     /// Radius (px, > 0).
     pub r: f64,
-    /// `given`, `mask` (mask image), `alpha` (the image's alpha channel) or `auto`.
+    /// `given`, `mask` (mask image), `alpha` (the image's alpha channel), `auto` or
+    /// `normals` (an object's equivalent sphere).
     #[cfg_attr(feature = "openapi", schema(value_type = String, example = "given"))]
     pub method: GeometryMethod,
     /// Automatic detection only.
@@ -357,6 +358,11 @@ pub struct ImagesOut {
     /// The wavelet pyramid's oriented subbands, finest scale first; mid-grey is 0 and each is
     /// scaled to its own 99th percentile of |value|.
     pub subbands: Vec<SubbandImage>,
+    /// An object's equivalent sphere divided by white (the photograph's pixels placed by
+    /// their normals; black where the object shows no normal), for objects given with
+    /// normals.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub equivalent_sphere: Option<String>,
 }
 
 /// One oriented subband of the pyramid, as a picture.
@@ -387,8 +393,15 @@ pub(super) fn images_of(
     image: &decode::LinearImage,
     analysis: &Analysis,
 ) -> ImagesOut {
-    let circle = analysis.geometry.circle();
-    let stages = extractor.stages(image.luminance.view(), &circle, analysis.white.value);
+    let white = analysis.white.value;
+    let stages = match &analysis.equivalent {
+        Some(sphere) => extractor.stages_of_equivalent(sphere, white),
+        None => extractor.stages(image.luminance.view(), &analysis.geometry.circle(), white),
+    };
+    let equivalent_sphere = analysis.equivalent.as_ref().map(|sphere| {
+        let seen = sphere.luminance.mapv(|v| v / white);
+        display::data_url(&display::luminance_png(seen.view()))
+    });
     let picture =
         |values: &ndarray::Array2<f64>| display::data_url(&display::signed_png(values.view()));
     let subbands = stages
@@ -409,6 +422,7 @@ pub(super) fn images_of(
     ImagesOut {
         annulus: display::data_url(&display::luminance_png(stages.unwrapped.view())),
         subbands,
+        equivalent_sphere,
     }
 }
 
@@ -500,8 +514,13 @@ pub struct ClassifyResponse {
     pub domain: DomainOut,
     /// The classifier's inputs, and every feature on request.
     pub features: FeaturesOut,
-    /// The sphere's circle and how it was found.
+    /// The sphere's circle and how it was found (for an object given with normals, its
+    /// equivalent sphere's, in that sphere's own pixels).
     pub geometry: GeometryOut,
+    /// For an object given with normals: the fraction of the sphere's annulus its normals
+    /// show, which the features read (at least 0.2).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub observed_fraction: Option<f64>,
     /// The white reference used.
     pub white: WhiteOut,
     /// What the caller should know: no white, out of domain, a clipped image, …
@@ -672,6 +691,7 @@ impl Classified {
                 }),
             },
             geometry: GeometryOut::from(&self.analysis.geometry),
+            observed_fraction: self.analysis.observed,
             white: WhiteOut {
                 value: self.analysis.white.value,
                 method: self.analysis.white.method,

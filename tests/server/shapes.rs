@@ -1,0 +1,172 @@
+//! Objects of any shape (issue #44): a photograph and its normal map through the real
+//! router, classified as their equivalent sphere.
+
+use crate::common;
+
+use common::server::{
+    CLASSES_JSON, Part, config, fixture, models_copy, post_multipart, send, start, temp_dir,
+    write_probes,
+};
+use reflectance::render::Quality;
+use reflectance::render::batch::{self, Augment, BatchSpec};
+use reflectance::render::shapes::ShapeSpec;
+
+/// Tori rendered under the fixture's held-out probe: (image, normals, class, white) each.
+fn held_out_tori() -> Vec<(Vec<u8>, Vec<u8>, String, f64)> {
+    let dir = temp_dir("tori");
+    let probes = write_probes(&dir.join("probes"));
+    let classes = dir.join("classes.json");
+    std::fs::write(&classes, CLASSES_JSON).unwrap();
+    let spec = BatchSpec {
+        probes: probes[3..].to_vec(),
+        classes: reflectance::material::load_classes(&classes).unwrap(),
+        out: dir.join("tori"),
+        size: 128,
+        seed: 1,
+        quality: Quality::default(),
+        augment: Augment {
+            shape: ShapeSpec::Torus,
+            ..Augment::default()
+        },
+        shard: None,
+    };
+    let manifest = batch::render_dataset(&spec).unwrap().manifest;
+    let manifest = reflectance::dataset::read_manifest(&manifest).unwrap();
+    manifest
+        .entries
+        .iter()
+        .map(|e| {
+            let normals = e.file.with_extension("normals.png");
+            (
+                std::fs::read(&e.file).unwrap(),
+                std::fs::read(normals).unwrap(),
+                e.class.clone().unwrap(),
+                e.white.unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_object_and_its_normals_are_classified_as_their_equivalent_sphere() {
+    let server = start(config(&models_copy("shapes")));
+    let _ = fixture();
+    for (image, normals, class, white) in held_out_tori() {
+        let white = white.to_string();
+        let answer = send(
+            &server.data,
+            post_multipart(
+                "/v1/classify",
+                &[
+                    ("image", Part::File(&image)),
+                    ("white", Part::Text(&white)),
+                    ("normals", Part::File(&normals)),
+                    ("include", Part::Text("images")),
+                ],
+            ),
+        )
+        .await;
+        assert_eq!(
+            answer.status,
+            200,
+            "{}",
+            String::from_utf8_lossy(&answer.body)
+        );
+        let doc = answer.json();
+        assert_eq!(doc["label"], class.as_str(), "{doc}");
+        assert_eq!(doc["geometry"]["method"], "normals", "{doc}");
+        let observed = doc["observed_fraction"].as_f64().unwrap();
+        assert!((0.9..=1.0).contains(&observed), "{observed}");
+        let sphere = doc["images"]["equivalent_sphere"].as_str().unwrap();
+        assert!(sphere.starts_with("data:image/png;base64,"), "{sphere}");
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn bad_normals_are_refused_with_what_to_fix() {
+    let server = start(config(&models_copy("shapes-bad")));
+    let tori = held_out_tori();
+    let (image, normals, _, white) = &tori[0];
+    let white = white.to_string();
+    // A circle and normals: one or the other.
+    let mut fields = vec![("normals", Part::File(normals.as_slice()))];
+    fields.extend([
+        ("cx", Part::Text("64")),
+        ("cy", Part::Text("64")),
+        ("r", Part::Text("50")),
+    ]);
+    let mut all = vec![
+        ("image", Part::File(image.as_slice())),
+        ("white", Part::Text(white.as_str())),
+    ];
+    all.extend(fields);
+    let doc = send(&server.data, post_multipart("/v1/classify", &all))
+        .await
+        .problem(422, "bad-geometry");
+    assert!(
+        doc["detail"].as_str().unwrap().contains("not both"),
+        "{doc}"
+    );
+    // Not an image file.
+    let garbage = b"not a normal map".to_vec();
+    let all = vec![
+        ("image", Part::File(image.as_slice())),
+        ("white", Part::Text(white.as_str())),
+        ("normals", Part::File(garbage.as_slice())),
+    ];
+    let doc = send(&server.data, post_multipart("/v1/classify", &all))
+        .await
+        .problem(422, "bad-geometry");
+    assert!(
+        doc["detail"]
+            .as_str()
+            .unwrap()
+            .contains("PNG or an OpenEXR"),
+        "{doc}"
+    );
+    // Another photograph's size.
+    let small = common::sphere_png(96, 40.0);
+    let all = vec![
+        ("image", Part::File(small.as_slice())),
+        ("white", Part::Text(white.as_str())),
+        ("normals", Part::File(normals.as_slice())),
+    ];
+    let doc = send(&server.data, post_multipart("/v1/classify", &all))
+        .await
+        .problem(422, "bad-geometry");
+    let detail = doc["detail"].as_str().unwrap();
+    assert!(
+        detail.contains("128×128 but the photograph is 96×96"),
+        "{doc}"
+    );
+    // A sliver of the object: too little of the sphere, named.
+    let mut sliver = image::GrayImage::new(128, 128);
+    for y in 0..128 {
+        for x in 62..66 {
+            sliver.put_pixel(x, y, image::Luma([255]));
+        }
+    }
+    let mut mask = Vec::new();
+    sliver
+        .write_to(
+            &mut std::io::Cursor::new(&mut mask),
+            image::ImageFormat::Png,
+        )
+        .unwrap();
+    let all = vec![
+        ("image", Part::File(image.as_slice())),
+        ("white", Part::Text(white.as_str())),
+        ("normals", Part::File(normals.as_slice())),
+        ("mask", Part::File(mask.as_slice())),
+    ];
+    let doc = send(&server.data, post_multipart("/v1/classify", &all))
+        .await
+        .problem(422, "bad-geometry");
+    assert!(
+        doc["detail"]
+            .as_str()
+            .unwrap()
+            .contains("the features need at least 20 %"),
+        "{doc}"
+    );
+}
