@@ -18,6 +18,12 @@ Mask = Union[str, os.PathLike[str], npt.NDArray[np.bool_], npt.NDArray[np.float6
 """A mask of the sphere, the image's size: a file (alpha, or luminance >= 0.5), or an
 array (True, or >= 0.5). A circle is fitted to its edge."""
 
+Normals = Union[str, os.PathLike[str], npt.NDArray[np.float32], npt.NDArray[np.float64]]
+"""An object's camera-space unit normals, the image's size: a file (PNG with n = 2v/max - 1
+and a black or transparent background, or OpenEXR with float R, G, B = X, Y, Z), or an
+H x W x 3 float array (+X right, +Y up, +Z toward the camera; the zero vector is
+background)."""
+
 class ReflectanceError(ValueError):
     """An input the pipeline refuses: a file that does not decode, a circle outside the
     image, a sphere that cannot be found, an invalid model file."""
@@ -72,6 +78,8 @@ class Model:
         r: Optional[float] = None,
         white: Optional[float] = None,
         coverage: Optional[float] = None,
+        mask: Optional[Mask] = None,
+        normals: Optional[Normals] = None,
     ) -> dict[str, Any]:
         """`classify` with this model."""
 
@@ -84,7 +92,12 @@ def classify(
     r: Optional[float] = None,
     white: Optional[float] = None,
     coverage: Optional[float] = None,
+    mask: Optional[Mask] = None,
+    normals: Optional[Normals] = None,
 ) -> dict[str, Any]:
     """The service's JSON answer (`POST /v1/classify`, `reflectance classify --json`) as
     Python objects: `label`, `probabilities`, `prediction_set` (at `coverage`, default
-    0.95), `domain`, `geometry`, `white`, `ward`, `warnings`, `timing_ms`."""
+    0.95), `domain`, `geometry`, `white`, `ward`, `warnings`, `timing_ms`. The sphere is the
+    circle, a `mask`, or found; an object of any shape is given by its `normals` (with
+    `mask` naming its pixels), read as its equivalent sphere (`observed_fraction`,
+    `normal_scatter_deg` in the answer)."""

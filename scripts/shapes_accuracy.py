@@ -67,7 +67,7 @@ def perturbed(normals, how, seed=7):
     else:
         raise SystemExit(f"unknown perturbation {how!r}")
     n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-9)
-    n[n[..., 2] < 0] = 0.0
+    object_ &= n[..., 2] >= 0
     out = np.where(object_[..., None], np.round((n + 1.0) / 2.0 * 65535.0), 0).astype(np.uint16)
     path = normals.replace(".normals.png", f".{kind}{amount:g}.normals.png")
     png.Writer(width, height, greyscale=False, bitdepth=16).write(
@@ -131,7 +131,7 @@ def main():
                                        args.keep, args.perturb)
                 rows.append((shape, entry["class"], entry.get("illumination", ""), answer, why))
     print(f"{'shape':<14}{'n':>4}{'right':>7}{'refused':>9}{'conf. wrong':>13}"
-          f"{'out of dom.':>13}{'mean set':>10}{'observed':>10}")
+          f"{'out of dom.':>13}{'in set':>8}{'mean set':>10}{'observed':>10}{'scatter':>9}")
     per = defaultdict(list)
     for row in rows:
         per[row[0]].append(row)
@@ -144,10 +144,13 @@ def main():
             for r in answered)
         outside = sum(not r[3]["domain"]["in_domain"] for r in answered)
         sets = [len((r[3].get("prediction_set") or {}).get("labels", [])) for r in answered]
+        held = sum(r[1] in (r[3].get("prediction_set") or {}).get("labels", []) for r in answered)
+        scatter = [r[3].get("normal_scatter_deg") or 0.0 for r in answered]
         observed = [r[3].get("observed_fraction") or 1.0 for r in answered]
         mean = lambda v: sum(v) / len(v) if v else float("nan")
         print(f"{shape:<14}{len(group):>4}{right:>7}{len(group) - len(answered):>9}"
-              f"{confident:>13}{outside:>13}{mean(sets):>10.2f}{mean(observed):>10.2f}")
+              f"{confident:>13}{outside:>13}{held:>8}{mean(sets):>10.2f}{mean(observed):>10.2f}"
+              f"{mean(scatter):>9.1f}")
     for shape, cls, light, answer, why in rows:
         if answer is None:
             print(f"refused {shape} {cls} {light}: {why}", file=sys.stderr)

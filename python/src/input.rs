@@ -4,11 +4,12 @@
 
 use crate::error;
 use ndarray::Array2;
-use numpy::{PyReadonlyArray2, PyUntypedArray, PyUntypedArrayMethods};
+use numpy::{PyReadonlyArray2, PyReadonlyArray3, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use reflectance_core::features::analysis;
 use reflectance_core::image::decode::{self, DecodeOptions, Encoding, LinearImage};
+use reflectance_core::image::normals::NormalMap;
 use std::path::PathBuf;
 
 /// An image: a file to decode, or linear luminance.
@@ -69,6 +70,59 @@ impl MaskArg {
                 let image = decode::decode_file(&path, &options)
                     .map_err(|e| error(format!("{}: {e}", path.display())))?;
                 Ok(analysis::mask_from_image(&image))
+            }
+        }
+    }
+}
+
+/// An object's normal map: a file (PNG or OpenEXR) or an H×W×3 float array of camera-space
+/// unit normals (+X right, +Y up, +Z toward the camera; the zero vector is background).
+pub enum NormalsArg {
+    Path(PathBuf),
+    Vectors(Array2<[f32; 3]>),
+}
+
+impl NormalsArg {
+    pub fn from_python(object: &Bound<'_, PyAny>) -> PyResult<NormalsArg> {
+        if let Ok(path) = object.extract::<PathBuf>() {
+            return Ok(NormalsArg::Path(path));
+        }
+        let vectors = |shape: &[usize], at: &dyn Fn(usize, usize, usize) -> f32| match shape {
+            [h, w, 3] => Ok(Array2::from_shape_fn((*h, *w), |(r, c)| {
+                [at(r, c, 0), at(r, c, 1), at(r, c, 2)]
+            })),
+            _ => Err(PyTypeError::new_err(format!(
+                "normals must be an H×W×3 array, not one of shape {shape:?}"
+            ))),
+        };
+        if let Ok(array) = object.extract::<PyReadonlyArray3<'_, f32>>() {
+            let a = array.as_array();
+            return Ok(NormalsArg::Vectors(vectors(a.shape(), &|r, c, k| {
+                a[[r, c, k]]
+            })?));
+        }
+        if let Ok(array) = object.extract::<PyReadonlyArray3<'_, f64>>() {
+            let a = array.as_array();
+            return Ok(NormalsArg::Vectors(vectors(a.shape(), &|r, c, k| {
+                a[[r, c, k]] as f32
+            })?));
+        }
+        Err(PyTypeError::new_err(format!(
+            "normals must be a path or an H×W×3 numpy array of float32 or float64, not {}",
+            object.get_type().name()?
+        )))
+    }
+
+    pub fn into_map(self) -> PyResult<NormalMap> {
+        match self {
+            NormalsArg::Vectors(vectors) => {
+                NormalMap::from_vectors(vectors).map_err(|e| error(format!("normals: {e}")))
+            }
+            NormalsArg::Path(path) => {
+                let bytes = std::fs::read(&path)
+                    .map_err(|e| error(format!("normals {}: {e}", path.display())))?;
+                NormalMap::decode(&bytes, &DecodeOptions::default().limits)
+                    .map_err(|e| error(format!("{}: {e}", path.display())))
             }
         }
     }

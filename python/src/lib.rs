@@ -4,7 +4,8 @@
 
 mod input;
 
-use input::{ImageArg, MaskArg};
+use input::{ImageArg, MaskArg, NormalsArg};
+use ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2};
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
@@ -49,19 +50,45 @@ fn inference_error(e: InferenceError) -> PyErr {
     }
 }
 
-/// Where the sphere is: the circle, a mask, or found in the image.
+/// What a placement holds besides a circle: a mask, or an object's normals.
+enum Part {
+    Mask(MaskArg),
+    Normals(NormalsArg),
+}
+
+impl Part {
+    fn into_mask(self) -> PyResult<Array2<bool>> {
+        match self {
+            Part::Mask(mask) => mask.into_mask(),
+            Part::Normals(_) => Err(error("normals where a mask belongs")),
+        }
+    }
+}
+
+/// Where the sphere is: the circle, a mask, or found in the image; or an object's normals
+/// (with `mask`, the object's pixels).
 fn locate(
     cx: Option<f64>,
     cy: Option<f64>,
     r: Option<f64>,
     mask: Option<MaskArg>,
+    normals: Option<NormalsArg>,
 ) -> PyResult<Locate> {
-    Ok(match Placement::new(cx, cy, r, mask).map_err(error)? {
+    let placement = Placement::new(cx, cy, r, mask.map(Part::Mask))
+        .and_then(|p| p.with_normals(normals.map(Part::Normals)))
+        .map_err(error)?;
+    Ok(match placement {
         Placement::Circle(circle) => Locate::Circle(circle),
         Placement::Mask(mask) => Locate::Mask(mask.into_mask()?),
         Placement::Auto => Locate::Auto,
-        // `Placement::new` places a sphere; only `with_normals` makes an object's placement.
-        Placement::Normals { .. } => return Err(error("normals are not taken by this call")),
+        Placement::Normals {
+            normals: Part::Normals(normals),
+            mask,
+        } => Locate::Normals {
+            normals: normals.into_map()?,
+            mask: mask.map(Part::into_mask).transpose()?,
+        },
+        Placement::Normals { .. } => return Err(error("a mask where the normals belong")),
     })
 }
 
@@ -88,10 +115,17 @@ impl Sphere {
         (cx, cy, r): (Option<f64>, Option<f64>, Option<f64>),
         white: Option<f64>,
         mask: Option<&Bound<'_, PyAny>>,
+        normals: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Sphere> {
         Ok(Sphere {
             image: ImageArg::from_python(image)?,
-            how: locate(cx, cy, r, mask.map(MaskArg::from_python).transpose()?)?,
+            how: locate(
+                cx,
+                cy,
+                r,
+                mask.map(MaskArg::from_python).transpose()?,
+                normals.map(NormalsArg::from_python).transpose()?,
+            )?,
             white: white_input(white)?,
         })
     }
@@ -138,7 +172,7 @@ fn features<'py>(
     log: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let extractor = extractor(log);
-    let sphere = Sphere::new(image, (cx, cy, r), white, mask)?;
+    let sphere = Sphere::new(image, (cx, cy, r), white, mask, None)?;
     let values = sphere.decoded(py, |decoded, how, white| {
         let analysis =
             analysis::analyze(extractor, &decoded, how, white).map_err(|e| analysis_error(&e))?;
@@ -165,7 +199,7 @@ fn unwrap<'py>(
     white: Option<f64>,
     mask: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let sphere = Sphere::new(image, (cx, cy, r), white, mask)?;
+    let sphere = Sphere::new(image, (cx, cy, r), white, mask, None)?;
     let annulus = sphere.decoded(py, |decoded, how, white| {
         analysis::unwrapped(extractor(false), &decoded, how, white).map_err(|e| analysis_error(&e))
     })?;
@@ -210,7 +244,7 @@ impl Model {
     }
 
     /// [`classify`] with this model.
-    #[pyo3(signature = (image, *, cx=None, cy=None, r=None, white=None, coverage=None))]
+    #[pyo3(signature = (image, *, cx=None, cy=None, r=None, white=None, coverage=None, mask=None, normals=None))]
     #[allow(clippy::too_many_arguments)]
     fn classify<'py>(
         &self,
@@ -221,8 +255,11 @@ impl Model {
         r: Option<f64>,
         white: Option<f64>,
         coverage: Option<f64>,
+        mask: Option<&Bound<'py, PyAny>>,
+        normals: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        classify_with(py, &self.loaded, image, cx, cy, r, white, coverage)
+        let sphere = Sphere::new(image, (cx, cy, r), white, mask, normals)?;
+        classify_with(py, &self.loaded, sphere, coverage)
     }
 
     fn __repr__(&self) -> String {
@@ -237,7 +274,7 @@ impl Model {
 /// The service's JSON answer (`POST /v1/classify`, `reflectance classify --json`) for one
 /// photograph, as Python objects. `model`: a [`Model`] or a model's path.
 #[pyfunction]
-#[pyo3(signature = (image, *, model, cx=None, cy=None, r=None, white=None, coverage=None))]
+#[pyo3(signature = (image, *, model, cx=None, cy=None, r=None, white=None, coverage=None, mask=None, normals=None))]
 #[allow(clippy::too_many_arguments)]
 fn classify<'py>(
     py: Python<'py>,
@@ -248,27 +285,24 @@ fn classify<'py>(
     r: Option<f64>,
     white: Option<f64>,
     coverage: Option<f64>,
+    mask: Option<&Bound<'py, PyAny>>,
+    normals: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let loaded = match model.cast::<Model>() {
         Ok(model) => model.get().loaded.clone(),
         Err(_) => Model::new(py, model.extract::<PathBuf>()?)?.loaded,
     };
-    classify_with(py, &loaded, image, cx, cy, r, white, coverage)
+    let sphere = Sphere::new(image, (cx, cy, r), white, mask, normals)?;
+    classify_with(py, &loaded, sphere, coverage)
 }
 
-#[allow(clippy::too_many_arguments)]
 fn classify_with<'py>(
     py: Python<'py>,
     model: &Arc<LoadedModel>,
-    image: &Bound<'py, PyAny>,
-    cx: Option<f64>,
-    cy: Option<f64>,
-    r: Option<f64>,
-    white: Option<f64>,
+    sphere: Sphere,
     coverage: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let started = Instant::now();
-    let sphere = Sphere::new(image, (cx, cy, r), white, None)?;
     let answer = Answer {
         coverage,
         ..Answer::default()

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import reflectance
-from conftest import CIRCLE, ROOT, SPHERE, WARD6, circle_flags, cli_json, shaded_sphere
+from conftest import CIRCLE, ROOT, SPHERE, WARD6, circle_flags, cli, cli_json, shaded_sphere
 
 # What differs between two runs of the same classification.
 VOLATILE = ("timing_ms", "request_id")
@@ -53,6 +53,47 @@ def test_an_array_is_classified_and_a_picture_of_nothing_is_out_of_domain():
     assert odd["domain"]["in_domain"] is False, odd["domain"]
     assert len(odd["domain"]["reasons"]) == 2, odd["domain"]
     assert not any("noise" in reason for reason in odd["domain"]["reasons"]), odd["domain"]
+
+
+def sphere_normals(size: int) -> np.ndarray:
+    """The camera-space normals of `shaded_sphere(size)`'s sphere, zero outside it."""
+    y, x = np.mgrid[0:size, 0:size].astype(np.float64)
+    c, r = (size - 1) / 2, size / 2.2
+    nx, ny = (x - c) / r, (c - y) / r
+    z2 = 1 - nx**2 - ny**2
+    normals = np.stack([nx, ny, np.sqrt(np.clip(z2, 0, 1))], axis=-1)
+    return np.where((z2 > 0)[..., None], normals, 0.0).astype(np.float32)
+
+
+def test_an_object_is_classified_from_its_normals_as_the_command_line_does(tmp_path):
+    model = reflectance.Model(WARD6)
+    size = 256
+    sphere, normals = shaded_sphere(size), sphere_normals(size)
+    c = (size - 1) / 2
+    by_circle = model.classify(sphere, cx=c, cy=c, r=size / 2.2, white=1.3)
+    by_normals = model.classify(sphere, normals=normals, white=1.3)
+    assert by_normals["geometry"]["method"] == "normals"
+    assert by_normals["observed_fraction"] > 0.95
+    assert by_normals["label"] == by_circle["label"]
+    # Half the object: less of the sphere, and the widest prediction set.
+    left = np.zeros((size, size), dtype=bool)
+    left[:, : size // 2] = True
+    half = model.classify(sphere, normals=normals, mask=left, white=1.3)
+    assert 0.2 < half["observed_fraction"] < 0.95
+    assert half["prediction_set"]["coverage"] == 0.999
+    # The files the command line reads give the command line's answer.
+    render = cli("render", "--probes", ROOT / "data/probes", "--classes", ROOT / "data/classes/classes6.json",
+                 "--out", tmp_path, "--size", "96", "--shape", "torus")
+    assert render.returncode == 0, render.stderr
+    image = tmp_path / "polyhaven_dresden_square__chrome.pfm"
+    normals_png = tmp_path / "polyhaven_dresden_square__chrome.normals.png"
+    ours = reflectance.classify(image, model=WARD6, normals=normals_png, white=2.0)
+    theirs = cli_json("classify", image, "--model", WARD6, "--normals", normals_png, "--white", 2.0, "--json")
+    assert stable(ours) == stable(theirs)
+    with pytest.raises(reflectance.ReflectanceError, match="not both"):
+        model.classify(sphere, normals=normals, cx=c, cy=c, r=100)
+    with pytest.raises(TypeError, match="H×W×3"):
+        model.classify(sphere, normals=normals[..., :2])
 
 
 def test_bad_models_and_arguments_are_python_errors(tmp_path):

@@ -170,3 +170,46 @@ async fn bad_normals_are_refused_with_what_to_fix() {
         "{doc}"
     );
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_open_inference_protocol_takes_normals_as_an_input() {
+    use super::v2::{binary_request, framed};
+    let server = start(config(&models_copy("shapes-v2")));
+    let metadata = send(&server.data, common::server::get("/v2/models/ward6")).await;
+    let inputs = metadata.json()["inputs"].clone();
+    assert!(
+        inputs
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|i| i["name"] == "normals" && i["datatype"] == "BYTES"),
+        "{inputs}"
+    );
+    let tori = held_out_tori();
+    let (image, normals, class, white) = &tori[0];
+    let (image, normals) = (framed(image), framed(normals));
+    let head = serde_json::json!({
+        "inputs": [
+            {"name": "image", "datatype": "BYTES", "shape": [1],
+             "parameters": {"binary_data_size": image.len()}},
+            {"name": "normals", "datatype": "BYTES", "shape": [1],
+             "parameters": {"binary_data_size": normals.len()}},
+            {"name": "white", "datatype": "FP64", "shape": [1], "data": [white]},
+        ],
+        "outputs": [{"name": "label"}, {"name": "in_domain"}],
+    });
+    let binary = [image.as_slice(), normals.as_slice()].concat();
+    let answer = send(
+        &server.data,
+        binary_request("/v2/models/ward6/infer", &head, &binary),
+    )
+    .await;
+    assert_eq!(
+        answer.status,
+        200,
+        "{}",
+        String::from_utf8_lossy(&answer.body)
+    );
+    let doc = answer.json();
+    assert_eq!(doc["outputs"][0]["data"][0], class.as_str(), "{doc}");
+}

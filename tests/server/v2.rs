@@ -190,14 +190,14 @@ async fn kserve_v2_protocol() {
 
 /// The binary tensor data extension's framing: a BYTES element is its 4-byte
 /// little-endian length, then its bytes.
-fn framed(element: &[u8]) -> Vec<u8> {
+pub(crate) fn framed(element: &[u8]) -> Vec<u8> {
     let mut out = (element.len() as u32).to_le_bytes().to_vec();
     out.extend_from_slice(element);
     out
 }
 
 /// A request of JSON and binary data, as tritonclient sends it (no content type).
-fn binary_request(uri: &str, head: &Value, binary: &[u8]) -> Request<Body> {
+pub(crate) fn binary_request(uri: &str, head: &Value, binary: &[u8]) -> Request<Body> {
     let mut body = serde_json::to_vec(head).unwrap();
     let length = body.len();
     body.extend_from_slice(binary);

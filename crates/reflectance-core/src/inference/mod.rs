@@ -349,9 +349,31 @@ impl Answer {
 /// prediction set ([`PARTIAL_COVERAGE`]).
 pub const WHOLE_OBSERVED: f64 = 0.95;
 
+/// Normals that stray from their smoothed field by more than this RMS angle (degrees) get the
+/// widest prediction set ([`PARTIAL_COVERAGE`]): exact and 16-bit maps stray by under 0.5°.
+pub const MAX_SCATTER_DEG: f64 = 2.0;
+
+/// Why an object's answer is outside what the prediction sets were calibrated on (part of
+/// the sphere, or scattered normals), if it is.
+fn uncalibrated_object(analysis: &analysis::Analysis) -> Option<String> {
+    let sphere = analysis.equivalent.as_ref()?;
+    let partly = analysis
+        .observed
+        .filter(|&f| f < WHOLE_OBSERVED)
+        .map(|f| format!("the object shows {:.0} % of the sphere", f * 100.0));
+    let scattered = (sphere.scatter_deg > MAX_SCATTER_DEG).then(|| {
+        format!(
+            "its normals stray by {:.1}° (RMS) from a smooth surface",
+            sphere.scatter_deg
+        )
+    });
+    let reasons: Vec<String> = [partly, scattered].into_iter().flatten().collect();
+    (!reasons.is_empty()).then(|| reasons.join(" and "))
+}
+
 /// The coverage of a partly seen object's prediction set: the sets are calibrated on whole
-/// spheres, and on half-seen rendered objects the 95 % set missed the true class 10 times in
-/// 96 where the 99.9 % set missed it once (docs/accuracy.md).
+/// spheres, and on the centre quarters of rendered objects the 95 % set missed the true class
+/// 10 times in 96 where the 99.9 % set missed it once (docs/accuracy.md).
 pub const PARTIAL_COVERAGE: f64 = 0.999;
 
 /// Locate, extract and classify an image already decoded (or handed over as an array,
@@ -386,12 +408,11 @@ pub fn classify_decoded(
     let features_ms = ms(t);
     let t = Instant::now();
     let mut coverage = answer.coverage.unwrap_or(conformal::DEFAULT_COVERAGE);
-    if let Some(fraction) = analysis.observed.filter(|&f| f < WHOLE_OBSERVED) {
+    if let Some(why) = uncalibrated_object(&analysis) {
         coverage = coverage.max(PARTIAL_COVERAGE);
         analysis.warnings.push(format!(
-            "the object shows {:.0} % of the sphere: the prediction set is widened to {} % \
-             coverage (the sets are calibrated on whole spheres)",
-            fraction * 100.0,
+            "{why}: the prediction set is widened to {} % coverage (the sets are calibrated on \
+             whole spheres of exact geometry)",
             PARTIAL_COVERAGE * 100.0
         ));
     }

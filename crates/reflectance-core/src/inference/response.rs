@@ -521,6 +521,10 @@ pub struct ClassifyResponse {
     /// show, which the features read (at least 0.2).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub observed_fraction: Option<f64>,
+    /// For an object given with normals: how far they stray from their smoothed field, the
+    /// RMS angle in degrees (noisy normals; above 2 the prediction set is the 99.9 % one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normal_scatter_deg: Option<f64>,
     /// The white reference used.
     pub white: WhiteOut,
     /// What the caller should know: no white, out of domain, a clipped image, …
@@ -692,6 +696,7 @@ impl Classified {
             },
             geometry: GeometryOut::from(&self.analysis.geometry),
             observed_fraction: self.analysis.observed,
+            normal_scatter_deg: self.analysis.equivalent.as_ref().map(|e| e.scatter_deg),
             white: WhiteOut {
                 value: self.analysis.white.value,
                 method: self.analysis.white.method,

@@ -68,7 +68,8 @@ pub struct ModelMetadata {
 #[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
 pub struct InferInput {
     /// `image` (required), `white`, `white_image`, `white_rect`, `white_reflectance`, `cx`,
-    /// `cy`, `r`, `mask`, `encoding` or `coverage`.
+    /// `cy`, `r`, `mask`, `normals` (an object's normal map, instead of a circle), `encoding` or
+    /// `coverage`.
     #[schema(min_length = 1)]
     pub name: String,
     pub shape: Vec<i64>,

@@ -30,7 +30,7 @@ fn meta(name: &str, datatype: &str, shape: Vec<i64>) -> TensorMetadata {
 }
 
 /// BYTES inputs (the files, and the encoding's text).
-const BYTES_INPUTS: [&str; 4] = ["image", "white_image", "mask", "encoding"];
+const BYTES_INPUTS: [&str; 5] = ["image", "white_image", "mask", "normals", "encoding"];
 /// Inputs of one number each.
 const NUMBER_INPUTS: [&str; 6] = ["white", "white_reflectance", "cx", "cy", "r", "coverage"];
 
@@ -146,6 +146,7 @@ pub fn raw_input(tensors: Vec<Tensor>) -> Result<RawInput, ApiError> {
                 .replace(file_or_text(tensor, true)?)
                 .is_some(),
             "mask" => raw.mask.replace(file_or_text(tensor, true)?).is_some(),
+            "normals" => raw.normals.replace(file_or_text(tensor, true)?).is_some(),
             "encoding" => {
                 let text = String::from_utf8(file_or_text(tensor, false)?.to_vec())
                     .map_err(|_| invalid("input \"encoding\" is not UTF-8 text".into()))?;
