@@ -134,6 +134,13 @@ async function choose(file) {
   state.file = file;
   state.rect = null;
   $("white-rect").value = "";
+  $("normals").value = "";
+  if (whiteMode() === "rect") {
+    // The card outlined belonged to the last photograph.
+    const none = document.querySelector('input[name="white-mode"][value="none"]');
+    none.checked = true;
+    none.dispatchEvent(new Event("change"));
+  }
   status(`Finding the sphere in ${file.name}…`);
   try {
     const shown = await loadBrowserImage(file);
@@ -376,9 +383,14 @@ async function classify() {
   try {
     const form = new FormData();
     form.append("image", state.file);
-    form.append("cx", $("cx").value);
-    form.append("cy", $("cy").value);
-    form.append("r", $("r").value);
+    const normals = $("normals").files[0];
+    if (normals) {
+      form.append("normals", normals);
+    } else {
+      form.append("cx", $("cx").value);
+      form.append("cy", $("cy").value);
+      form.append("r", $("r").value);
+    }
     whiteFields(form);
     form.append("include", "explain,images");
     const model = encodeURIComponent($("model").value);
@@ -425,6 +437,13 @@ function showBars(probabilities, label) {
 function showImages(images) {
   const subbands = $("subbands");
   subbands.replaceChildren();
+  const equivalent = images && images.equivalent_sphere;
+  $("equivalent-figure").hidden = !equivalent;
+  if (equivalent) {
+    $("equivalent").src = equivalent;
+  } else {
+    $("equivalent").removeAttribute("src");
+  }
   if (!images) {
     $("annulus").removeAttribute("src");
     return;

@@ -150,7 +150,11 @@ impl Browser {
     }
 
     fn upload(&self, file: &Path) {
-        let input = self.find("#file");
+        self.upload_to("#file", file);
+    }
+
+    fn upload_to(&self, css: &str, file: &Path) {
+        let input = self.find(css);
         let text = file.to_str().unwrap();
         self.call(
             "POST",
@@ -507,6 +511,7 @@ fn the_page_classifies_a_photograph_in_a_real_browser() {
     browser.script("window.scrollTo(0, 0);");
     keep_the_screenshot(&browser.screenshot());
     a_non_image_shows_the_problem(&browser);
+    an_object_shows_its_equivalent_sphere(&browser, &base);
 
     // A phone's width: nothing wider than the screen.
     browser.call("POST", "/window/rect", json!({"width": 390, "height": 844}));
@@ -530,6 +535,38 @@ fn the_page_classifies_a_photograph_in_a_real_browser() {
         "document.querySelectorAll('.opblock').length",
     );
     assert!(operations.as_u64().unwrap() >= 20, "{operations}");
+}
+
+/// A torus and its normal map: classified as its equivalent sphere, shown beside the
+/// annulus.
+fn an_object_shows_its_equivalent_sphere(browser: &Browser, dir: &Path) {
+    let (image, normals, _, _) = super::shapes::held_out_tori().swap_remove(1);
+    let (image_path, normals_path) = (dir.join("torus.pfm"), dir.join("torus.normals.png"));
+    std::fs::write(&image_path, image).unwrap();
+    std::fs::write(&normals_path, normals).unwrap();
+    browser.upload(&image_path);
+    browser.wait_for(
+        "the photograph",
+        "!document.getElementById('stage').hidden && document.getElementById('r').value",
+    );
+    browser.upload_to("#normals", &normals_path);
+    browser.call(
+        "POST",
+        &format!("/element/{}/click", browser.find("#classify")),
+        json!({}),
+    );
+    let outcome = browser.wait_for(
+        "the equivalent sphere",
+        "(!document.getElementById('error').hidden \
+          && document.getElementById('error-detail').textContent) \
+         || (!document.getElementById('result').hidden \
+             && !document.getElementById('equivalent-figure').hidden \
+             && document.getElementById('equivalent').complete \
+             && document.getElementById('equivalent').naturalWidth)",
+    );
+    assert!(outcome.is_number(), "{outcome}");
+    let label = browser.script("return document.getElementById('label').textContent;");
+    assert!(!label.as_str().unwrap().is_empty(), "{label}");
 }
 
 fn classify_and_read_the_answer_on_a_phone(browser: &Browser) {

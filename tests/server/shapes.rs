@@ -12,7 +12,7 @@ use reflectance::render::batch::{self, Augment, BatchSpec};
 use reflectance::render::shapes::ShapeSpec;
 
 /// Tori rendered under the fixture's held-out probe: (image, normals, class, white) each.
-fn held_out_tori() -> Vec<(Vec<u8>, Vec<u8>, String, f64)> {
+pub(crate) fn held_out_tori() -> Vec<(Vec<u8>, Vec<u8>, String, f64)> {
     let dir = temp_dir("tori");
     let probes = write_probes(&dir.join("probes"));
     let classes = dir.join("classes.json");
