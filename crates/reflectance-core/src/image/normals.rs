@@ -319,6 +319,92 @@ fn is_background(n: &[f32; 3]) -> bool {
     *n == [0.0; 3]
 }
 
+/// The most a photograph and its normals are reduced by before mapping.
+const MAX_REDUCTION: usize = 16;
+
+/// Fewest pixel steps [`reduction`] reads before it reduces.
+const MIN_STEPS: usize = 64;
+
+/// By how much a photograph whose normals turn slowly from pixel to pixel can be reduced
+/// before mapping: ⌊1 / the median turn per pixel, in cells of the sphere⌋, within 1 ..=
+/// [`MAX_REDUCTION`] (read on every 7th row and column). A 12 MP photograph of a large
+/// object turns its normals by a tenth of a cell per pixel: reduced, each pixel still moves by
+/// about a cell, and the mapping reads a hundredth of the pixels.
+fn reduction(raw: &[[f32; 3]], keep: Option<&[bool]>, w: usize, h: usize, radius: f64) -> usize {
+    let kept = |i: usize| !is_background(&raw[i]) && keep.is_none_or(|k| k[i]);
+    let mut steps = Vec::new();
+    for row in (0..h).step_by(7) {
+        for col in (0..w.saturating_sub(1)).step_by(7) {
+            let i = row * w + col;
+            if kept(i) && kept(i + 1) {
+                let (a, b) = (raw[i], raw[i + 1]);
+                let d = f64::from((a[0] - b[0]).hypot(a[1] - b[1]));
+                steps.push(d * radius);
+            }
+        }
+    }
+    if steps.len() < MIN_STEPS {
+        return 1;
+    }
+    let middle = steps.len() / 2;
+    let (_, median, _) = steps.select_nth_unstable_by(middle, f64::total_cmp);
+    match *median > 0.0 {
+        true => ((1.0 / *median).floor() as usize).clamp(1, MAX_REDUCTION),
+        false => MAX_REDUCTION,
+    }
+}
+
+/// A photograph and its normals reduced by k × k blocks: a block is object when at least
+/// half its pixels are (the mask applied), with their mean luminance and their normalized
+/// mean normal.
+struct Reduced {
+    normals: Vec<[f32; 3]>,
+    values: Vec<f64>,
+    w: usize,
+    h: usize,
+}
+
+impl Reduced {
+    fn of(
+        raw: &[[f32; 3]],
+        values: &[f64],
+        keep: Option<&[bool]>,
+        w: usize,
+        h: usize,
+        k: usize,
+    ) -> Reduced {
+        let (rw, rh) = (w / k, h / k);
+        let mut out = Reduced {
+            normals: vec![[0.0; 3]; rw * rh],
+            values: vec![0.0; rw * rh],
+            w: rw,
+            h: rh,
+        };
+        for by in 0..rh {
+            for bx in 0..rw {
+                let (mut n, mut sum, mut light) = (0usize, [0.0f32; 3], 0.0);
+                for y in by * k..(by + 1) * k {
+                    for i in y * w + bx * k..y * w + (bx + 1) * k {
+                        let m = raw[i];
+                        if is_background(&m) || keep.is_some_and(|kept| !kept[i]) {
+                            continue;
+                        }
+                        n += 1;
+                        sum = [sum[0] + m[0], sum[1] + m[1], sum[2] + m[2]];
+                        light += values[i];
+                    }
+                }
+                let length = (sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]).sqrt();
+                if 2 * n >= k * k && length > 0.0 {
+                    out.normals[by * rw + bx] = sum.map(|c| c / length);
+                    out.values[by * rw + bx] = light / n as f64;
+                }
+            }
+        }
+        out
+    }
+}
+
 /// Pixels each side of a normal that its smoothing averages.
 const SMOOTH_REACH: usize = 2;
 
@@ -443,12 +529,26 @@ pub fn equivalent_sphere(
     let cos_edge = EDGE_ANGLE_DEG.to_radians().cos();
     let raw = normals.normals.as_standard_layout();
     let raw = raw.as_slice().unwrap_or_default();
-    let map = &smoothed(raw, w, h);
-    let (mut scatter, mut mapped) = (0.0f64, 0usize);
     let luminance = luminance.as_standard_layout();
     let values = luminance.as_slice().unwrap_or_default();
     let keep = mask.map(|m| m.as_standard_layout());
     let keep = keep.as_ref().and_then(|m| m.as_slice());
+    let k = reduction(raw, keep, w, h, radius);
+    let small;
+    let (raw, values, keep, w, h) = if k > 1 {
+        small = Reduced::of(raw, values, keep, w, h, k);
+        (
+            &small.normals[..],
+            &small.values[..],
+            None,
+            small.w,
+            small.h,
+        )
+    } else {
+        (raw, values, keep, w, h)
+    };
+    let map = &smoothed(raw, w, h);
+    let (mut scatter, mut mapped) = (0.0f64, 0usize);
     let (sums, weights) = (sum.as_slice_mut(), weight.as_slice_mut());
     let (Some(sums), Some(weights)) = (sums, weights) else {
         return Err(NormalsError::Empty);
