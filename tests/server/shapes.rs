@@ -82,93 +82,72 @@ async fn an_object_and_its_normals_are_classified_as_their_equivalent_sphere() {
     }
 }
 
+/// A mask of the columns `columns` of a 128² image, as a PNG.
+fn columns_mask(columns: std::ops::Range<u32>) -> Vec<u8> {
+    let mask = image::GrayImage::from_fn(128, 128, |x, _| match columns.contains(&x) {
+        true => image::Luma([255]),
+        false => image::Luma([0]),
+    });
+    let mut png = Vec::new();
+    mask.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    png
+}
+
+/// A request that must be refused: its photograph, its other fields, and what the refusal
+/// must say.
+type Refusal<'a> = (&'a [u8], Vec<(&'a str, Part<'a>)>, &'a str);
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn bad_normals_are_refused_with_what_to_fix() {
     let server = start(config(&models_copy("shapes-bad")));
     let tori = held_out_tori();
     let (image, normals, _, white) = &tori[0];
     let white = white.to_string();
-    // A circle and normals: one or the other.
-    let mut fields = vec![("normals", Part::File(normals.as_slice()))];
-    fields.extend([
-        ("cx", Part::Text("64")),
-        ("cy", Part::Text("64")),
-        ("r", Part::Text("50")),
-    ]);
-    let mut all = vec![
-        ("image", Part::File(image.as_slice())),
-        ("white", Part::Text(white.as_str())),
-    ];
-    all.extend(fields);
-    let doc = send(&server.data, post_multipart("/v1/classify", &all))
-        .await
-        .problem(422, "bad-geometry");
-    assert!(
-        doc["detail"].as_str().unwrap().contains("not both"),
-        "{doc}"
+    let (garbage, small, sliver) = (
+        b"not a normal map".to_vec(),
+        common::sphere_png(96, 40.0),
+        columns_mask(62..66),
     );
-    // Not an image file.
-    let garbage = b"not a normal map".to_vec();
-    let all = vec![
-        ("image", Part::File(image.as_slice())),
-        ("white", Part::Text(white.as_str())),
-        ("normals", Part::File(garbage.as_slice())),
+    let cases: [Refusal; 4] = [
+        (
+            image,
+            vec![
+                ("normals", Part::File(normals)),
+                ("cx", Part::Text("64")),
+                ("cy", Part::Text("64")),
+                ("r", Part::Text("50")),
+            ],
+            "not both",
+        ),
+        (
+            image,
+            vec![("normals", Part::File(&garbage))],
+            "PNG or an OpenEXR",
+        ),
+        (
+            &small,
+            vec![("normals", Part::File(normals))],
+            "128×128 but the photograph is 96×96",
+        ),
+        (
+            image,
+            vec![
+                ("normals", Part::File(normals)),
+                ("mask", Part::File(&sliver)),
+            ],
+            "the features need at least 20 %",
+        ),
     ];
-    let doc = send(&server.data, post_multipart("/v1/classify", &all))
-        .await
-        .problem(422, "bad-geometry");
-    assert!(
-        doc["detail"]
-            .as_str()
-            .unwrap()
-            .contains("PNG or an OpenEXR"),
-        "{doc}"
-    );
-    // Another photograph's size.
-    let small = common::sphere_png(96, 40.0);
-    let all = vec![
-        ("image", Part::File(small.as_slice())),
-        ("white", Part::Text(white.as_str())),
-        ("normals", Part::File(normals.as_slice())),
-    ];
-    let doc = send(&server.data, post_multipart("/v1/classify", &all))
-        .await
-        .problem(422, "bad-geometry");
-    let detail = doc["detail"].as_str().unwrap();
-    assert!(
-        detail.contains("128×128 but the photograph is 96×96"),
-        "{doc}"
-    );
-    // A sliver of the object: too little of the sphere, named.
-    let mut sliver = image::GrayImage::new(128, 128);
-    for y in 0..128 {
-        for x in 62..66 {
-            sliver.put_pixel(x, y, image::Luma([255]));
-        }
+    for (photo, extra, wanted) in cases {
+        let mut fields = vec![("image", Part::File(photo)), ("white", Part::Text(&white))];
+        fields.extend(extra);
+        let doc = send(&server.data, post_multipart("/v1/classify", &fields))
+            .await
+            .problem(422, "bad-geometry");
+        let detail = doc["detail"].as_str().unwrap();
+        assert!(detail.contains(wanted), "{wanted}: {doc}");
     }
-    let mut mask = Vec::new();
-    sliver
-        .write_to(
-            &mut std::io::Cursor::new(&mut mask),
-            image::ImageFormat::Png,
-        )
-        .unwrap();
-    let all = vec![
-        ("image", Part::File(image.as_slice())),
-        ("white", Part::Text(white.as_str())),
-        ("normals", Part::File(normals.as_slice())),
-        ("mask", Part::File(mask.as_slice())),
-    ];
-    let doc = send(&server.data, post_multipart("/v1/classify", &all))
-        .await
-        .problem(422, "bad-geometry");
-    assert!(
-        doc["detail"]
-            .as_str()
-            .unwrap()
-            .contains("the features need at least 20 %"),
-        "{doc}"
-    );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
