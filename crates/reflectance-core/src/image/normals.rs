@@ -524,9 +524,6 @@ pub fn equivalent_sphere(
     // A margin of a third of the radius around the disc, for the outline's rays.
     let side = 2 * (MARGIN * radius).ceil() as usize + 3;
     let centre = (side - 1) as f64 / 2.0;
-    let mut sum = Array2::<f64>::zeros((side, side));
-    let mut weight = Array2::<f64>::zeros((side, side));
-    let cos_edge = EDGE_ANGLE_DEG.to_radians().cos();
     let raw = normals.normals.as_standard_layout();
     let raw = raw.as_slice().unwrap_or_default();
     let luminance = luminance.as_standard_layout();
@@ -535,69 +532,32 @@ pub fn equivalent_sphere(
     let keep = keep.as_ref().and_then(|m| m.as_slice());
     let k = reduction(raw, keep, w, h, radius);
     let small;
-    let (raw, values, keep, w, h) = if k > 1 {
+    let picture = if k > 1 {
         small = Reduced::of(raw, values, keep, w, h, k);
-        (
-            &small.normals[..],
-            &small.values[..],
-            None,
-            small.w,
-            small.h,
-        )
-    } else {
-        (raw, values, keep, w, h)
-    };
-    let map = &smoothed(raw, w, h);
-    let (mut scatter, mut mapped) = (0.0f64, 0usize);
-    let (sums, weights) = (sum.as_slice_mut(), weight.as_slice_mut());
-    let (Some(sums), Some(weights)) = (sums, weights) else {
-        return Err(NormalsError::Empty);
-    };
-    // The border rows and columns are edges; each inner pixel is read with its neighbours.
-    let place = |n: &[f32; 3]| {
-        [
-            centre + radius * f64::from(n[0]),
-            centre - radius * f64::from(n[1]),
-        ]
-    };
-    for row in 1..h.saturating_sub(1) {
-        for col in 1..w.saturating_sub(1) {
-            let i = row * w + col;
-            let n = &map[i];
-            if is_background(n) || keep.is_some_and(|k| !k[i]) || on_edge(map, w, i, cos_edge) {
-                continue;
-            }
-            let cos = raw[i].iter().zip(n).map(|(a, b)| a * b).sum::<f32>();
-            scatter += f64::from(cos.clamp(-1.0, 1.0).acos()).powi(2);
-            mapped += 1;
-            // Half the step to each neighbour: the pixel's footprint on the sphere.
-            let half = |a: usize, b: usize| {
-                let (p, q) = (place(&map[a]), place(&map[b]));
-                [(q[0] - p[0]) / 4.0, (q[1] - p[1]) / 4.0]
-            };
-            let footprint = Footprint {
-                at: place(n),
-                across: half(i - 1, i + 1),
-                down: half(i - w, i + w),
-            };
-            footprint.cover(side, |cell, w| {
-                sums[cell] += w * values[i];
-                weights[cell] += w;
-            });
+        Picture {
+            raw: &small.normals,
+            values: &small.values,
+            keep: None,
+            w: small.w,
+            h: small.h,
         }
-    }
-    let mut observed = weight.mapv(|w| w > 0.0);
-    let mut luminance = ndarray::Zip::from(&sum)
-        .and(&weight)
+    } else {
+        Picture {
+            raw,
+            values,
+            keep,
+            w,
+            h,
+        }
+    };
+    let splat = Splat::of(&picture, side, radius);
+    let mut observed = splat.weight.mapv(|w| w > 0.0);
+    let mut luminance = ndarray::Zip::from(&splat.sum)
+        .and(&splat.weight)
         .map_collect(|&s, &w| if w > 0.0 { s / w } else { 0.0 });
     for _ in 0..FILL_PASSES {
         fill_holes(&mut luminance, &mut observed, centre, radius);
     }
-    let circle = Circle {
-        cx: centre,
-        cy: centre,
-        r: radius,
-    };
     let (mut disc, mut seen) = (0usize, 0usize);
     for ((row, col), &o) in observed.indexed_iter() {
         let (dx, dy) = (col as f64 - centre, row as f64 - centre);
@@ -612,10 +572,97 @@ pub fn equivalent_sphere(
     Ok(EquivalentSphere {
         luminance,
         observed,
-        circle,
+        circle: Circle {
+            cx: centre,
+            cy: centre,
+            r: radius,
+        },
         fraction: seen as f64 / disc.max(1) as f64,
-        scatter_deg: (scatter / mapped.max(1) as f64).sqrt().to_degrees(),
+        scatter_deg: (splat.scatter / splat.mapped.max(1) as f64)
+            .sqrt()
+            .to_degrees(),
     })
+}
+
+/// A photograph's luminance and normals, row-major, and the pixels kept (all object pixels
+/// when `None`).
+struct Picture<'a> {
+    raw: &'a [[f32; 3]],
+    values: &'a [f64],
+    keep: Option<&'a [bool]>,
+    w: usize,
+    h: usize,
+}
+
+/// The pixels of a picture spread over the equivalent sphere's grid.
+struct Splat {
+    /// Σ weight · luminance per cell.
+    sum: Array2<f64>,
+    /// Σ weight per cell.
+    weight: Array2<f64>,
+    /// Σ squared angles (rad²) between the given and the smoothed normals of mapped pixels.
+    scatter: f64,
+    /// Pixels mapped.
+    mapped: usize,
+}
+
+impl Splat {
+    /// Every kept pixel away from edges spread by its [`Footprint`] over a `side`² grid of a
+    /// sphere of `radius` cells, placed by its smoothed normal.
+    fn of(picture: &Picture, side: usize, radius: f64) -> Splat {
+        let Picture {
+            raw,
+            values,
+            keep,
+            w,
+            h,
+        } = *picture;
+        let centre = (side - 1) as f64 / 2.0;
+        let cos_edge = EDGE_ANGLE_DEG.to_radians().cos();
+        let map = &smoothed(raw, w, h);
+        let (mut sum, mut weight) = (vec![0.0; side * side], vec![0.0; side * side]);
+        let (mut scatter, mut mapped) = (0.0f64, 0usize);
+        let place = |n: &[f32; 3]| {
+            [
+                centre + radius * f64::from(n[0]),
+                centre - radius * f64::from(n[1]),
+            ]
+        };
+        // The border rows and columns are edges; each inner pixel is read with its neighbours.
+        for row in 1..h.saturating_sub(1) {
+            for col in 1..w.saturating_sub(1) {
+                let i = row * w + col;
+                let n = &map[i];
+                if is_background(n) || keep.is_some_and(|k| !k[i]) || on_edge(map, w, i, cos_edge) {
+                    continue;
+                }
+                let cos = raw[i].iter().zip(n).map(|(a, b)| a * b).sum::<f32>();
+                scatter += f64::from(cos.clamp(-1.0, 1.0).acos()).powi(2);
+                mapped += 1;
+                // Half the step to each neighbour: the pixel's footprint on the sphere.
+                let half = |a: usize, b: usize| {
+                    let (p, q) = (place(&map[a]), place(&map[b]));
+                    [(q[0] - p[0]) / 4.0, (q[1] - p[1]) / 4.0]
+                };
+                let footprint = Footprint {
+                    at: place(n),
+                    across: half(i - 1, i + 1),
+                    down: half(i - w, i + w),
+                };
+                footprint.cover(side, |cell, wt| {
+                    sum[cell] += wt * values[i];
+                    weight[cell] += wt;
+                });
+            }
+        }
+        let grid = |v: Vec<f64>| Array2::from_shape_vec((side, side), v).unwrap_or_default();
+        Splat {
+            sum: grid(sum),
+            weight: grid(weight),
+            scatter,
+            mapped,
+        }
+    }
 }
 
 #[cfg(test)]
