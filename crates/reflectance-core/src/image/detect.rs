@@ -475,22 +475,31 @@ fn vote(
         let bin = (((r / min_r).ln() / RADIUS_RATIO.ln()) as usize).min(bins - 1);
         radii[bin].push(r);
     }
-    for e in edges {
-        for side in [-1.0, 1.0] {
-            // The direction from the centre to the edge point.
-            let angle = (-side * e.uy).atan2(-side * e.ux) + std::f64::consts::PI;
-            let sector = ((angle / std::f64::consts::TAU * SECTORS) as u16).min(SECTORS as u16 - 1);
-            'along: for (map, radii) in maps.iter_mut().zip(&radii) {
-                // In the map's cells.
-                let k = 1.0 / map.cell;
-                let (x0, y0) = (e.x * k, e.y * k);
-                let (dx, dy) = (side * e.ux * k, side * e.uy * k);
-                for &r in radii {
-                    if !map.add(x0 + r * dx, y0 + r * dy, sector) {
-                        break 'along;
-                    }
-                }
+    // Each edge point's line, on each side: (x, y, unit step towards the centre, sector).
+    let lines: Vec<(f64, f64, f64, f64, u16)> = edges
+        .iter()
+        .flat_map(|e| {
+            [-1.0, 1.0].map(|side: f64| {
+                // The direction from the centre to the edge point.
+                let angle = (-side * e.uy).atan2(-side * e.ux) + std::f64::consts::PI;
+                let sector =
+                    ((angle / std::f64::consts::TAU * SECTORS) as u16).min(SECTORS as u16 - 1);
+                (e.x, e.y, side * e.ux, side * e.uy, sector)
+            })
+        })
+        .collect();
+    // A line stops voting at its first vote outside the picture. One map at a time, so that
+    // the map being filled stays in the cache.
+    let mut inside = vec![true; lines.len()];
+    for (map, radii) in maps.iter_mut().zip(&radii) {
+        // In the map's cells.
+        let k = 1.0 / map.cell;
+        for (&(x, y, ux, uy, sector), inside) in lines.iter().zip(inside.iter_mut()) {
+            if !*inside {
+                continue;
             }
+            let (x0, y0, dx, dy) = (x * k, y * k, ux * k, uy * k);
+            *inside = radii.iter().all(|&r| map.add(x0 + r * dx, y0 + r * dy, sector));
         }
     }
     let mut found: Vec<(f64, f64, f64, f64, f64)> = Vec::new();
