@@ -1,14 +1,20 @@
 #!/usr/bin/env python3
 """Classify rendered objects of every shape from their normal maps (issue #44).
 
-Renders each shape under the probes given with `reflectance render --shape`, classifies
-every image with `reflectance classify --normals`, and prints accuracy, confident errors and
-the observed fraction per shape. Usage:
+Renders each shape under the probes given with `reflectance render --shape` (shaded from its
+normals), or with `--renderer cycles` path-traces Blender's objects with the classes' exported
+glTF materials (scripts/gltf/blender/objects.py: self-shadowing and interreflection included,
+the normals from Blender), classifies every image with `reflectance classify --normals`, and
+prints accuracy, confident errors and the observed fraction per shape. Usage:
 
     python3 scripts/shapes_accuracy.py --model models/ward6 --classes data/classes/classes6.json \
         --probes data/probes [--shapes torus,superquadric,capsule,blob,sphere] [--size 256] \
         [--out /tmp/shapes] [--binary target/release/reflectance] [--keep left|top|centre]
-        [--perturb noise:DEG|blur:PX|rotate:DEG]
+        [--perturb noise:DEG|blur:PX|rotate:DEG] [--renderer ward|cycles] [--samples 256]
+        [--min-right 0.9] [--max-confident 0]
+
+With --renderer cycles the shapes are torus, suzanne, blob and capsule (the default then) and
+the white reference is the one `reflectance render` gives under the same probe.
 
 A confident error is a wrong label whose prediction set holds that label alone while the
 domain check calls the input in domain.
@@ -26,10 +32,59 @@ from collections import defaultdict
 def render(binary, args, shape, out):
     if os.path.exists(os.path.join(out, "manifest.csv")):
         return
+    if args.renderer == "cycles":
+        return render_cycles(binary, args, shape, out)
     subprocess.run(
         [binary, "render", "--probes", args.probes, "--classes", args.classes, "--out", out,
          "--size", str(args.size), "--seed", str(args.seed), "--shape", shape],
         check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def render_cycles(binary, args, shape, out):
+    """Blender's `shape` with each class's glTF material under each probe, and a manifest in
+    `reflectance render`'s columns (the white from a small Ward sphere under the same probe)."""
+    quiet = dict(check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    gltf = os.path.join(args.out, "gltf")
+    whites = os.path.join(args.out, "whites")
+    if not os.path.isdir(gltf):
+        subprocess.run([binary, "gltf", "--classes", args.classes, "--out", gltf], **quiet)
+    probes = sorted(probe_paths(args.probes))
+    if not os.path.exists(os.path.join(whites, "manifest.csv")):
+        listed = os.path.join(args.out, "probes.txt")
+        with open(listed, "w") as f:
+            f.write("\n".join(probes) + "\n")
+        subprocess.run([binary, "render", "--probes", listed, "--classes", args.classes,
+                        "--out", whites, "--size", "96"], **quiet)
+    with open(os.path.join(whites, "manifest.csv")) as f:
+        white = {row["illumination"]: row["white"] for row in csv.DictReader(f)}
+    here = os.path.dirname(os.path.abspath(__file__))
+    assets = sorted(os.path.join(gltf, a) for a in os.listdir(gltf))
+    subprocess.run([sys.executable, os.path.join(here, "gltf", "blender", "objects.py"),
+                    "--shape", shape, "--probes", *probes, "--assets", *assets, "--out", out,
+                    "--size", str(args.size), "--samples", str(args.samples),
+                    "--seed", str(args.seed)], **quiet)
+    c = (args.size - 1) / 2.0
+    with open(os.path.join(out, "manifest.csv.part"), "w", newline="") as f:
+        rows = csv.writer(f)
+        rows.writerow(["path", "class", "illumination", "cx", "cy", "r", "white"])
+        for probe in probes:
+            light = os.path.splitext(os.path.basename(probe))[0]
+            for asset in assets:
+                cls = os.path.splitext(os.path.basename(asset))[0]
+                rows.writerow([f"{light}__{cls}.pfm", cls, light, c, c, args.size / 2.2, white[light]])
+    os.replace(os.path.join(out, "manifest.csv.part"), os.path.join(out, "manifest.csv"))
+
+
+def probe_paths(probes):
+    """The .hdr files `--probes` names: a folder, one file, or a list file (as render reads)."""
+    if os.path.isdir(probes):
+        return {os.path.join(probes, p) for p in os.listdir(probes) if p.endswith(".hdr")}
+    if probes.endswith(".hdr"):
+        return {os.path.abspath(probes)}
+    base = os.path.dirname(os.path.abspath(probes))
+    with open(probes) as f:
+        names = [line.split("#")[0].strip() for line in f]
+    return {n if os.path.isabs(n) else os.path.join(base, n) for n in names if n}
 
 
 def perturbed(normals, how, seed=7):
@@ -107,16 +162,25 @@ def main():
     p.add_argument("--model", required=True)
     p.add_argument("--classes", required=True)
     p.add_argument("--probes", required=True)
-    p.add_argument("--shapes", default="torus,superquadric,capsule,blob,sphere")
+    p.add_argument("--shapes", help="default: torus,superquadric,capsule,blob,sphere "
+                   "(ward), torus,suzanne,blob,capsule (cycles)")
+    p.add_argument("--renderer", choices=["ward", "cycles"], default="ward")
+    p.add_argument("--samples", type=int, default=256, help="Cycles' samples per pixel")
     p.add_argument("--size", type=int, default=256)
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--out", default="/tmp/shapes")
     p.add_argument("--binary", default="target/release/reflectance")
     p.add_argument("--perturb", metavar="noise:DEG|blur:PX|rotate:DEG",
                    help="classify with the normal maps perturbed (needs numpy and pypng)")
+    p.add_argument("--min-right", type=float, default=0.0,
+                   help="exit 1 when a shape has fewer right than this share")
+    p.add_argument("--max-confident", type=int,
+                   help="exit 1 when a shape has more confident errors than this")
     p.add_argument("--keep", choices=["left", "top", "centre"],
                    help="classify only this part of each object (a mask beside the normals)")
     args = p.parse_args()
+    args.shapes = args.shapes or ("torus,suzanne,blob,capsule" if args.renderer == "cycles"
+                                  else "torus,superquadric,capsule,blob,sphere")
     rows = []
     for shape in args.shapes.split(","):
         out = os.path.join(args.out, shape.replace(":", "_").replace("/", "_"))
@@ -131,8 +195,10 @@ def main():
                                        args.keep, args.perturb)
                 rows.append((shape, entry["class"], entry.get("illumination", ""), answer, why))
     print(f"{'shape':<14}{'n':>4}{'right':>7}{'refused':>9}{'conf. wrong':>13}"
-          f"{'out of dom.':>13}{'in set':>8}{'mean set':>10}{'observed':>10}{'scatter':>9}")
+          f"{'out of dom.':>13}{'in set':>8}{'mean set':>10}{'observed':>10}{'scatter':>9}"
+          f"{'not convex':>12}")
     per = defaultdict(list)
+    failed = False
     for row in rows:
         per[row[0]].append(row)
     for shape, group in per.items():
@@ -147,13 +213,17 @@ def main():
         held = sum(r[1] in (r[3].get("prediction_set") or {}).get("labels", []) for r in answered)
         scatter = [r[3].get("normal_scatter_deg") or 0.0 for r in answered]
         observed = [r[3].get("observed_fraction") or 1.0 for r in answered]
+        hollow = [r[3].get("not_convex_fraction") or 0.0 for r in answered]
         mean = lambda v: sum(v) / len(v) if v else float("nan")
+        failed |= right < args.min_right * len(group)
+        failed |= args.max_confident is not None and confident > args.max_confident
         print(f"{shape:<14}{len(group):>4}{right:>7}{len(group) - len(answered):>9}"
               f"{confident:>13}{outside:>13}{held:>8}{mean(sets):>10.2f}{mean(observed):>10.2f}"
-              f"{mean(scatter):>9.1f}")
+              f"{mean(scatter):>9.1f}{mean(hollow):>12.2f}")
     for shape, cls, light, answer, why in rows:
         if answer is None:
             print(f"refused {shape} {cls} {light}: {why}", file=sys.stderr)
+    sys.exit(1 if failed else 0)
 
 
 if __name__ == "__main__":

@@ -499,7 +499,9 @@ fn vote(
                 continue;
             }
             let (x0, y0, dx, dy) = (x * k, y * k, ux * k, uy * k);
-            *inside = radii.iter().all(|&r| map.add(x0 + r * dx, y0 + r * dy, sector));
+            *inside = radii
+                .iter()
+                .all(|&r| map.add(x0 + r * dx, y0 + r * dy, sector));
         }
     }
     let mut found: Vec<(f64, f64, f64, f64, f64)> = Vec::new();
