@@ -240,7 +240,11 @@ fn summary(answer: &ClassifyResponse) -> String {
     }
     let g = &answer.geometry;
     let how = match answer.observed_fraction {
-        Some(f) => format!(" of the object, {:.0} % of it observed", f * 100.0),
+        Some(f) => format!(
+            " of the object, {:.0} % of it observed, {:.0} % not convex",
+            f * 100.0,
+            answer.not_convex_fraction.unwrap_or(0.0) * 100.0
+        ),
         None => g
             .confidence
             .map_or(String::new(), |c| format!(", confidence {c:.2}")),

@@ -80,6 +80,12 @@ pub enum NormalsError {
         "the normal map has no object pixel facing the camera (all background, masked or z < 0)"
     )]
     Empty,
+    /// Every object pixel is a saddle or a hollow.
+    #[error(
+        "the object is not convex anywhere it shows (a hollow or a saddle): it shadows and \
+         lights itself there, and its light is not a sphere's; photograph a convex part of it"
+    )]
+    NotConvex,
 }
 
 impl NormalMap {
@@ -314,6 +320,56 @@ impl Footprint {
     }
 }
 
+/// Pixels each side over which the normal field's turn is taken to judge convexity: wider
+/// than a pixel, so that what is left of the normals' noise after smoothing does not decide.
+const CONVEXITY_REACH: usize = 3;
+
+/// A pixel is not convex when its normal turns against the surface's curvature along some
+/// direction by more than this share of how it turns along the other.
+const CONVEXITY_TOLERANCE: f64 = 0.25;
+
+/// A turn against the curvature of less than this many cells over the reach is no turn: a
+/// flat face's normals differ by their rounding.
+const CONVEXITY_FLOOR: f64 = 0.05;
+
+/// Whether the surface at the inner pixel `i` is convex, judged by how its normal's sphere
+/// position (`place`) moves with the pixel. On a convex surface it moves the way the pixel
+/// does, in every direction (the Gauss map's derivative, symmetrized, is positive definite);
+/// at a saddle it moves against it along one direction, in a hollow along every one. Such a
+/// point sees its own surface: it is shadowed and lit by the object itself, and its light is
+/// not that of the sphere point with its normal (design.md §8, "Objects of any shape").
+fn convex(
+    map: &[[f32; 3]],
+    picture: &Picture,
+    i: usize,
+    place: impl Fn(&[f32; 3]) -> [f64; 2],
+) -> bool {
+    let (w, h) = (picture.w, picture.h);
+    let (row, col) = (i / w, i % w);
+    // The widest reach whose four neighbours are on the object (at 1, [`on_edge`] ensured it).
+    let Some(d) = (1..=CONVEXITY_REACH).rev().find(|&d| {
+        row >= d
+            && col >= d
+            && row + d < h
+            && col + d < w
+            && [i - d, i + d, i - d * w, i + d * w]
+                .iter()
+                .all(|&j| !is_background(&map[j]))
+    }) else {
+        return true;
+    };
+    let turn = |a: usize, b: usize| {
+        let (p, q) = (place(&map[a]), place(&map[b]));
+        [q[0] - p[0], q[1] - p[1]]
+    };
+    let (across, down) = (turn(i - d, i + d), turn(i - d * w, i + d * w));
+    // The symmetric part of [across down] and its eigenvalues.
+    let mean = 0.5 * (across[0] + down[1]);
+    let spread = (0.5 * (across[0] - down[1])).hypot(0.5 * (across[1] + down[0]));
+    let (low, high) = (mean - spread, mean + spread);
+    low >= 0.0 || low.abs() <= (CONVEXITY_TOLERANCE * high.abs()).max(CONVEXITY_FLOOR)
+}
+
 /// Whether a normal is background.
 fn is_background(n: &[f32; 3]) -> bool {
     *n == [0.0; 3]
@@ -471,6 +527,9 @@ pub struct EquivalentSphere {
     /// How far the given normals of the mapped pixels stray from their smoothed field: the
     /// RMS angle, in degrees (about 0 for exact geometry).
     pub scatter_deg: f64,
+    /// The share of the object's pixels (away from edges) left out because the surface there
+    /// is not convex ([`convex`]), in [0, 1].
+    pub not_convex_fraction: f64,
 }
 
 impl EquivalentSphere {
@@ -567,7 +626,11 @@ pub fn equivalent_sphere(
         }
     }
     if seen == 0 {
-        return Err(NormalsError::Empty);
+        return Err(if splat.not_convex > 0 {
+            NormalsError::NotConvex
+        } else {
+            NormalsError::Empty
+        });
     }
     Ok(EquivalentSphere {
         luminance,
@@ -578,7 +641,9 @@ pub fn equivalent_sphere(
             r: radius,
         },
         fraction: seen as f64 / disc.max(1) as f64,
-        scatter_deg: (splat.scatter / splat.mapped.max(1) as f64)
+        not_convex_fraction: splat.not_convex as f64
+            / (splat.mapped + splat.not_convex).max(1) as f64,
+        scatter_deg: (splat.scatter / (splat.mapped + splat.not_convex).max(1) as f64)
             .sqrt()
             .to_degrees(),
     })
@@ -604,6 +669,8 @@ struct Splat {
     scatter: f64,
     /// Pixels mapped.
     mapped: usize,
+    /// Pixels left out as saddles or hollows.
+    not_convex: usize,
 }
 
 impl Splat {
@@ -621,7 +688,7 @@ impl Splat {
         let cos_edge = EDGE_ANGLE_DEG.to_radians().cos();
         let map = &smoothed(raw, w, h);
         let (mut sum, mut weight) = (vec![0.0; side * side], vec![0.0; side * side]);
-        let (mut scatter, mut mapped) = (0.0f64, 0usize);
+        let (mut scatter, mut mapped, mut not_convex) = (0.0f64, 0usize, 0usize);
         let place = |n: &[f32; 3]| {
             [
                 centre + radius * f64::from(n[0]),
@@ -638,6 +705,10 @@ impl Splat {
                 }
                 let cos = raw[i].iter().zip(n).map(|(a, b)| a * b).sum::<f32>();
                 scatter += f64::from(cos.clamp(-1.0, 1.0).acos()).powi(2);
+                if !convex(map, picture, i, place) {
+                    not_convex += 1;
+                    continue;
+                }
                 mapped += 1;
                 // Half the step to each neighbour: the pixel's footprint on the sphere.
                 let half = |a: usize, b: usize| {
@@ -661,6 +732,7 @@ impl Splat {
             weight: grid(weight),
             scatter,
             mapped,
+            not_convex,
         }
     }
 }
@@ -705,6 +777,57 @@ mod tests {
             }
         }
         assert!(worst < 0.02, "{worst}");
+    }
+
+    /// A `side`² height field z(x, y) (x right, y up, in units of the half side) seen from
+    /// above: its normals, and a luminance of 1.
+    fn surface(side: usize, z: impl Fn(f64, f64) -> (f64, f64)) -> (Array2<f64>, NormalMap) {
+        let half = (side - 1) as f64 / 2.0;
+        let normals = Array2::from_shape_fn((side, side), |(row, col)| {
+            let (x, y) = ((col as f64 - half) / half, (half - row as f64) / half);
+            // z's slopes (∂z/∂x, ∂z/∂y); the normal is (−∂z/∂x, −∂z/∂y, 1), normalized.
+            let (zx, zy) = z(x, y);
+            let length = (zx * zx + zy * zy + 1.0).sqrt();
+            [
+                (-zx / length) as f32,
+                (-zy / length) as f32,
+                (1.0 / length) as f32,
+            ]
+        });
+        let normals = NormalMap::from_vectors(normals).unwrap();
+        (Array2::from_elem((side, side), 1.0), normals)
+    }
+
+    #[test]
+    fn saddles_and_hollows_are_left_out_and_domes_kept() {
+        let dome = surface(81, |x, y| (-0.8 * x, -0.8 * y));
+        let eq = equivalent_sphere(&dome.0, &dome.1, None, 50.0).unwrap();
+        assert!(eq.not_convex_fraction < 0.01, "{}", eq.not_convex_fraction);
+        // A cylinder (curved across, straight along): convex, though not strictly.
+        let cylinder = surface(81, |x, _| (-0.8 * x, 0.0));
+        let eq = equivalent_sphere(&cylinder.0, &cylinder.1, None, 50.0).unwrap();
+        assert!(eq.not_convex_fraction < 0.01, "{}", eq.not_convex_fraction);
+        let saddle = surface(81, |x, y| (0.8 * x, -0.8 * y));
+        let e = equivalent_sphere(&saddle.0, &saddle.1, None, 50.0).unwrap_err();
+        assert!(matches!(e, NormalsError::NotConvex), "{e}");
+        let bowl = surface(81, |x, y| (0.8 * x, 0.8 * y));
+        let e = equivalent_sphere(&bowl.0, &bowl.1, None, 50.0).unwrap_err();
+        assert!(e.to_string().contains("not convex"), "{e}");
+        // A dome with a dimple: the dimple's pixels (and only about those) are left out.
+        let dimple = |x: f64, y: f64| {
+            let g = 0.9 * (-(x * x + y * y) / 0.08).exp();
+            (
+                -0.8 * x + 2.0 * x / 0.08 * g * 0.15,
+                -0.8 * y + 2.0 * y / 0.08 * g * 0.15,
+            )
+        };
+        let dimpled = surface(81, dimple);
+        let eq = equivalent_sphere(&dimpled.0, &dimpled.1, None, 50.0).unwrap();
+        assert!(
+            (0.02..0.3).contains(&eq.not_convex_fraction),
+            "{}",
+            eq.not_convex_fraction
+        );
     }
 
     #[test]

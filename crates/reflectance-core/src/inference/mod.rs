@@ -353,8 +353,13 @@ pub const WHOLE_OBSERVED: f64 = 0.95;
 /// widest prediction set ([`PARTIAL_COVERAGE`]): exact and 16-bit maps stray by under 0.5°.
 pub const MAX_SCATTER_DEG: f64 = 2.0;
 
+/// An object with more than this share of its pixels not convex (saddles, hollows) gets the
+/// widest prediction set ([`PARTIAL_COVERAGE`]): it shadows and lights itself, also where it is
+/// convex, which no sphere does (path-traced objects, docs/accuracy.md).
+pub const MAX_NOT_CONVEX: f64 = 0.1;
+
 /// Why an object's answer is outside what the prediction sets were calibrated on (part of
-/// the sphere, or scattered normals), if it is.
+/// the sphere, scattered normals, a surface that is not convex), if it is.
 fn uncalibrated_object(analysis: &analysis::Analysis) -> Option<String> {
     let sphere = analysis.equivalent.as_ref()?;
     let partly = analysis
@@ -367,7 +372,13 @@ fn uncalibrated_object(analysis: &analysis::Analysis) -> Option<String> {
             sphere.scatter_deg
         )
     });
-    let reasons: Vec<String> = [partly, scattered].into_iter().flatten().collect();
+    let hollow = (sphere.not_convex_fraction > MAX_NOT_CONVEX).then(|| {
+        format!(
+            "{:.0} % of its surface is not convex (it shadows and lights itself)",
+            sphere.not_convex_fraction * 100.0
+        )
+    });
+    let reasons: Vec<String> = [partly, scattered, hollow].into_iter().flatten().collect();
     (!reasons.is_empty()).then(|| reasons.join(" and "))
 }
 

@@ -525,6 +525,11 @@ pub struct ClassifyResponse {
     /// RMS angle in degrees (noisy normals; above 2 the prediction set is the 99.9 % one).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub normal_scatter_deg: Option<f64>,
+    /// For an object given with normals: the share of its pixels left out of its equivalent
+    /// sphere as saddles or hollows, where it shadows and lights itself (above 0.1 the
+    /// prediction set is the 99.9 % one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub not_convex_fraction: Option<f64>,
     /// The white reference used.
     pub white: WhiteOut,
     /// What the caller should know: no white, out of domain, a clipped image, …
@@ -697,6 +702,11 @@ impl Classified {
             geometry: GeometryOut::from(&self.analysis.geometry),
             observed_fraction: self.analysis.observed,
             normal_scatter_deg: self.analysis.equivalent.as_ref().map(|e| e.scatter_deg),
+            not_convex_fraction: self
+                .analysis
+                .equivalent
+                .as_ref()
+                .map(|e| e.not_convex_fraction),
             white: WhiteOut {
                 value: self.analysis.white.value,
                 method: self.analysis.white.method,
