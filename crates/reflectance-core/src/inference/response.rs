@@ -629,6 +629,7 @@ impl Classified {
         let classes = &head.classifier.classes;
         let d = &self.decision;
         let domain = d.domain();
+        let equivalent = self.analysis.equivalent.as_ref();
         let mut warnings = Vec::new();
         if !domain.in_domain {
             warnings.push(format!(
@@ -701,12 +702,8 @@ impl Classified {
             },
             geometry: GeometryOut::from(&self.analysis.geometry),
             observed_fraction: self.analysis.observed,
-            normal_scatter_deg: self.analysis.equivalent.as_ref().map(|e| e.scatter_deg),
-            not_convex_fraction: self
-                .analysis
-                .equivalent
-                .as_ref()
-                .map(|e| e.not_convex_fraction),
+            normal_scatter_deg: equivalent.map(|e| e.scatter_deg),
+            not_convex_fraction: equivalent.map(|e| e.not_convex_fraction),
             white: WhiteOut {
                 value: self.analysis.white.value,
                 method: self.analysis.white.method,
