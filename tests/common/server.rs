@@ -280,6 +280,17 @@ impl Answer {
         self.headers.get(name).and_then(|v| v.to_str().ok())
     }
 
+    /// Assert the answer's `status` (its body the message when not); returns its JSON.
+    pub fn json_of(&self, status: u16) -> Value {
+        assert_eq!(
+            self.status,
+            status,
+            "{}",
+            String::from_utf8_lossy(&self.body)
+        );
+        self.json()
+    }
+
     /// Assert a problem+json answer of `status` and type slug; returns the document.
     pub fn problem(&self, status: u16, slug: &str) -> Value {
         assert_eq!(

@@ -66,13 +66,7 @@ async fn an_object_and_its_normals_are_classified_as_their_equivalent_sphere() {
             ),
         )
         .await;
-        assert_eq!(
-            answer.status,
-            200,
-            "{}",
-            String::from_utf8_lossy(&answer.body)
-        );
-        let doc = answer.json();
+        let doc = answer.json_of(200);
         assert_eq!(doc["label"], class.as_str(), "{doc}");
         assert_eq!(doc["geometry"]["method"], "normals", "{doc}");
         let observed = doc["observed_fraction"].as_f64().unwrap();
@@ -187,12 +181,6 @@ async fn the_open_inference_protocol_takes_normals_as_an_input() {
         binary_request("/v2/models/ward6/infer", &head, &binary),
     )
     .await;
-    assert_eq!(
-        answer.status,
-        200,
-        "{}",
-        String::from_utf8_lossy(&answer.body)
-    );
-    let doc = answer.json();
+    let doc = answer.json_of(200);
     assert_eq!(doc["outputs"][0]["data"][0], class.as_str(), "{doc}");
 }
