@@ -100,4 +100,4 @@ def classify(
     0.95), `domain`, `geometry`, `white`, `ward`, `warnings`, `timing_ms`. The sphere is the
     circle, a `mask`, or found; an object of any shape is given by its `normals` (with
     `mask` naming its pixels), read as its equivalent sphere (`observed_fraction`,
-    `normal_scatter_deg`, `not_convex_fraction` in the answer)."""
+    `normal_scatter_deg`, `not_convex_fraction`, `shadowed_fraction` in the answer)."""

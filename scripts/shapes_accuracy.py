@@ -196,7 +196,7 @@ def main():
                 rows.append((shape, entry["class"], entry.get("illumination", ""), answer, why))
     print(f"{'shape':<14}{'n':>4}{'right':>7}{'refused':>9}{'conf. wrong':>13}"
           f"{'out of dom.':>13}{'in set':>8}{'mean set':>10}{'observed':>10}{'scatter':>9}"
-          f"{'not convex':>12}")
+          f"{'not convex':>12}{'shadowed':>10}")
     per = defaultdict(list)
     failed = False
     for row in rows:
@@ -214,15 +214,19 @@ def main():
         scatter = [r[3].get("normal_scatter_deg") or 0.0 for r in answered]
         observed = [r[3].get("observed_fraction") or 1.0 for r in answered]
         hollow = [r[3].get("not_convex_fraction") or 0.0 for r in answered]
+        shadowed = [r[3].get("shadowed_fraction") or 0.0 for r in answered]
         mean = lambda v: sum(v) / len(v) if v else float("nan")
         failed |= right < args.min_right * len(group)
         failed |= args.max_confident is not None and confident > args.max_confident
         print(f"{shape:<14}{len(group):>4}{right:>7}{len(group) - len(answered):>9}"
               f"{confident:>13}{outside:>13}{held:>8}{mean(sets):>10.2f}{mean(observed):>10.2f}"
-              f"{mean(scatter):>9.1f}{mean(hollow):>12.2f}")
+              f"{mean(scatter):>9.1f}{mean(hollow):>12.2f}{mean(shadowed):>10.2f}")
     for shape, cls, light, answer, why in rows:
         if answer is None:
             print(f"refused {shape} {cls} {light}: {why}", file=sys.stderr)
+        elif answer["label"] != cls:
+            labels = (answer.get("prediction_set") or {}).get("labels", [])
+            print(f"wrong {shape} {cls} {light}: {answer['label']}, set {labels}", file=sys.stderr)
     sys.exit(1 if failed else 0)
 
 

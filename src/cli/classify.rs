@@ -241,9 +241,10 @@ fn summary(answer: &ClassifyResponse) -> String {
     let g = &answer.geometry;
     let how = match answer.observed_fraction {
         Some(f) => format!(
-            " of the object, {:.0} % of it observed, {:.0} % not convex",
+            " of the object, {:.0} % of it observed, {:.0} % not convex, {:.0} % in its own shadow",
             f * 100.0,
-            answer.not_convex_fraction.unwrap_or(0.0) * 100.0
+            answer.not_convex_fraction.unwrap_or(0.0) * 100.0,
+            answer.shadowed_fraction.unwrap_or(0.0) * 100.0
         ),
         None => g
             .confidence

@@ -633,11 +633,12 @@ fn a_shape_renders_from_its_normals_with_the_map_beside() {
     common::assert_success(&answer);
     let stdout = String::from_utf8_lossy(&answer.stdout);
     assert!(
-        stdout.contains("(normals of the object, 100 % of it observed, 20 % not convex)"),
+        stdout.contains("(normals of the object, 100 % of it observed, 20 % not convex, ")
+            && stdout.contains(" % in its own shadow)"),
         "{stdout}"
     );
     assert!(
-        stdout.contains("not convex (it shadows and lights itself)"),
+        stdout.contains("% in its own shadow (it shadows and lights itself)"),
         "{stdout}"
     );
     let unknown = render_shape("cube", &dir.join("bad"));

@@ -74,6 +74,9 @@ async fn an_object_and_its_normals_are_classified_as_their_equivalent_sphere() {
         // The hole's saddles are left out and said to be; the set is the 99.9 % one.
         let hollow = doc["not_convex_fraction"].as_f64().unwrap();
         assert!((0.1..0.35).contains(&hollow), "{hollow}");
+        // Seen straight on, its convex outside is in no shadow of its own.
+        let shadowed = doc["shadowed_fraction"].as_f64().unwrap();
+        assert!(shadowed < 0.02, "{shadowed}");
         assert_eq!(doc["prediction_set"]["coverage"], 0.999, "{doc}");
         let sphere = doc["images"]["equivalent_sphere"].as_str().unwrap();
         assert!(sphere.starts_with("data:image/png;base64,"), "{sphere}");

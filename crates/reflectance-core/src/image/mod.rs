@@ -9,5 +9,6 @@ pub(crate) mod detect;
 pub mod display;
 pub mod geometry;
 pub mod normals;
+pub(crate) mod occlusion;
 pub mod resample;
 pub mod white;

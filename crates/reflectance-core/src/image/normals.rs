@@ -12,6 +12,7 @@
 
 use super::circle::Circle;
 use super::decode::{DecodeError, Limits, exr_file};
+use super::occlusion;
 use ndarray::Array2;
 use std::io::Cursor;
 
@@ -80,10 +81,11 @@ pub enum NormalsError {
         "the normal map has no object pixel facing the camera (all background, masked or z < 0)"
     )]
     Empty,
-    /// Every object pixel is a saddle or a hollow.
+    /// Every object pixel is a saddle or a hollow, or in the object's own shadow.
     #[error(
-        "the object is not convex anywhere it shows (a hollow or a saddle): it shadows and \
-         lights itself there, and its light is not a sphere's; photograph a convex part of it"
+        "the object is not convex anywhere it shows (a hollow or a saddle) or hides its own sky \
+         there: it shadows and lights itself, and its light is not a sphere's; photograph a \
+         convex, open part of it"
     )]
     NotConvex,
 }
@@ -371,7 +373,7 @@ fn convex(
 }
 
 /// Whether a normal is background.
-fn is_background(n: &[f32; 3]) -> bool {
+pub(super) fn is_background(n: &[f32; 3]) -> bool {
     *n == [0.0; 3]
 }
 
@@ -381,11 +383,16 @@ const MAX_REDUCTION: usize = 16;
 /// Fewest pixel steps [`reduction`] reads before it reduces.
 const MIN_STEPS: usize = 64;
 
+/// The fewest pixels across the longer side a reduced photograph keeps: its shape (edges,
+/// its own shadows) stays resolved when most of it is flat and its median turn is 0.
+const MIN_REDUCED_SIDE: usize = 128;
+
 /// By how much a photograph whose normals turn slowly from pixel to pixel can be reduced
 /// before mapping: ⌊1 / the median turn per pixel, in cells of the sphere⌋, within 1 ..=
-/// [`MAX_REDUCTION`] (read on every 7th row and column). A 12 MP photograph of a large
-/// object turns its normals by a tenth of a cell per pixel: reduced, each pixel still moves by
-/// about a cell, and the mapping reads a hundredth of the pixels.
+/// [`MAX_REDUCTION`] (read on every 7th row and column), and keeping [`MIN_REDUCED_SIDE`]. A
+/// 12 MP photograph of a large object turns its normals by a tenth of a cell per pixel:
+/// reduced, each pixel still moves by about a cell, and the mapping reads a hundredth of the
+/// pixels.
 fn reduction(raw: &[[f32; 3]], keep: Option<&[bool]>, w: usize, h: usize, radius: f64) -> usize {
     let kept = |i: usize| !is_background(&raw[i]) && keep.is_none_or(|k| k[i]);
     let mut steps = Vec::new();
@@ -404,9 +411,10 @@ fn reduction(raw: &[[f32; 3]], keep: Option<&[bool]>, w: usize, h: usize, radius
     }
     let middle = steps.len() / 2;
     let (_, median, _) = steps.select_nth_unstable_by(middle, f64::total_cmp);
+    let most = (w.max(h) / MIN_REDUCED_SIDE).clamp(1, MAX_REDUCTION);
     match *median > 0.0 {
-        true => ((1.0 / *median).floor() as usize).clamp(1, MAX_REDUCTION),
-        false => MAX_REDUCTION,
+        true => ((1.0 / *median).floor() as usize).clamp(1, most),
+        false => most,
     }
 }
 
@@ -530,6 +538,10 @@ pub struct EquivalentSphere {
     /// The share of the object's pixels (away from edges) left out because the surface there
     /// is not convex ([`convex`]), in [0, 1].
     pub not_convex_fraction: f64,
+    /// The share of the object's pixels (away from edges) left out because, convex, they are
+    /// in the object's own shadow: the object hides more than a tenth of their sky
+    /// ([`occlusion`]), in [0, 1].
+    pub shadowed_fraction: f64,
 }
 
 impl EquivalentSphere {
@@ -626,7 +638,7 @@ pub fn equivalent_sphere(
         }
     }
     if seen == 0 {
-        return Err(if splat.not_convex > 0 {
+        return Err(if splat.not_convex + splat.shadowed > 0 {
             NormalsError::NotConvex
         } else {
             NormalsError::Empty
@@ -641,9 +653,9 @@ pub fn equivalent_sphere(
             r: radius,
         },
         fraction: seen as f64 / disc.max(1) as f64,
-        not_convex_fraction: splat.not_convex as f64
-            / (splat.mapped + splat.not_convex).max(1) as f64,
-        scatter_deg: (splat.scatter / (splat.mapped + splat.not_convex).max(1) as f64)
+        not_convex_fraction: splat.not_convex as f64 / splat.judged().max(1) as f64,
+        shadowed_fraction: splat.shadowed as f64 / splat.judged().max(1) as f64,
+        scatter_deg: (splat.scatter / splat.judged().max(1) as f64)
             .sqrt()
             .to_degrees(),
     })
@@ -671,6 +683,8 @@ struct Splat {
     mapped: usize,
     /// Pixels left out as saddles or hollows.
     not_convex: usize,
+    /// Convex pixels left out in the object's own shadow.
+    shadowed: usize,
 }
 
 impl Splat {
@@ -687,8 +701,9 @@ impl Splat {
         let centre = (side - 1) as f64 / 2.0;
         let cos_edge = EDGE_ANGLE_DEG.to_radians().cos();
         let map = &smoothed(raw, w, h);
+        let in_shadow = occlusion::in_own_shadow(map, w, h);
         let (mut sum, mut weight) = (vec![0.0; side * side], vec![0.0; side * side]);
-        let (mut scatter, mut mapped, mut not_convex) = (0.0f64, 0usize, 0usize);
+        let (mut scatter, mut mapped, mut not_convex, mut shadowed) = (0.0f64, 0, 0, 0);
         let place = |n: &[f32; 3]| {
             [
                 centre + radius * f64::from(n[0]),
@@ -707,6 +722,10 @@ impl Splat {
                 scatter += f64::from(cos.clamp(-1.0, 1.0).acos()).powi(2);
                 if !convex(map, picture, i, place) {
                     not_convex += 1;
+                    continue;
+                }
+                if in_shadow[i] {
+                    shadowed += 1;
                     continue;
                 }
                 mapped += 1;
@@ -733,7 +752,13 @@ impl Splat {
             scatter,
             mapped,
             not_convex,
+            shadowed,
         }
+    }
+
+    /// Pixels judged: mapped or left out as not convex or in shadow.
+    fn judged(&self) -> usize {
+        self.mapped + self.not_convex + self.shadowed
     }
 }
 
@@ -803,6 +828,7 @@ mod tests {
         let dome = surface(81, |x, y| (-0.8 * x, -0.8 * y));
         let eq = equivalent_sphere(&dome.0, &dome.1, None, 50.0).unwrap();
         assert!(eq.not_convex_fraction < 0.01, "{}", eq.not_convex_fraction);
+        assert_eq!(eq.shadowed_fraction, 0.0);
         // A cylinder (curved across, straight along): convex, though not strictly.
         let cylinder = surface(81, |x, _| (-0.8 * x, 0.0));
         let eq = equivalent_sphere(&cylinder.0, &cylinder.1, None, 50.0).unwrap();
@@ -828,6 +854,29 @@ mod tests {
             "{}",
             eq.not_convex_fraction
         );
+    }
+
+    #[test]
+    fn a_table_in_a_balls_shadow_is_left_out() {
+        // A ball of radius 0.4 (half sides) on a table, seen from above.
+        let ball_on_table = |x: f64, y: f64| {
+            let z2 = 0.16 - x * x - y * y;
+            match z2 > 0.0 {
+                true => (-x / z2.sqrt(), -y / z2.sqrt()),
+                false => (0.0, 0.0),
+            }
+        };
+        let (luminance, normals) = surface(121, ball_on_table);
+        let eq = equivalent_sphere(&luminance, &normals, None, 50.0).unwrap();
+        // The ring of table where the ball hides more than a tenth of the sky (out to about
+        // 1.3 radii, design.md §8), against the table and the ball: about a tenth.
+        assert!(
+            (0.04..0.2).contains(&eq.shadowed_fraction),
+            "{}",
+            eq.shadowed_fraction
+        );
+        // The table's middle is what the ball's top sees: both kept.
+        assert!(eq.observed[(eq.circle.cy as usize, eq.circle.cx as usize)]);
     }
 
     #[test]

@@ -353,13 +353,14 @@ pub const WHOLE_OBSERVED: f64 = 0.95;
 /// widest prediction set ([`PARTIAL_COVERAGE`]): exact and 16-bit maps stray by under 0.5°.
 pub const MAX_SCATTER_DEG: f64 = 2.0;
 
-/// An object with more than this share of its pixels not convex (saddles, hollows) gets the
-/// widest prediction set ([`PARTIAL_COVERAGE`]): it shadows and lights itself, also where it is
-/// convex, which no sphere does (path-traced objects, docs/accuracy.md).
-pub const MAX_NOT_CONVEX: f64 = 0.1;
+/// An object with more than this share of its pixels left out because it shadows and lights
+/// itself there (saddles, hollows, its own shadow) gets the widest prediction set
+/// ([`PARTIAL_COVERAGE`]): it likely does so a little where it was kept too, which no sphere
+/// does (path-traced objects, docs/accuracy.md).
+pub const MAX_SELF_SHADOWED: f64 = 0.1;
 
 /// Why an object's answer is outside what the prediction sets were calibrated on (part of
-/// the sphere, scattered normals, a surface that is not convex), if it is.
+/// the sphere, scattered normals, a surface that shadows itself), if it is.
 fn uncalibrated_object(analysis: &analysis::Analysis) -> Option<String> {
     let sphere = analysis.equivalent.as_ref()?;
     let partly = analysis
@@ -372,12 +373,15 @@ fn uncalibrated_object(analysis: &analysis::Analysis) -> Option<String> {
             sphere.scatter_deg
         )
     });
-    let hollow = (sphere.not_convex_fraction > MAX_NOT_CONVEX).then(|| {
-        format!(
-            "{:.0} % of its surface is not convex (it shadows and lights itself)",
-            sphere.not_convex_fraction * 100.0
-        )
-    });
+    let hollow =
+        (sphere.not_convex_fraction + sphere.shadowed_fraction > MAX_SELF_SHADOWED).then(|| {
+            format!(
+                "{:.0} % of its surface is not convex and {:.0} % in its own shadow (it shadows \
+                 and lights itself)",
+                sphere.not_convex_fraction * 100.0,
+                sphere.shadowed_fraction * 100.0
+            )
+        });
     let reasons: Vec<String> = [partly, scattered, hollow].into_iter().flatten().collect();
     (!reasons.is_empty()).then(|| reasons.join(" and "))
 }

@@ -527,9 +527,14 @@ pub struct ClassifyResponse {
     pub normal_scatter_deg: Option<f64>,
     /// For an object given with normals: the share of its pixels left out of its equivalent
     /// sphere as saddles or hollows, where it shadows and lights itself (above 0.1 the
-    /// prediction set is the 99.9 % one).
+    /// prediction set is the 99.9 % one, with `shadowed_fraction` added).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub not_convex_fraction: Option<f64>,
+    /// For an object given with normals: the share of its pixels left out of its equivalent
+    /// sphere because, convex, they are in its own shadow: the surface the normals integrate
+    /// to hides more than a tenth of their sky.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shadowed_fraction: Option<f64>,
     /// The white reference used.
     pub white: WhiteOut,
     /// What the caller should know: no white, out of domain, a clipped image, …
@@ -704,6 +709,7 @@ impl Classified {
             observed_fraction: self.analysis.observed,
             normal_scatter_deg: equivalent.map(|e| e.scatter_deg),
             not_convex_fraction: equivalent.map(|e| e.not_convex_fraction),
+            shadowed_fraction: equivalent.map(|e| e.shadowed_fraction),
             white: WhiteOut {
                 value: self.analysis.white.value,
                 method: self.analysis.white.method,
