@@ -373,7 +373,7 @@ fn convex(
 }
 
 /// Whether a normal is background.
-pub(super) fn is_background(n: &[f32; 3]) -> bool {
+fn is_background(n: &[f32; 3]) -> bool {
     *n == [0.0; 3]
 }
 
@@ -701,7 +701,8 @@ impl Splat {
         let centre = (side - 1) as f64 / 2.0;
         let cos_edge = EDGE_ANGLE_DEG.to_radians().cos();
         let map = &smoothed(raw, w, h);
-        let in_shadow = occlusion::in_own_shadow(map, w, h);
+        let object: Vec<bool> = map.iter().map(|n| !is_background(n)).collect();
+        let in_shadow = occlusion::in_own_shadow(map, &object, w, h);
         let (mut sum, mut weight) = (vec![0.0; side * side], vec![0.0; side * side]);
         let (mut scatter, mut mapped, mut not_convex, mut shadowed) = (0.0f64, 0, 0, 0);
         let place = |n: &[f32; 3]| {

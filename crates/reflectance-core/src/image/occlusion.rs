@@ -8,8 +8,6 @@
 //! "Path-traced objects"). Under an orthographic view the normals give the surface's slopes,
 //! so its heights follow up to a constant, and with them the horizon each pixel sees.
 
-use super::normals::is_background;
-
 /// A pixel is in the object's own shadow when the object hides more than this share of its
 /// cosine-weighted sky.
 pub const OCCLUSION_LIMIT: f64 = 0.1;
@@ -33,18 +31,18 @@ const SKY_DIRECTIONS: usize = 48;
 /// Conjugate-gradient iterations of the height field (a 64-pixel grid converges in fewer).
 const MAX_ITERATIONS: usize = 400;
 
-/// For each pixel of a `w`×`h` row-major map of unit normals (camera space, +Y up;
-/// background the zero vector), whether the object hides more than [`OCCLUSION_LIMIT`] of
+/// For each pixel of a `w`×`h` row-major map of unit normals (camera space, +Y up) and which
+/// of its pixels are the object, whether the object hides more than [`OCCLUSION_LIMIT`] of
 /// its sky. Background pixels are `false`.
-pub(crate) fn in_own_shadow(map: &[[f32; 3]], w: usize, h: usize) -> Vec<bool> {
+pub(crate) fn in_own_shadow(map: &[[f32; 3]], object: &[bool], w: usize, h: usize) -> Vec<bool> {
     let q = w.max(h).div_ceil(GRID).max(1);
-    let grid = Grid::of(map, w, h, q);
+    let grid = Grid::of(map, object, w, h, q);
     let heights = grid.heights();
     let shadowed = grid.shadowed(&heights);
     (0..w * h)
         .map(|i| {
             let (row, col) = (i / w / q, i % w / q);
-            !is_background(&map[i]) && row < grid.h && col < grid.w && shadowed[row * grid.w + col]
+            object[i] && row < grid.h && col < grid.w && shadowed[row * grid.w + col]
         })
         .collect()
 }
@@ -53,21 +51,24 @@ pub(crate) fn in_own_shadow(map: &[[f32; 3]], w: usize, h: usize) -> Vec<bool> {
 /// are, with their normalized mean normal.
 struct Grid {
     normals: Vec<[f32; 3]>,
+    object: Vec<bool>,
     w: usize,
     h: usize,
 }
 
 impl Grid {
-    fn of(map: &[[f32; 3]], w: usize, h: usize, q: usize) -> Grid {
+    fn of(map: &[[f32; 3]], object: &[bool], w: usize, h: usize, q: usize) -> Grid {
         let (gw, gh) = (w.div_ceil(q), h.div_ceil(q));
         let mut normals = vec![[0.0f32; 3]; gw * gh];
+        let mut inside = vec![false; gw * gh];
         for (g, normal) in normals.iter_mut().enumerate() {
             let (by, bx) = (g / gw, g % gw);
             let (mut n, mut total, mut sum) = (0usize, 0usize, [0.0f32; 3]);
             for y in by * q..((by + 1) * q).min(h) {
-                for m in &map[y * w + bx * q..y * w + ((bx + 1) * q).min(w)] {
+                for i in y * w + bx * q..y * w + ((bx + 1) * q).min(w) {
                     total += 1;
-                    if !is_background(m) {
+                    if object[i] {
+                        let m = map[i];
                         n += 1;
                         sum = [sum[0] + m[0], sum[1] + m[1], sum[2] + m[2]];
                     }
@@ -76,17 +77,19 @@ impl Grid {
             let length = (sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]).sqrt();
             if 2 * n >= total && length > 0.0 {
                 *normal = sum.map(|c| c / length);
+                inside[g] = true;
             }
         }
         Grid {
             normals,
+            object: inside,
             w: gw,
             h: gh,
         }
     }
 
     fn object(&self, i: usize) -> bool {
-        !is_background(&self.normals[i])
+        self.object[i]
     }
 
     /// The surface's slopes (dz per pixel across, dz per pixel down) at cell `i`.
@@ -294,12 +297,9 @@ mod tests {
     #[test]
     fn a_convex_object_is_not_in_its_own_shadow() {
         let (map, distance) = ball_on_table(120, 50.0);
-        let ball: Vec<[f32; 3]> = map
-            .iter()
-            .zip(&distance)
-            .map(|(n, &d)| if d < 50.0 { *n } else { [0.0; 3] })
-            .collect();
-        let shadowed = in_own_shadow(&ball, 120, 120);
+        // The ball alone: the table is background.
+        let object: Vec<bool> = distance.iter().map(|&d| d < 50.0).collect();
+        let shadowed = in_own_shadow(&map, &object, 120, 120);
         assert_eq!(shadowed.iter().filter(|&&s| s).count(), 0);
     }
 
@@ -307,7 +307,7 @@ mod tests {
     fn a_table_is_in_a_balls_shadow_beside_it_and_not_far_from_it() {
         let (side, r) = (256, 40.0);
         let (map, distance) = ball_on_table(side, r);
-        let shadowed = in_own_shadow(&map, side, side);
+        let shadowed = in_own_shadow(&map, &vec![true; side * side], side, side);
         let share = |lo: f64, hi: f64| {
             let ring: Vec<bool> = shadowed
                 .iter()
@@ -336,7 +336,7 @@ mod tests {
     #[test]
     fn the_height_field_of_a_hemisphere_rises_to_its_radius() {
         let (map, _) = ball_on_table(64, 24.0);
-        let grid = Grid::of(&map, 64, 64, 1);
+        let grid = Grid::of(&map, &[true; 64 * 64], 64, 64, 1);
         let z = grid.heights();
         let (top, table) = (z[32 * 64 + 32], z[2 * 64 + 2]);
         // The silhouette's slope is bounded (MIN_NZ), so the last steep pixels fall short.
