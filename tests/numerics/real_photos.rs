@@ -104,10 +104,10 @@ fn print_table(title: &str, tallies: &BTreeMap<String, Tally>) {
     }
 }
 
-/// The found count measured on the development set (docs/accuracy.md: 21; 17 before the
-/// vote cells grew with the radius and small balls were searched for on a larger copy),
+/// The found count measured on the development set (docs/accuracy.md: 25; 21 before an
+/// outline could be elongated by up to 3 % any way, as an unevenly rescaled crop draws it),
 /// less one for a photo on the edge of 4 %: detection must not fall below it.
-const FOUND_FLOOR: usize = 20;
+const FOUND_FLOOR: usize = 24;
 
 #[test]
 #[cfg_attr(

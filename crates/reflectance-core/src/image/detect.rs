@@ -18,7 +18,8 @@
 //!    a circle fitted to those positions with outliers (highlights and shadows near the
 //!    rim, gaps in the contrast) down-weighted; twice, with a narrower window. The most
 //!    confident are fitted again as a lens draws a ball off its axis (an outline longer away
-//!    from the picture's centre, by what the widest lens allows there), kept when that puts a
+//!    from the picture's centre, by what the widest lens allows there), or as an unevenly
+//!    rescaled crop does (up to [`ANY_ELONGATION`] longer, any way), kept when that puts a
 //!    clear edge under more of the rim; the circle reported is its centre and shortest radius.
 //! 3. **Confidence**: the fraction of the rim inside the frame along which a clear edge lies
 //!    on the fitted circle (a ball cut by the frame's edge is judged on the arc that shows
@@ -973,6 +974,10 @@ fn rim_confidence(luminance: ArrayView2<f64>, outline: &Outline) -> Option<f64> 
     Some((on as f64 / (visible as f64).max(UNCUT * RAYS as f64)).min(1.0))
 }
 
+/// Elongation (over r0) allowed in any direction: a crop rescaled unevenly, a sensor's
+/// non-square pixels.
+const ANY_ELONGATION: f64 = 0.03;
+
 /// The most confident candidates tried as elongated outlines.
 const ELONGATE_FIRST: usize = 4;
 /// A candidate is tried as an elongated outline when its confidence as a circle is in this
@@ -1016,18 +1021,17 @@ fn elongated(luminance: ArrayView2<f64>, found: &Found) -> Option<Found> {
 }
 
 /// The elongated outline around a fitted circle: a wide search for the rim, then a narrow one.
-/// Only what a lens can draw is kept: longer away from the picture's centre, and by no more
-/// than the widest lens would at that distance from it.
+/// Only what a lens or a rescaling can draw is kept: longer away from the picture's centre,
+/// by no more than the widest lens would at that distance from it, or by at most
+/// [`ANY_ELONGATION`] any way.
 fn elongate(luminance: ArrayView2<f64>, circle: &Circle) -> Option<Outline> {
     let (h, w) = luminance.dim();
     let from_centre = |c: (f64, f64)| (c.0 - 0.5 * (w as f64 - 1.0), c.1 - 0.5 * (h as f64 - 1.0));
     let (dx, dy) = from_centre((circle.cx, circle.cy));
     // The widest lenses in use see about 84° across the diagonal: focal length ≥ 0.55 of it.
     let stretch = (dx.hypot(dy) / (0.55 * (w as f64).hypot(h as f64))).hypot(1.0);
-    let most = ((stretch - 1.0) / (stretch + 1.0)).min(MAX_ELONGATION);
-    if most < 0.005 {
-        return None;
-    }
+    let lens = ((stretch - 1.0) / (stretch + 1.0)).min(MAX_ELONGATION);
+    let most = lens.max(ANY_ELONGATION);
     let mut outline = Outline::of(circle);
     for window in [(most + 0.02) * circle.r + 2.0, 0.03 * circle.r + 2.0] {
         let points = rim_points(luminance, &outline, window);
@@ -1039,7 +1043,8 @@ fn elongate(luminance: ArrayView2<f64>, circle: &Circle) -> Option<Outline> {
     let apart = (long_axis - dy.atan2(dx)).rem_euclid(std::f64::consts::PI);
     let aligned = apart.min(std::f64::consts::PI - apart) <= 20f64.to_radians();
     let elongation = outline.elongation() / outline.r0;
-    (elongation > 0.005 && elongation <= most + 0.01 && aligned).then_some(outline)
+    let drawn = elongation <= ANY_ELONGATION || (aligned && elongation <= lens + 0.01);
+    (elongation > 0.005 && drawn).then_some(outline)
 }
 
 /// How many of the [`RAYS`] cross the rim at least a pixel inside the frame.
