@@ -1,6 +1,7 @@
 //! From bytes to a located, white-normalized sphere: decoding, the circle (given, fitted to a
 //! mask, or detected), the white reference, and the resampling to the working radius.
 
+pub(crate) mod blocks;
 pub mod blur;
 pub(crate) mod circle;
 pub mod colour;

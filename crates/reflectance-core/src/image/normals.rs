@@ -10,6 +10,7 @@
 //! Conventions: +X right, +Y up (image up), +Z toward the camera. A PNG stores
 //! n = 2v / max − 1 per channel (8 or 16 bits); (0, 0, 0) or alpha 0 is background.
 
+use super::blocks::{Blocks, Border};
 use super::circle::Circle;
 use super::decode::{DecodeError, Limits, exr_file};
 use super::occlusion;
@@ -377,6 +378,11 @@ fn is_background(n: &[f32; 3]) -> bool {
     *n == [0.0; 3]
 }
 
+/// Whether pixel `i` of a normal map is the object's: a normal, inside the mask if any.
+fn is_object(raw: &[[f32; 3]], keep: Option<&[bool]>, i: usize) -> bool {
+    !is_background(&raw[i]) && keep.is_none_or(|k| k[i])
+}
+
 /// The most a photograph and its normals are reduced by before mapping.
 const MAX_REDUCTION: usize = 16;
 
@@ -394,7 +400,7 @@ const MIN_REDUCED_SIDE: usize = 128;
 /// reduced, each pixel still moves by about a cell, and the mapping reads a hundredth of the
 /// pixels.
 fn reduction(raw: &[[f32; 3]], keep: Option<&[bool]>, w: usize, h: usize, radius: f64) -> usize {
-    let kept = |i: usize| !is_background(&raw[i]) && keep.is_none_or(|k| k[i]);
+    let kept = |i: usize| is_object(raw, keep, i);
     let mut steps = Vec::new();
     for row in (0..h).step_by(7) {
         for col in (0..w.saturating_sub(1)).step_by(7) {
@@ -415,57 +421,6 @@ fn reduction(raw: &[[f32; 3]], keep: Option<&[bool]>, w: usize, h: usize, radius
     match *median > 0.0 {
         true => ((1.0 / *median).floor() as usize).clamp(1, most),
         false => most,
-    }
-}
-
-/// A photograph and its normals reduced by k × k blocks: a block is object when at least
-/// half its pixels are (the mask applied), with their mean luminance and their normalized
-/// mean normal.
-struct Reduced {
-    normals: Vec<[f32; 3]>,
-    values: Vec<f64>,
-    w: usize,
-    h: usize,
-}
-
-impl Reduced {
-    fn of(
-        raw: &[[f32; 3]],
-        values: &[f64],
-        keep: Option<&[bool]>,
-        w: usize,
-        h: usize,
-        k: usize,
-    ) -> Reduced {
-        let (rw, rh) = (w / k, h / k);
-        let mut out = Reduced {
-            normals: vec![[0.0; 3]; rw * rh],
-            values: vec![0.0; rw * rh],
-            w: rw,
-            h: rh,
-        };
-        for by in 0..rh {
-            for bx in 0..rw {
-                let (mut n, mut sum, mut light) = (0usize, [0.0f32; 3], 0.0);
-                for y in by * k..(by + 1) * k {
-                    for i in y * w + bx * k..y * w + (bx + 1) * k {
-                        let m = raw[i];
-                        if is_background(&m) || keep.is_some_and(|kept| !kept[i]) {
-                            continue;
-                        }
-                        n += 1;
-                        sum = [sum[0] + m[0], sum[1] + m[1], sum[2] + m[2]];
-                        light += values[i];
-                    }
-                }
-                let length = (sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]).sqrt();
-                if 2 * n >= k * k && length > 0.0 {
-                    out.normals[by * rw + bx] = sum.map(|c| c / length);
-                    out.values[by * rw + bx] = light / n as f64;
-                }
-            }
-        }
-        out
     }
 }
 
@@ -604,7 +559,8 @@ pub fn equivalent_sphere(
     let k = reduction(raw, keep, w, h, radius);
     let small;
     let picture = if k > 1 {
-        small = Reduced::of(raw, values, keep, w, h, k);
+        let object = |i: usize| is_object(raw, keep, i);
+        small = Blocks::of(raw, Some(values), object, (w, h), k, Border::Drop);
         Picture {
             raw: &small.normals,
             values: &small.values,

@@ -8,6 +8,8 @@
 //! "Path-traced objects"). Under an orthographic view the normals give the surface's slopes,
 //! so its heights follow up to a constant, and with them the horizon each pixel sees.
 
+use crate::image::blocks::{Blocks, Border};
+
 /// A pixel is in the object's own shadow when the object hides more than this share of its
 /// cosine-weighted sky.
 pub const OCCLUSION_LIMIT: f64 = 0.1;
@@ -47,8 +49,8 @@ pub(crate) fn in_own_shadow(map: &[[f32; 3]], object: &[bool], w: usize, h: usiz
         .collect()
 }
 
-/// A normal map reduced by q × q blocks: a block is object when at least half its pixels
-/// are, with their normalized mean normal.
+/// A normal map reduced by q × q [`Blocks`], those the border cuts kept: every pixel has a
+/// cell.
 struct Grid {
     normals: Vec<[f32; 3]>,
     object: Vec<bool>,
@@ -58,33 +60,18 @@ struct Grid {
 
 impl Grid {
     fn of(map: &[[f32; 3]], object: &[bool], w: usize, h: usize, q: usize) -> Grid {
-        let (gw, gh) = (w.div_ceil(q), h.div_ceil(q));
-        let mut normals = vec![[0.0f32; 3]; gw * gh];
-        let mut inside = vec![false; gw * gh];
-        for (g, normal) in normals.iter_mut().enumerate() {
-            let (by, bx) = (g / gw, g % gw);
-            let (mut n, mut total, mut sum) = (0usize, 0usize, [0.0f32; 3]);
-            for y in by * q..((by + 1) * q).min(h) {
-                for i in y * w + bx * q..y * w + ((bx + 1) * q).min(w) {
-                    total += 1;
-                    if object[i] {
-                        let m = map[i];
-                        n += 1;
-                        sum = [sum[0] + m[0], sum[1] + m[1], sum[2] + m[2]];
-                    }
-                }
-            }
-            let length = (sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]).sqrt();
-            if 2 * n >= total && length > 0.0 {
-                *normal = sum.map(|c| c / length);
-                inside[g] = true;
-            }
-        }
+        let Blocks {
+            normals,
+            object,
+            w,
+            h,
+            ..
+        } = Blocks::of(map, None, |i| object[i], (w, h), q, Border::Keep);
         Grid {
             normals,
-            object: inside,
-            w: gw,
-            h: gh,
+            object,
+            w,
+            h,
         }
     }
 
