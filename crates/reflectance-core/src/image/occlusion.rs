@@ -44,35 +44,33 @@ pub(crate) fn in_own_shadow(map: &[[f32; 3]], object: &[bool], w: usize, h: usiz
     (0..w * h)
         .map(|i| {
             let (row, col) = (i / w / q, i % w / q);
-            object[i] && row < grid.h && col < grid.w && shadowed[row * grid.w + col]
+            object[i] && shadowed[row * grid.w + col]
         })
         .collect()
 }
 
 /// A normal map reduced by q × q [`Blocks`], those the border cuts kept: every pixel has a
 /// cell.
-struct Grid {
-    normals: Vec<[f32; 3]>,
-    object: Vec<bool>,
-    w: usize,
-    h: usize,
+struct Grid(Blocks);
+
+impl std::ops::Deref for Grid {
+    type Target = Blocks;
+
+    fn deref(&self) -> &Blocks {
+        &self.0
+    }
 }
 
 impl Grid {
     fn of(map: &[[f32; 3]], object: &[bool], w: usize, h: usize, q: usize) -> Grid {
-        let Blocks {
-            normals,
-            object,
-            w,
-            h,
-            ..
-        } = Blocks::of(map, None, |i| object[i], (w, h), q, Border::Keep);
-        Grid {
-            normals,
-            object,
-            w,
-            h,
-        }
+        Grid(Blocks::of(
+            map,
+            None,
+            |i| object[i],
+            (w, h),
+            q,
+            Border::Keep,
+        ))
     }
 
     fn object(&self, i: usize) -> bool {
