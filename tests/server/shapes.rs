@@ -11,8 +11,18 @@ use reflectance::render::Quality;
 use reflectance::render::batch::{self, Augment, BatchSpec};
 use reflectance::render::shapes::ShapeSpec;
 
+/// An object's image and normals, its class and white.
+type Rendered = (Vec<u8>, Vec<u8>, String, f64);
+
 /// Tori rendered under the fixture's held-out probe: (image, normals, class, white) each.
-pub(crate) fn held_out_tori() -> Vec<(Vec<u8>, Vec<u8>, String, f64)> {
+/// Rendered once per test process: the tests that read them run in parallel, and each
+/// rendering into the same directory would remove the files another is reading.
+pub(crate) fn held_out_tori() -> Vec<Rendered> {
+    static TORI: std::sync::OnceLock<Vec<Rendered>> = std::sync::OnceLock::new();
+    TORI.get_or_init(render_tori).clone()
+}
+
+fn render_tori() -> Vec<Rendered> {
     let dir = temp_dir("tori");
     let probes = write_probes(&dir.join("probes"));
     let classes = dir.join("classes.json");
