@@ -395,8 +395,10 @@ mod tests {
             ];
             let cos = reflected.iter().zip(sun).map(|(a, b)| a * b).sum::<f64>();
             let diffuse = n.iter().zip(sun).map(|(a, b)| a * b).sum::<f64>().max(0.0);
-            // A sky of soft bands seen in the mirror direction: structure at every scale.
-            let sky = 0.5 + 0.4 * (6.0 * reflected[0]).sin() * (4.0 * reflected[1]).cos();
+            // A sky of bands seen in the mirror direction: structure at every scale, down to
+            // the finest the sphere's pixels resolve.
+            let band = |f: f64, g: f64| (f * reflected[0]).sin() * (g * reflected[1]).cos();
+            let sky = 0.6 + 0.3 * band(6.0, 4.0) + 0.2 * band(50.0, 45.0);
             0.3 * diffuse + 0.2 * sky + 2.0 * cos.max(0.0).powf(40.0)
         };
         let luminance = Array2::from_shape_fn((size, size), |(row, col)| {
@@ -441,6 +443,10 @@ mod tests {
             ("pix.p50", 0.02),
             ("wav.s2.v.var", 0.15),
             ("wav.s3.h.var", 0.15),
+            // The finest bands: what a second resampling would smooth.
+            ("wav.s1.h.var", 0.1),
+            ("wav.s1.v.var", 0.1),
+            ("wav.s1.d.var", 0.1),
         ] {
             let at = names.iter().position(|n| n == name).unwrap();
             let (a, b) = (by_normals.values[at], by_circle.values[at]);
@@ -453,7 +459,10 @@ mod tests {
 
     #[test]
     fn a_sphere_given_by_its_normals_has_the_features_of_its_circle() {
+        // At the working radius, and larger (reduced by area weights, as by its circle).
+        normals_agree_with_the_circle(261, 116.36);
         normals_agree_with_the_circle(300, 130.0);
+        normals_agree_with_the_circle(400, 180.0);
     }
 
     #[test]

@@ -8,7 +8,7 @@ use super::layout::{BlockLayout, Layout, STATS};
 use super::noise;
 use super::observed::{Observed, ObservedError, Support, kept};
 use super::outline;
-use super::polar::{AngleTable, angle_table, unwrap};
+use super::polar::{AngleTable, angle_table, unwrap, unwrap_footprints};
 use super::pyramid::{self, Edge, Level};
 use super::spectrum::{BandPowers, SpectrumPlan};
 use super::stats::{Moments, Summary, moments, percentiles_with, summarize};
@@ -394,22 +394,40 @@ impl Extractor {
         let unwrap_cfg = &self.config.unwrap;
         let coverage = unwrap(seen.view(), &sphere.circle, unwrap_cfg, &angles, 1.0);
         let observed = Observed::from_coverage(&coverage)?;
-        let unwrapped = self.unwrap_as_is(sphere.luminance.view(), &sphere.circle, white);
-        Ok((unwrapped, observed))
+        Ok((self.annulus_of_equivalent(sphere, white), observed))
+    }
+
+    /// An object's equivalent sphere's annulus in units of white: its pixels resampled once
+    /// onto the unwrap's samples ([`unwrap_footprints`]); a cell none of them reached (a
+    /// missing one, or one filled between pixels) is the unwrap of the sphere's grid.
+    fn annulus_of_equivalent(&self, sphere: &EquivalentSphere, white: f64) -> Array2<f64> {
+        let angles = self.angles(self.config.unwrap.supersampling(sphere.circle.r));
+        let grid = self.unwrap_as_is(sphere.luminance.view(), &sphere.circle, white);
+        let (splat, reached) = unwrap_footprints(
+            &sphere.footprints,
+            &sphere.circle,
+            &self.config.unwrap,
+            &angles,
+        );
+        let ceiling = self.config.saturation.unwrap_or(f64::INFINITY);
+        ndarray::Zip::from(&grid)
+            .and(&splat)
+            .and(&reached)
+            .map_collect(|&g, &v, &r| if r { (v / white).min(ceiling) } else { g })
     }
 
     /// The stages of an object's equivalent sphere: its unwrapped annulus with the missing
     /// cells as they are (0), for pictures.
     pub fn stages_of_equivalent(&self, sphere: &EquivalentSphere, white: f64) -> Stages {
-        let unwrapped = self.unwrap_as_is(sphere.luminance.view(), &sphere.circle, white);
-        self.stages_of_unwrapped(unwrapped)
+        self.stages_of_unwrapped(self.annulus_of_equivalent(sphere, white))
     }
 
     /// Every feature of an object's equivalent sphere, and which of its annulus is observed:
     /// the blocks over the observed part; the capture family as far as it can be told (the
-    /// clipped share of the observed cells; noise and rim blur at their floors, since
-    /// averaging pixels into cells hides the noise and the sphere has no rim); the centre
-    /// and domain families of the sphere with its missing cells filled.
+    /// noise of the equivalent sphere's observed cells, which is what its fine bands carry;
+    /// the clipped share of the observed cells; the rim blur at its floor, since the sphere
+    /// has no rim); the centre and domain families of the sphere with its missing cells
+    /// filled.
     pub fn extract_equivalent(
         &self,
         sphere: &EquivalentSphere,
@@ -422,8 +440,13 @@ impl Extractor {
             let ceiling = full_scale.map_or(f64::INFINITY, |f| noise::CLIPPED * f / white);
             let kept = kept(&unwrapped, Some(&observed.mask));
             let clipped = kept.iter().filter(|&&v| v >= ceiling).count();
+            let c = &sphere.circle;
+            let seen = |row: usize, col: usize| sphere.observed[(row, col)];
+            let noise =
+                noise::noise_at_white_where(sphere.luminance.view(), c, white, f64::INFINITY, seen);
             let floor = NOISE_FLOOR.log10();
-            values.extend([floor, clipped as f64 / kept.len().max(1) as f64, floor]);
+            let noise = noise.map_or(floor, |n| n.max(NOISE_FLOOR).log10());
+            values.extend([noise, clipped as f64 / kept.len().max(1) as f64, floor]);
         }
         let filled = sphere.filled();
         if self.config.centre {

@@ -138,6 +138,18 @@ pub fn noise_at_white(
     white: f64,
     full_scale: f64,
 ) -> Option<f64> {
+    noise_at_white_where(image, c, white, full_scale, |_, _| true)
+}
+
+/// [`noise_at_white`] over the blocks whose four samples are all `observed` (row, column):
+/// an object's equivalent sphere, whose missing cells carry no noise.
+pub fn noise_at_white_where(
+    image: ArrayView2<f64>,
+    c: &Circle,
+    white: f64,
+    full_scale: f64,
+    observed: impl Fn(usize, usize) -> bool,
+) -> Option<f64> {
     let (rows, cols) = span(c, image.dim());
     let ceiling = CLIPPED * full_scale;
     let mut blocks: Vec<(f64, f64)> = Vec::new();
@@ -146,7 +158,11 @@ pub fn noise_at_white(
             if y + 1 >= image.nrows() || x + 1 >= image.ncols() {
                 continue;
             }
-            if !inside(c, x as f64 + 0.5, y as f64 + 0.5) {
+            if !inside(c, x as f64 + 0.5, y as f64 + 0.5)
+                || ![(y, x), (y, x + 1), (y + 1, x), (y + 1, x + 1)]
+                    .iter()
+                    .all(|&(r, k)| observed(r, k))
+            {
                 continue;
             }
             let [a, b, p, q] = [

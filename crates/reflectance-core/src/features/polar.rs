@@ -1,6 +1,7 @@
 //! Canonical unwrap: the annulus ρ ∈ [inner·r, outer·r] resampled onto a rows × cols grid
 //! (radius down, angle across), each cell the mean of s×s bilinear samples, s = ⌈r / r0⌉.
 
+use crate::image::footprint::Footprint;
 use crate::image::geometry::Circle;
 use ndarray::{Array2, ArrayView2};
 use std::f64::consts::PI;
@@ -117,20 +118,24 @@ struct Grid {
     norm: f64,
 }
 
+/// The radii ρ = r·(inner + span·(i + (a+0.5)/s)/rows) of every sub-row, `radii[i·s + a]`.
+fn sample_radii(r: f64, cfg: &UnwrapConfig, s: usize) -> Vec<f64> {
+    let (h, sf) = (cfg.rows as f64, s as f64);
+    let span = cfg.outer - cfg.inner;
+    (0..cfg.rows * s)
+        .map(|q| {
+            let (i, a) = ((q / s) as f64, (q % s) as f64);
+            r * (cfg.inner + span * (i + (a + 0.5) / sf) / h)
+        })
+        .collect()
+}
+
 impl Grid {
     fn new(circle: &Circle, cfg: &UnwrapConfig, s: usize, gain: f64) -> Grid {
-        let (h, sf) = (cfg.rows as f64, s as f64);
-        let span = cfg.outer - cfg.inner;
-        let radii = (0..cfg.rows * s)
-            .map(|q| {
-                let (i, a) = ((q / s) as f64, (q % s) as f64);
-                circle.r * (cfg.inner + span * (i + (a + 0.5) / sf) / h)
-            })
-            .collect();
         Grid {
             cx: circle.cx,
             cy: circle.cy,
-            radii,
+            radii: sample_radii(circle.r, cfg, s),
             s,
             cols: cfg.cols,
             norm: gain / (s * s) as f64,
@@ -243,6 +248,109 @@ pub fn unwrap_with(
         }
     }
     out
+}
+
+/// The annulus of pixels scattered over a sphere around `circle` (an object's, placed by
+/// their normals on its equivalent sphere): each sample of [`unwrap`] takes the mean of the
+/// footprints covering it, weighted by their tents, so the pixels are resampled once, as a
+/// sphere's photograph is (on a sphere's own pixels the tents are bilinear interpolation);
+/// each cell is the mean of its samples some footprint reached. Also returns which cells
+/// had such a sample. `angles` as for [`unwrap`].
+pub fn unwrap_footprints(
+    footprints: &[(Footprint, f64)],
+    circle: &Circle,
+    cfg: &UnwrapConfig,
+    angles: &AngleTable,
+) -> (Array2<f64>, Array2<bool>) {
+    let s = cfg.supersampling(circle.r);
+    assert!(angles.s == s, "angle table does not match");
+    let radii = sample_radii(circle.r, cfg, s);
+    let (sub_rows, sub_cols) = (cfg.rows * s, cfg.cols * s);
+    let mut sum = vec![0.0; sub_rows * sub_cols];
+    let mut weight = vec![0.0; sub_rows * sub_cols];
+    for (footprint, value) in footprints {
+        let span = SampleSpan::of(footprint, circle, cfg, s);
+        let weights = footprint.weights(span.small);
+        for a in span.rows {
+            let rho = radii[a];
+            for b in span.cols.clone() {
+                let b = b.rem_euclid(sub_cols as isize) as usize;
+                let (cos, sin) = angles.pairs[b];
+                let (x, y) = (rho.mul_add(cos, circle.cx), (-rho).mul_add(sin, circle.cy));
+                let w = weights.at(x, y);
+                if w > 0.0 {
+                    sum[a * sub_cols + b] += w * value;
+                    weight[a * sub_cols + b] += w;
+                }
+            }
+        }
+    }
+    let mut out = Array2::zeros((cfg.rows, cfg.cols));
+    let mut reached = Array2::from_elem((cfg.rows, cfg.cols), false);
+    for ((i, j), v) in out.indexed_iter_mut() {
+        let (mut total, mut n) = (0.0, 0usize);
+        for a in i * s..(i + 1) * s {
+            for q in a * sub_cols + j * s..a * sub_cols + (j + 1) * s {
+                if weight[q] > 0.0 {
+                    total += sum[q] / weight[q];
+                    n += 1;
+                }
+            }
+        }
+        if n > 0 {
+            *v = total / n as f64;
+            reached[(i, j)] = true;
+        }
+    }
+    (out, reached)
+}
+
+/// The sub-rows and sub-columns (unwrapped modulo the width) of the samples a footprint
+/// may reach, and whether it spreads bilinearly (a point).
+struct SampleSpan {
+    rows: std::ops::Range<usize>,
+    cols: std::ops::RangeInclusive<isize>,
+    small: bool,
+}
+
+impl SampleSpan {
+    fn of(footprint: &Footprint, circle: &Circle, cfg: &UnwrapConfig, s: usize) -> SampleSpan {
+        // Unlike the sphere's square grid, the samples need no wider spread for pixels
+        // smaller than a cell: tents that reach the neighbours' centres sum to one wherever
+        // the pixels are regular, and wider ones would not (their normalized mean ripples).
+        let small = footprint.degenerate();
+        let (dx, dy) = (footprint.at[0] - circle.cx, footprint.at[1] - circle.cy);
+        let rho = dx.hypot(dy);
+        let (radial, across) = (
+            footprint.extent([dx / rho, dy / rho]),
+            footprint.extent([-dy / rho, dx / rho]),
+        );
+        // A footprint over the centre is inside the annulus's hole (its inner radius is far
+        // more than the widest reach): no rows.
+        if rho <= radial + across || !rho.is_finite() {
+            return SampleSpan {
+                rows: 0..0,
+                cols: 0..=0,
+                small,
+            };
+        }
+        let per_r = (cfg.rows * s) as f64 / (cfg.outer - cfg.inner);
+        let sub_row = |rho: f64| (rho / circle.r - cfg.inner) * per_r - 0.5;
+        let first = sub_row(rho - radial).ceil().max(0.0) as usize;
+        // Sideways reach takes a point farther out too.
+        let farthest = (rho + radial).hypot(across);
+        let last = (sub_row(farthest).floor() + 1.0).clamp(0.0, (cfg.rows * s) as f64) as usize;
+        // Seen from the centre, what reaches `across` sideways from ρ − `radial` out.
+        let turn = (across / (rho - radial)).min(1.0).asin();
+        let per_theta = (cfg.cols * s) as f64 / (2.0 * PI);
+        let centre = (-dy).atan2(dx).rem_euclid(2.0 * PI) * per_theta - 0.5;
+        SampleSpan {
+            rows: first..last.max(first),
+            cols: (centre - turn * per_theta).ceil() as isize
+                ..=(centre + turn * per_theta).floor() as isize,
+            small,
+        }
+    }
 }
 
 /// AVX2 interior kernel: four adjacent cells per step, one per lane, each lane performing
@@ -551,5 +659,67 @@ mod tests {
         assert_eq!(u_top[[50, 20]], 1.0);
         assert_eq!(u_right[[50, 200]], 0.0);
         assert_eq!(u_top[[50, 300]], 0.0);
+    }
+
+    /// Every pixel of a picture as its own footprint: at its centre, reaching its neighbours.
+    fn pixel_footprints(
+        image: &Array2<f64>,
+        keep: impl Fn(usize, usize) -> bool,
+    ) -> Vec<(Footprint, f64)> {
+        image
+            .indexed_iter()
+            .filter(|&((y, x), _)| keep(y, x))
+            .map(|((y, x), &v)| {
+                let footprint = Footprint {
+                    at: [x as f64, y as f64],
+                    across: [0.5, 0.0],
+                    down: [0.0, 0.5],
+                };
+                (footprint, v)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn pixels_as_footprints_unwrap_as_the_picture_does() {
+        let image = Array2::from_shape_fn((260, 250), |(y, x)| {
+            let (x, y) = (x as f64, y as f64);
+            (0.3 * x).sin() * (0.17 * y).cos() + 0.01 * x + ((x * 7.0 + y * 13.0) % 5.0)
+        });
+        let cfg = UnwrapConfig::default();
+        for r in [60.0, 116.36] {
+            let c = circle(124.3, 129.6, r);
+            let angles = angle_table(cfg.cols, cfg.supersampling(r));
+            let want = unwrap(image.view(), &c, &cfg, &angles, 1.0);
+            let footprints = pixel_footprints(&image, |_, _| true);
+            let (got, reached) = unwrap_footprints(&footprints, &c, &cfg, &angles);
+            assert!(reached.iter().all(|&r| r));
+            let worst = (&got - &want).iter().fold(0.0f64, |m, d| m.max(d.abs()));
+            assert!(worst < 1e-9, "r {r}: {worst}");
+        }
+    }
+
+    #[test]
+    fn cells_no_footprint_reaches_are_not_reached() {
+        let image = Array2::from_elem((200, 200), 1.0);
+        let cfg = UnwrapConfig::default();
+        let c = circle(99.5, 99.5, 90.0);
+        let angles = angle_table(cfg.cols, cfg.supersampling(c.r));
+        // The left half of the picture only: the cells of angles around π.
+        let footprints = pixel_footprints(&image, |_, x| x < 100);
+        let (got, reached) = unwrap_footprints(&footprints, &c, &cfg, &angles);
+        for ((_, j), &r) in reached.indexed_iter() {
+            let theta = 2.0 * PI * (j as f64 + 0.5) / cfg.cols as f64;
+            if theta.cos() < -0.05 {
+                assert!(r, "column {j}");
+            } else if theta.cos() > 0.05 {
+                assert!(!r, "column {j}");
+            }
+        }
+        assert!(
+            got.iter()
+                .zip(&reached)
+                .all(|(&v, &r)| !r || (v - 1.0).abs() < 1e-12)
+        );
     }
 }

@@ -8,6 +8,7 @@ pub mod colour;
 pub mod decode;
 pub(crate) mod detect;
 pub mod display;
+pub mod footprint;
 pub mod geometry;
 pub mod normals;
 pub(crate) mod occlusion;

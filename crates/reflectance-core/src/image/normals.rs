@@ -13,6 +13,7 @@
 use super::blocks::{Blocks, Border};
 use super::circle::Circle;
 use super::decode::{DecodeError, Limits, exr_file};
+use super::footprint::Footprint;
 use super::occlusion;
 use ndarray::Array2;
 use std::io::Cursor;
@@ -265,64 +266,6 @@ fn fill_holes(luminance: &mut Array2<f64>, observed: &mut Array2<bool>, centre: 
     }
 }
 
-/// Where one pixel lands on the equivalent sphere: centred `at` (cell coordinates), with
-/// `across` and `down` the sphere positions of half the way to its neighbours. Its value
-/// spreads with tent weights over the parallelogram reaching its neighbours' centres (so
-/// neighbouring pixels interpolate, as bilinear resampling does, and an object with fewer
-/// pixels than the sphere has cells leaves no holes between them); a pixel smaller than a
-/// cell spreads over the four cells around it, bilinearly.
-struct Footprint {
-    at: [f64; 2],
-    across: [f64; 2],
-    down: [f64; 2],
-}
-
-/// Cells a footprint reaches at most on each side of its centre (a pixel whose normal turns
-/// faster is at a crease, where [`EDGE_ANGLE_DEG`] leaves it out anyway).
-const MAX_REACH: f64 = 8.0;
-
-impl Footprint {
-    /// Call `visit` with the index and weight of each cell of a `side`-wide grid the
-    /// footprint covers.
-    fn cover(&self, side: usize, mut visit: impl FnMut(usize, f64)) {
-        let [x, y] = self.at;
-        // To the neighbours' centres: twice the half-steps.
-        let reach_x = (2.0 * (self.across[0].abs() + self.down[0].abs())).min(MAX_REACH);
-        let reach_y = (2.0 * (self.across[1].abs() + self.down[1].abs())).min(MAX_REACH);
-        let det = self.across[0] * self.down[1] - self.across[1] * self.down[0];
-        let last = (side - 1) as f64;
-        let mut put = |cx: f64, cy: f64, w: f64| {
-            if w > 0.0 && (0.0..=last).contains(&cx) && (0.0..=last).contains(&cy) {
-                visit(cy as usize * side + cx as usize, w);
-            }
-        };
-        if reach_x < 1.0 && reach_y < 1.0 || det.abs() < 1e-9 {
-            let (x0, y0) = (x.floor(), y.floor());
-            let (fx, fy) = (x - x0, y - y0);
-            put(x0, y0, (1.0 - fx) * (1.0 - fy));
-            put(x0 + 1.0, y0, fx * (1.0 - fy));
-            put(x0, y0 + 1.0, (1.0 - fx) * fy);
-            put(x0 + 1.0, y0 + 1.0, fx * fy);
-            return;
-        }
-        let (x0, x1) = ((x - reach_x).ceil(), (x + reach_x).floor());
-        let (y0, y1) = ((y - reach_y).ceil(), (y + reach_y).floor());
-        let mut cy = y0;
-        while cy <= y1 {
-            let mut cx = x0;
-            while cx <= x1 {
-                // The cell's centre in pixel steps along the two sides (s, t ∈ [−1, 1]).
-                let (dx, dy) = (cx - x, cy - y);
-                let s = (dx * self.down[1] - dy * self.down[0]) / det / 2.0;
-                let t = (self.across[0] * dy - self.across[1] * dx) / det / 2.0;
-                put(cx, cy, (1.0 - s.abs()).max(0.0) * (1.0 - t.abs()).max(0.0));
-                cx += 1.0;
-            }
-            cy += 1.0;
-        }
-    }
-}
-
 /// Pixels each side over which the normal field's turn is taken to judge convexity: wider
 /// than a pixel, so that what is left of the normals' noise after smoothing does not decide.
 const CONVEXITY_REACH: usize = 3;
@@ -393,13 +336,50 @@ const MIN_STEPS: usize = 64;
 /// its own shadows) stays resolved when most of it is flat and its median turn is 0.
 const MIN_REDUCED_SIDE: usize = 128;
 
-/// By how much a photograph whose normals turn slowly from pixel to pixel can be reduced
-/// before mapping: ⌊1 / the median turn per pixel, in cells of the sphere⌋, within 1 ..=
-/// [`MAX_REDUCTION`] (read on every 7th row and column), and keeping [`MIN_REDUCED_SIDE`]. A
-/// 12 MP photograph of a large object turns its normals by a tenth of a cell per pixel:
-/// reduced, each pixel still moves by about a cell, and the mapping reads a hundredth of the
-/// pixels.
-fn reduction(raw: &[[f32; 3]], keep: Option<&[bool]>, w: usize, h: usize, radius: f64) -> usize {
+/// The median of `turns` weighted by the sphere's area each covers (turn²): the turn of the
+/// pixels that cover the median cell, where most pixels may sit on flat faces that cover few
+/// cells. Sorts `turns`.
+fn area_median(turns: &mut [f64]) -> f64 {
+    turns.sort_unstable_by(f64::total_cmp);
+    let half = turns.iter().map(|t| t * t).sum::<f64>() / 2.0;
+    let mut covered = 0.0;
+    for &t in turns.iter() {
+        covered += t * t;
+        if covered >= half {
+            return t;
+        }
+    }
+    0.0
+}
+
+/// How a photograph is reduced before mapping: by `blocks`×`blocks` block means, then by
+/// `factor` with area weights.
+struct Reduction {
+    blocks: usize,
+    factor: f64,
+}
+
+/// How a photograph whose normals turn slowly from pixel to pixel is reduced before
+/// mapping, judged by the median turn per pixel in cells of the sphere (read on every 7th
+/// row and column). Block means first, by ⌊1 / turn⌋ within 1 ..= [`MAX_REDUCTION`]: a 12 MP
+/// photograph of a large object turns its normals by a tenth of a cell per pixel, and the
+/// mapping then reads a hundredth of the pixels. Then area weights, by what is left of
+/// turn·blocks < 1 ([`area_median`]'s turn), so that the pixels at the median cell move by
+/// one cell, as a sphere's photograph is
+/// brought to the working radius before its unwrap (the finest bands read the resampling:
+/// a sphere given by its normals is then reduced as by its circle). Either keeps
+/// [`MIN_REDUCED_SIDE`].
+fn reduction(
+    raw: &[[f32; 3]],
+    keep: Option<&[bool]>,
+    w: usize,
+    h: usize,
+    radius: f64,
+) -> Reduction {
+    let none = Reduction {
+        blocks: 1,
+        factor: 1.0,
+    };
     let kept = |i: usize| is_object(raw, keep, i);
     let mut steps = Vec::new();
     for row in (0..h).step_by(7) {
@@ -413,14 +393,22 @@ fn reduction(raw: &[[f32; 3]], keep: Option<&[bool]>, w: usize, h: usize, radius
         }
     }
     if steps.len() < MIN_STEPS {
-        return 1;
+        return none;
     }
     let middle = steps.len() / 2;
     let (_, median, _) = steps.select_nth_unstable_by(middle, f64::total_cmp);
+    let median = *median;
     let most = (w.max(h) / MIN_REDUCED_SIDE).clamp(1, MAX_REDUCTION);
-    match *median > 0.0 {
-        true => ((1.0 / *median).floor() as usize).clamp(1, most),
+    let blocks = match median > 0.0 {
+        true => ((1.0 / median).floor() as usize).clamp(1, most),
         false => most,
+    };
+    let least = (MIN_REDUCED_SIDE as f64 / (w.max(h) / blocks) as f64).min(1.0);
+    let factor = (area_median(&mut steps) * blocks as f64).clamp(least, 1.0);
+    Reduction {
+        blocks,
+        // As a sphere within 1 % of the working radius is not resampled.
+        factor: if factor * 1.01 >= 1.0 { 1.0 } else { factor },
     }
 }
 
@@ -497,6 +485,9 @@ pub struct EquivalentSphere {
     /// in the object's own shadow: the object hides more than a tenth of their sky
     /// ([`occlusion`]), in [0, 1].
     pub shadowed_fraction: f64,
+    /// Every mapped pixel's footprint on the sphere (in `luminance`'s pixels) and its
+    /// luminance: what the unwrap resamples once, as it does a sphere's photograph.
+    pub footprints: Vec<(Footprint, f64)>,
 }
 
 impl EquivalentSphere {
@@ -523,6 +514,41 @@ impl EquivalentSphere {
             }
         }
         filled
+    }
+}
+
+/// The photograph as the mapping reads it when [`reduction`] reduces it (`None`: as it is).
+fn reduced(
+    raw: &[[f32; 3]],
+    values: &[f64],
+    keep: Option<&[bool]>,
+    (w, h): (usize, usize),
+    radius: f64,
+) -> Option<Blocks> {
+    let Reduction { blocks, factor } = reduction(raw, keep, w, h, radius);
+    let object = |i: usize| is_object(raw, keep, i);
+    match (blocks > 1, factor < 1.0) {
+        (false, false) => None,
+        (true, false) => Some(Blocks::of(
+            raw,
+            Some(values),
+            object,
+            (w, h),
+            blocks,
+            Border::Drop,
+        )),
+        (false, true) => Some(Blocks::by_area(raw, values, object, (w, h), factor)),
+        (true, true) => {
+            let b = Blocks::of(raw, Some(values), object, (w, h), blocks, Border::Drop);
+            let object = |i: usize| b.object[i];
+            Some(Blocks::by_area(
+                &b.normals,
+                &b.values,
+                object,
+                (b.w, b.h),
+                factor,
+            ))
+        }
     }
 }
 
@@ -556,26 +582,22 @@ pub fn equivalent_sphere(
     let values = luminance.as_slice().unwrap_or_default();
     let keep = mask.map(|m| m.as_standard_layout());
     let keep = keep.as_ref().and_then(|m| m.as_slice());
-    let k = reduction(raw, keep, w, h, radius);
-    let small;
-    let picture = if k > 1 {
-        let object = |i: usize| is_object(raw, keep, i);
-        small = Blocks::of(raw, Some(values), object, (w, h), k, Border::Drop);
-        Picture {
+    let small = reduced(raw, values, keep, (w, h), radius);
+    let picture = match &small {
+        Some(small) => Picture {
             raw: &small.normals,
             values: &small.values,
             keep: None,
             w: small.w,
             h: small.h,
-        }
-    } else {
-        Picture {
+        },
+        None => Picture {
             raw,
             values,
             keep,
             w,
             h,
-        }
+        },
     };
     let splat = Splat::of(&picture, side, radius);
     let mut observed = splat.weight.mapv(|w| w > 0.0);
@@ -614,6 +636,7 @@ pub fn equivalent_sphere(
         scatter_deg: (splat.scatter / splat.judged().max(1) as f64)
             .sqrt()
             .to_degrees(),
+        footprints: splat.footprints,
     })
 }
 
@@ -635,8 +658,8 @@ struct Splat {
     weight: Array2<f64>,
     /// Σ squared angles (rad²) between the given and the smoothed normals of mapped pixels.
     scatter: f64,
-    /// Pixels mapped.
-    mapped: usize,
+    /// The mapped pixels' footprints and luminances.
+    footprints: Vec<(Footprint, f64)>,
     /// Pixels left out as saddles or hollows.
     not_convex: usize,
     /// Convex pixels left out in the object's own shadow.
@@ -660,7 +683,8 @@ impl Splat {
         let object: Vec<bool> = map.iter().map(|n| !is_background(n)).collect();
         let in_shadow = occlusion::in_own_shadow(map, &object, w, h);
         let (mut sum, mut weight) = (vec![0.0; side * side], vec![0.0; side * side]);
-        let (mut scatter, mut mapped, mut not_convex, mut shadowed) = (0.0f64, 0, 0, 0);
+        let (mut scatter, mut not_convex, mut shadowed) = (0.0f64, 0, 0);
+        let mut footprints = Vec::new();
         let place = |n: &[f32; 3]| {
             [
                 centre + radius * f64::from(n[0]),
@@ -685,7 +709,6 @@ impl Splat {
                     shadowed += 1;
                     continue;
                 }
-                mapped += 1;
                 // Half the step to each neighbour: the pixel's footprint on the sphere.
                 let half = |a: usize, b: usize| {
                     let (p, q) = (place(&map[a]), place(&map[b]));
@@ -700,6 +723,7 @@ impl Splat {
                     sum[cell] += wt * values[i];
                     weight[cell] += wt;
                 });
+                footprints.push((footprint, values[i]));
             }
         }
         let grid = |v: Vec<f64>| Array2::from_shape_vec((side, side), v).unwrap_or_default();
@@ -707,7 +731,7 @@ impl Splat {
             sum: grid(sum),
             weight: grid(weight),
             scatter,
-            mapped,
+            footprints,
             not_convex,
             shadowed,
         }
@@ -715,7 +739,7 @@ impl Splat {
 
     /// Pixels judged: mapped or left out as not convex or in shadow.
     fn judged(&self) -> usize {
-        self.mapped + self.not_convex + self.shadowed
+        self.footprints.len() + self.not_convex + self.shadowed
     }
 }
 
