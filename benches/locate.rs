@@ -65,3 +65,16 @@ fn detect_12mp_excluding_decode(bencher: Bencher) {
     let luminance: Array2<f64> = image.luminance;
     bencher.bench(|| geometry::detect(divan::black_box(luminance.view())).expect("the ball"));
 }
+
+/// Dev photographs (when `../shared/data/photos/dev/` holds them), decoded once: location
+/// alone, whatever it finds or refuses.
+#[divan::bench(sample_count = 10, args = ["chrome_boeyli_0200.jpg", "chrome_arhangoyal_grainger125_full.jpg", "other_husky_tennis0.jpg"])]
+fn detect_dev_photograph_excluding_decode(bencher: Bencher, name: &str) {
+    let path = std::path::Path::new("../shared/data/photos/dev").join(name);
+    let Ok(bytes) = std::fs::read(&path) else {
+        return;
+    };
+    let image = decode::decode(&bytes, &DecodeOptions::default()).expect("decode");
+    let luminance: Array2<f64> = image.luminance;
+    bencher.bench(|| geometry::detect(divan::black_box(luminance.view())).is_ok());
+}

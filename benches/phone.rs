@@ -1,9 +1,9 @@
 //! Phone photographs (issue 46): colour JPEGs (quality 90, 4:2:0) of 4 and 12 MP with a small
-//! and a large shaded ball on a wood-grain table, single thread; decoded in full and for the
-//! location's working copy (DCT-domain scaling, [`decode::decode_reduced`]), located
-//! automatically and given the circle, through the shipped ward6 model's extraction
-//! (decode → white → locate → features: what `POST /v1/classify` does before the
-//! classifier, which takes under a millisecond). The dev photograph
+//! and a large shaded ball, and of 48 MP with a small one, on a wood-grain table, single
+//! thread; decoded in full and for the location's working copy (DCT-domain scaling,
+//! [`decode::decode_reduced`]), located automatically and given the circle, through the
+//! shipped ward6 model's extraction (decode → white → locate → features: what
+//! `POST /v1/classify` does before the classifier, which takes under a millisecond). The dev photograph
 //! `chrome_arhangoyal_grainger125_full.jpg` (4096 × 3072) is measured too when
 //! `../shared/data/photos/dev/` holds it.
 //!
@@ -74,6 +74,11 @@ const PHOTOS: &[Photo] = &[
         width: 4000,
         height: 3000,
         r: 1000,
+    },
+    Photo {
+        width: 8000,
+        height: 6000,
+        r: 400,
     },
 ];
 

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Load test of POST /v1/classify: a 256×256 PNG sphere (with white and circle), 32
-# connections, wrk. Prints requests/s, latency percentiles and the server's peak RSS.
+# connections, wrk; or a photograph of your own (PHOTO). Prints requests/s, latency
+# percentiles and the server's peak RSS.
 #
 #   scripts/loadtest.sh                 # 20 s, 32 connections, 2 wrk threads
 #   ROUTES="v1 v2 v1 v2" scripts/loadtest.sh   # also the same request as Open Inference
@@ -10,11 +11,22 @@
 #   MODELS=models scripts/loadtest.sh   # a registry with ward6 (default: train one from the fixture table)
 #   MODELS=models MODEL=ward11 scripts/loadtest.sh   # any model of the registry
 #   BIN=/elsewhere/reflectance scripts/loadtest.sh     # another build (no build here)
+#   PHOTO=photo.jpg scripts/loadtest.sh # a photograph instead (a phone's JPEG): the sphere
+#                                       # located by the server, or given by CIRCLE="cx cy r";
+#                                       # WHITE=v adds a white reference; 2 connections and a
+#                                       # 60 s timeout unless set
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 DURATION=${DURATION:-20s}
-CONNECTIONS=${CONNECTIONS:-32}
+if [ -n "${PHOTO:-}" ]; then
+  [ -f "$PHOTO" ] || { echo "PHOTO=$PHOTO: no such file" >&2; exit 2; }
+  CONNECTIONS=${CONNECTIONS:-2}
+  TIMEOUT=${TIMEOUT:-60s}
+else
+  CONNECTIONS=${CONNECTIONS:-32}
+  TIMEOUT=${TIMEOUT:-2s}
+fi
 THREADS=${THREADS:-2}
 PORT=${PORT:-18080}
 MODEL=${MODEL:-ward6}
@@ -48,7 +60,29 @@ else
   "$BIN" train --table tests/fixtures/learn/table.csv --features hand6 --classifier svm \
     --models "$REGISTRY" --name "$MODEL" --no-cv >/dev/null
 fi
-python3 scripts/loadtest/sphere_png.py "$WORK/sphere.png"
+if [ -n "${PHOTO:-}" ]; then
+  IMAGE=$PHOTO
+  case $PHOTO in
+    *.png | *.PNG) IMAGE_TYPE=image/png ;;
+    *) IMAGE_TYPE=image/jpeg ;;
+  esac
+  FIELDS=
+  if [ -n "${CIRCLE:-}" ]; then
+    read -r cx cy r <<<"$CIRCLE"
+    FIELDS="cx=$cx cy=$cy r=$r"
+  fi
+  [ -n "${WHITE:-}" ] && FIELDS="white=$WHITE $FIELDS"
+  how=located
+  [ -n "${CIRCLE:-}" ] && how="circle given"
+  DESCRIPTION="$(basename "$PHOTO") ($(du -k "$PHOTO" | cut -f1) KiB, $how)"
+else
+  IMAGE=$WORK/sphere.png
+  IMAGE_TYPE=image/png
+  FIELDS="white=0.9 cx=127.5 cy=127.5 r=116"
+  DESCRIPTION="256×256 PNG"
+  python3 scripts/loadtest/sphere_png.py "$IMAGE"
+fi
+export IMAGE IMAGE_TYPE FIELDS
 
 "$BIN" serve --models "$REGISTRY" --default-model "$MODEL" --listen "127.0.0.1:$PORT" \
   --log-format json --log warn 2>"$WORK/server.log" &
@@ -60,8 +94,9 @@ done
 "$BIN" healthcheck --addr "127.0.0.1:$PORT"
 
 # One request first: the answer must be a classification.
-curl -fsS -F image=@"$WORK/sphere.png" -F white=0.9 -F cx=127.5 -F cy=127.5 -F r=116 \
-  "http://127.0.0.1:$PORT/v1/classify" | head -c 300 >&2 || true
+form=(-F "image=@$IMAGE;type=$IMAGE_TYPE")
+for field in $FIELDS; do form+=(-F "$field"); done
+curl -fsS "${form[@]}" "http://127.0.0.1:$PORT/v1/classify" | head -c 300 >&2 || true
 echo >&2
 
 # Peak resident memory of the server while under load.
@@ -79,8 +114,8 @@ for route in $ROUTES; do
     v2) script=v2_infer.lua url=/v2/models/$MODEL/infer ;;
     *) echo "unknown route $route (v1 or v2)" >&2; exit 2 ;;
   esac
-  echo "== wrk: $CONNECTIONS connections, $THREADS threads, $DURATION, 256×256 PNG → POST $url" >&2
-  IMAGE="$WORK/sphere.png" wrk -t"$THREADS" -c"$CONNECTIONS" -d"$DURATION" --latency \
+  echo "== wrk: $CONNECTIONS connections, $THREADS threads, $DURATION, $DESCRIPTION → POST $url" >&2
+  wrk -t"$THREADS" -c"$CONNECTIONS" -d"$DURATION" --timeout "$TIMEOUT" --latency \
     -s "scripts/loadtest/$script" "http://127.0.0.1:$PORT$url"
 done
 

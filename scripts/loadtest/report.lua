@@ -22,3 +22,13 @@ function read_image()
   f:close()
   return image
 end
+
+-- The request's fields besides the image, from the FIELDS environment variable
+-- ("white=0.9 cx=127.5 ..."), in their order, as {name, value} pairs.
+function request_fields()
+  local fields = {}
+  for name, value in string.gmatch(os.getenv("FIELDS") or "", "([%w_]+)=([^%s]+)") do
+    fields[#fields + 1] = {name, value}
+  end
+  return fields
+end

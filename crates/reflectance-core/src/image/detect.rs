@@ -162,13 +162,44 @@ pub fn find_spheres(
     }
     let mut candidates: Vec<(Circle, f64)> = clean.into_iter().collect();
     candidates.extend(rough_circles(&edges, (wh, ww), scale, (min_r, max_r)));
+    let refined = |candidates: Vec<(Circle, f64)>| -> Vec<Found> {
+        candidates
+            .into_iter()
+            .filter_map(|(rough, slack)| refine(luminance, rough, slack))
+            .collect()
+    };
+    let ranked = |found: Vec<Found>| ranked(luminance, found, work.view(), &edges, scale);
+    let mut found = refined(candidates);
     if scale < 0.5 {
-        candidates.extend(small_balls(luminance));
+        let first = ranked(found.clone());
+        if first.first().is_some_and(settled) {
+            return Ok(first);
+        }
+        found.extend(refined(small_balls(luminance)));
     }
-    let found: Vec<Found> = candidates
-        .into_iter()
-        .filter_map(|(rough, slack)| refine(luminance, rough, slack))
-        .collect();
+    Ok(ranked(found))
+}
+
+/// A ball found with a clear edge along this share of its rim needs no search for a smaller
+/// one: a small ball would have to show a clearer rim to be ranked above it.
+const SETTLED: f64 = 0.8;
+
+/// Whether `first`, ranked first by the search on the working copy, makes the search for
+/// small balls needless.
+fn settled(first: &Found) -> bool {
+    first.ball_like && first.confidence >= SETTLED
+}
+
+/// `found` as distinct circles, the most confident tried as elongated outlines, judged for
+/// ball-likeness on the working copy `work` (at `scale`, with its `edges`), balls first, then
+/// by confidence.
+fn ranked(
+    luminance: ArrayView2<f64>,
+    found: Vec<Found>,
+    work: ArrayView2<f64>,
+    edges: &[Edge],
+    scale: f64,
+) -> Vec<Found> {
     let mut distinct = distinct_circles(found);
     // A sphere off the lens's axis, among the most confident: as the lens draws it.
     for f in distinct.iter_mut().take(ELONGATE_FIRST) {
@@ -177,13 +208,13 @@ pub fn find_spheres(
         }
     }
     let mut distinct = distinct_circles(distinct);
-    judge_ball_likeness(&mut distinct, work.view(), &edges, scale);
+    judge_ball_likeness(&mut distinct, work, edges, scale);
     distinct.sort_by(|a, b| {
         (b.ball_like, b.confidence)
             .partial_cmp(&(a.ball_like, a.confidence))
             .unwrap_or(std::cmp::Ordering::Equal)
     });
-    Ok(distinct)
+    distinct
 }
 
 /// The most confident of each group of circles that find the same sphere, most confident first.
