@@ -402,7 +402,6 @@ impl Extractor {
     /// missing one, or one filled between pixels) is the unwrap of the sphere's grid.
     fn annulus_of_equivalent(&self, sphere: &EquivalentSphere, white: f64) -> Array2<f64> {
         let angles = self.angles(self.config.unwrap.supersampling(sphere.circle.r));
-        let grid = self.unwrap_as_is(sphere.luminance.view(), &sphere.circle, white);
         let (splat, reached) = unwrap_footprints(
             &sphere.footprints,
             &sphere.circle,
@@ -410,10 +409,19 @@ impl Extractor {
             &angles,
         );
         let ceiling = self.config.saturation.unwrap_or(f64::INFINITY);
-        ndarray::Zip::from(&grid)
-            .and(&splat)
-            .and(&reached)
-            .map_collect(|&g, &v, &r| if r { (v / white).min(ceiling) } else { g })
+        let mut annulus = splat.mapv(|v| (v / white).min(ceiling));
+        if reached.iter().any(|&r| !r) {
+            let grid = self.unwrap_as_is(sphere.luminance.view(), &sphere.circle, white);
+            ndarray::Zip::from(&mut annulus)
+                .and(&grid)
+                .and(&reached)
+                .for_each(|a, &g, &r| {
+                    if !r {
+                        *a = g;
+                    }
+                });
+        }
+        annulus
     }
 
     /// The stages of an object's equivalent sphere: its unwrapped annulus with the missing

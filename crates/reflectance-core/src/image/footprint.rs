@@ -41,15 +41,6 @@ impl Weights {
 }
 
 impl Footprint {
-    /// How far the tent reaches from `at` along x and y (to the neighbours' centres: twice
-    /// the half-steps), at most [`MAX_REACH`].
-    pub fn reach(&self) -> [f64; 2] {
-        [
-            (2.0 * (self.across[0].abs() + self.down[0].abs())).min(MAX_REACH),
-            (2.0 * (self.across[1].abs() + self.down[1].abs())).min(MAX_REACH),
-        ]
-    }
-
     /// How far the tent reaches from `at` along the unit direction `u` (at most
     /// [`MAX_REACH`]); a degenerate footprint spreads a cell each way along the axes.
     pub fn extent(&self, u: [f64; 2]) -> f64 {
@@ -97,7 +88,7 @@ impl Footprint {
     /// footprint covers.
     pub(crate) fn cover(&self, side: usize, mut visit: impl FnMut(usize, f64)) {
         let [x, y] = self.at;
-        let [reach_x, reach_y] = self.reach();
+        let (reach_x, reach_y) = (self.extent([1.0, 0.0]), self.extent([0.0, 1.0]));
         let last = (side - 1) as f64;
         let mut put = |cx: f64, cy: f64, w: f64| {
             if w > 0.0 && (0.0..=last).contains(&cx) && (0.0..=last).contains(&cy) {
