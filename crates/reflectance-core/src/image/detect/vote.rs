@@ -1,0 +1,372 @@
+//! The candidate search: edge points of the working copy vote for the centres along their
+//! gradient lines, radius bin by radius bin; the best peaks, each with the radii at which most
+//! of its circumference has an edge pointing at it, are the rough circles that
+//! [`super::find_spheres`] refines.
+
+use super::{UNCUT, quantile};
+use crate::image::circle::Circle;
+use ndarray::{Array2, ArrayView2};
+
+/// Candidate centres examined, and radii per centre.
+const CANDIDATES: usize = 16;
+const RADII_PER_CENTRE: usize = 3;
+
+/// The rough circles (full-image coordinates) and their uncertainty from the vote over
+/// `edges` of a working copy `dims` at `scale`, between `radii` (working pixels).
+pub(super) fn rough_circles(
+    edges: &[Edge],
+    dims: (usize, usize),
+    scale: f64,
+    (min_r, max_r): (f64, f64),
+) -> Vec<(Circle, f64)> {
+    let mut out = Vec::new();
+    for (cx, cy, r_bin, cell) in vote(edges, dims, min_r, max_r) {
+        for r in radii(edges, cx, cy, r_bin / RADIUS_RATIO, r_bin * RADIUS_RATIO) {
+            let rough = Circle {
+                cx: (cx + 0.5) / scale - 0.5,
+                cy: (cy + 0.5) / scale - 0.5,
+                r: r / scale,
+            };
+            out.push((rough, (1.5 + 0.5 * cell) / scale));
+        }
+    }
+    out
+}
+
+/// An edge point: position and unit gradient direction.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Edge {
+    x: f64,
+    y: f64,
+    ux: f64,
+    uy: f64,
+}
+
+/// Sobel gradients thinned to ridges along their direction, above a threshold set by the
+/// image's own gradient statistics.
+pub(super) fn edge_points(image: ArrayView2<f64>) -> Vec<Edge> {
+    let (h, w) = image.dim();
+    if h < 3 || w < 3 {
+        return Vec::new();
+    }
+    let mut gx = Array2::<f64>::zeros((h, w));
+    let mut gy = Array2::<f64>::zeros((h, w));
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let p = |dy: usize, dx: usize| image[[y + dy - 1, x + dx - 1]];
+            gx[[y, x]] = (p(0, 2) + 2.0 * p(1, 2) + p(2, 2)) - (p(0, 0) + 2.0 * p(1, 0) + p(2, 0));
+            gy[[y, x]] = (p(2, 0) + 2.0 * p(2, 1) + p(2, 2)) - (p(0, 0) + 2.0 * p(0, 1) + p(0, 2));
+        }
+    }
+    let magnitude = Array2::from_shape_fn((h, w), |p| gx[p].hypot(gy[p]));
+    let positive: Vec<f64> = magnitude.iter().copied().filter(|&m| m > 0.0).collect();
+    if positive.is_empty() {
+        return Vec::new();
+    }
+    let threshold = 0.15 * quantile(positive, 0.98);
+    let mut edges = Vec::new();
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let m = magnitude[[y, x]];
+            if m <= threshold {
+                continue;
+            }
+            let (ux, uy) = (gx[[y, x]] / m, gy[[y, x]] / m);
+            // Neighbours along the gradient: keep local maxima only.
+            let (sx, sy) = (ux.round() as isize, uy.round() as isize);
+            let at = |dx: isize, dy: isize| {
+                magnitude[[(y as isize + dy) as usize, (x as isize + dx) as usize]]
+            };
+            if m < at(sx, sy) || m < at(-sx, -sy) {
+                continue;
+            }
+            edges.push(Edge {
+                x: x as f64,
+                y: y as f64,
+                ux,
+                uy,
+            });
+        }
+    }
+    edges
+}
+
+/// Consecutive radius bins of the vote differ by this factor.
+const RADIUS_RATIO: f64 = 1.08;
+/// Vote cells are at least this many working pixels across ...
+const CELL: f64 = 2.0;
+/// ... and this share of the bin's radius: a ball drawn a few percent elongated (a lens
+/// off-axis, a crop rescaled unevenly) spreads its centre's votes over a few percent of r.
+const CELL_SHARE: f64 = 0.015;
+/// Gradient directions are told apart in this many sectors.
+const SECTORS: f64 = 16.0;
+
+/// One radius bin's vote map: its cell size and dimensions, the votes and, per cell, the
+/// sectors they came from.
+struct VoteMap {
+    cell: f64,
+    cw: usize,
+    ch: usize,
+    votes: Vec<f32>,
+    directions: Vec<u16>,
+}
+
+impl VoteMap {
+    fn new(cell: f64, (h, w): (usize, usize)) -> Self {
+        let (ch, cw) = (
+            (h as f64 / cell).ceil() as usize,
+            (w as f64 / cell).ceil() as usize,
+        );
+        VoteMap {
+            cell,
+            cw,
+            ch,
+            votes: vec![0.0; ch * cw],
+            directions: vec![0; ch * cw],
+        }
+    }
+
+    /// A vote at (x, y) (in cells) from `sector`; false when outside the map.
+    fn add(&mut self, x: f64, y: f64, sector: u16) -> bool {
+        if x < 0.0 || y < 0.0 || x >= self.cw as f64 || y >= self.ch as f64 {
+            return false;
+        }
+        let at = y as usize * self.cw + x as usize;
+        self.votes[at] += 1.0;
+        self.directions[at] |= 1 << sector;
+        true
+    }
+
+    /// The sectors seen in the cell (x, y) and its neighbours.
+    fn seen_around(&self, x: usize, y: usize) -> u16 {
+        let mut around = 0u16;
+        for yy in y.saturating_sub(1)..(y + 2).min(self.ch) {
+            for xx in x.saturating_sub(1)..(x + 2).min(self.cw) {
+                around |= self.directions[yy * self.cw + xx];
+            }
+        }
+        around
+    }
+}
+
+/// The centre radius of vote bin `bin`.
+fn bin_radius(min_r: f64, bin: usize) -> f64 {
+    min_r * RADIUS_RATIO.powf(bin as f64 + 0.5)
+}
+
+/// Every edge point votes, at every radius between `min_r` and `max_r`, for the centre
+/// that far along its gradient line, on both sides, in a map per radius bin; each cell
+/// also records from which directions its votes came. A texture's straight edges spread
+/// their votes over every bin and come from few directions; a circle's gather in one bin
+/// and come from all around. Returns the [`CANDIDATES`] best peaks as (x, y, radius, cell),
+/// scored by votes per unit of circumference times the share of directions seen.
+fn vote(
+    edges: &[Edge],
+    (h, w): (usize, usize),
+    min_r: f64,
+    max_r: f64,
+) -> Vec<(f64, f64, f64, f64)> {
+    let bins = ((max_r / min_r).ln() / RADIUS_RATIO.ln()).ceil() as usize + 1;
+    let mut maps: Vec<VoteMap> = (0..bins)
+        .map(|bin| VoteMap::new((CELL_SHARE * bin_radius(min_r, bin)).max(CELL), (h, w)))
+        .collect();
+    // Radii one working pixel apart, per bin.
+    let mut radii: Vec<Vec<f64>> = vec![Vec::new(); bins];
+    for r in (0..).map(|k| min_r + k as f64).take_while(|&r| r <= max_r) {
+        let bin = (((r / min_r).ln() / RADIUS_RATIO.ln()) as usize).min(bins - 1);
+        radii[bin].push(r);
+    }
+    // Each edge point's line, on each side: (x, y, unit step towards the centre, sector).
+    let lines: Vec<(f64, f64, f64, f64, u16)> = edges
+        .iter()
+        .flat_map(|e| {
+            [-1.0, 1.0].map(|side: f64| {
+                // The direction from the centre to the edge point.
+                let angle = (-side * e.uy).atan2(-side * e.ux) + std::f64::consts::PI;
+                let sector =
+                    ((angle / std::f64::consts::TAU * SECTORS) as u16).min(SECTORS as u16 - 1);
+                (e.x, e.y, side * e.ux, side * e.uy, sector)
+            })
+        })
+        .collect();
+    // A line stops voting at its first vote outside the picture. One map at a time, so that
+    // the map being filled stays in the cache.
+    let mut inside = vec![true; lines.len()];
+    for (map, radii) in maps.iter_mut().zip(&radii) {
+        // In the map's cells.
+        let k = 1.0 / map.cell;
+        for (&(x, y, ux, uy, sector), inside) in lines.iter().zip(inside.iter_mut()) {
+            if !*inside {
+                continue;
+            }
+            let (x0, y0, dx, dy) = (x * k, y * k, ux * k, uy * k);
+            *inside = radii
+                .iter()
+                .all(|&r| map.add(x0 + r * dx, y0 + r * dy, sector));
+        }
+    }
+    let mut found: Vec<(f64, f64, f64, f64, f64)> = Vec::new();
+    for (bin, map) in maps.iter().enumerate() {
+        let r = bin_radius(min_r, bin);
+        found.extend(
+            bin_peaks(map, r, (h, w))
+                .into_iter()
+                .map(|(score, x, y)| (score, x, y, r, map.cell)),
+        );
+    }
+    found.sort_by(|a, b| b.0.total_cmp(&a.0));
+    found.truncate(CANDIDATES);
+    found
+        .into_iter()
+        .map(|(_, x, y, r, cell)| (x, y, r, cell))
+        .collect()
+}
+
+/// The best peaks of one bin's vote map (radius `r`) as (score, x, y): votes per unit of
+/// circumference (and of cell size) times the square of the share of directions seen, on
+/// the part of the circle inside the picture.
+fn bin_peaks(map: &VoteMap, r: f64, (h, w): (usize, usize)) -> Vec<(f64, f64, f64)> {
+    let (ch, cw, cell) = (map.ch, map.cw, map.cell);
+    let grid = Array2::from_shape_fn((ch, cw), |(y, x)| f64::from(map.votes[y * cw + x]));
+    let smooth = crate::image::blur::gaussian_blur(grid.view(), 1.0);
+    // A circle's centre cell gathers about one vote per edge point per pixel of cell.
+    let circumference = std::f64::consts::TAU * r * cell / CELL;
+    let mut found = Vec::new();
+    for (y, x) in peaks(&smooth, CANDIDATES, (0.5 * r / cell).max(2.0)) {
+        let (y, x) = (y as usize, x as usize);
+        let around = map.seen_around(x, y);
+        let centre = |c: usize| (c as f64 + 0.5) * cell - 0.5;
+        let (cx, cy) = (centre(x), centre(y));
+        let visible = visible_sectors(cx, cy, r, (h, w));
+        if visible.count_ones() < SECTORS as u32 / 2 {
+            continue;
+        }
+        let inside = (f64::from(visible.count_ones()) / SECTORS).max(UNCUT);
+        let share = f64::from((around & visible).count_ones()) / (inside * SECTORS);
+        found.push((
+            smooth[[y, x]] / (circumference * inside) * share * share,
+            cx,
+            cy,
+        ));
+    }
+    found
+}
+
+/// The direction sectors (as [`vote`] numbers them) in which the circle's rim lies inside a
+/// `w × h` picture.
+fn visible_sectors(cx: f64, cy: f64, r: f64, (h, w): (usize, usize)) -> u16 {
+    (0..SECTORS as u16)
+        .filter(|&sector| {
+            let theta =
+                (f64::from(sector) + 0.5) / SECTORS * std::f64::consts::TAU - std::f64::consts::PI;
+            let (x, y) = (cx + r * theta.cos(), cy + r * theta.sin());
+            x >= 0.0 && y >= 0.0 && x <= w as f64 - 1.0 && y <= h as f64 - 1.0
+        })
+        .fold(0, |mask, sector| mask | 1 << sector)
+}
+
+/// The `n` strongest local maxima of a vote map, at least `spacing` apart, as (y, x).
+fn peaks(acc: &Array2<f64>, n: usize, spacing: f64) -> Vec<(f64, f64)> {
+    let (h, w) = acc.dim();
+    let acc = acc.as_standard_layout();
+    let Some(cells) = acc.as_slice() else {
+        return Vec::new();
+    };
+    let mut maxima: Vec<(f64, usize, usize)> = Vec::new();
+    for y in 1..h.saturating_sub(1) {
+        let (above, row, below) = (
+            &cells[(y - 1) * w..y * w],
+            &cells[y * w..(y + 1) * w],
+            &cells[(y + 1) * w..(y + 2) * w],
+        );
+        for x in 1..w - 1 {
+            let v = row[x];
+            if v > 0.0
+                && row[x - 1] <= v
+                && row[x + 1] <= v
+                && above[x - 1..=x + 1].iter().all(|&n| n <= v)
+                && below[x - 1..=x + 1].iter().all(|&n| n <= v)
+            {
+                maxima.push((v, y, x));
+            }
+        }
+    }
+    maxima.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let mut chosen: Vec<(f64, f64)> = Vec::new();
+    for (_, y, x) in maxima {
+        let (y, x) = (y as f64, x as f64);
+        if chosen
+            .iter()
+            .all(|&(cy, cx)| (cy - y).hypot(cx - x) >= spacing)
+        {
+            chosen.push((y, x));
+            if chosen.len() == n {
+                break;
+            }
+        }
+    }
+    chosen
+}
+
+/// Per whole radius from 0 to `max_r`, how many of 90 sectors around (cx, cy) have an edge
+/// point within a pixel of it pointing at the centre.
+pub(super) fn rim_coverage(
+    edges: &[Edge],
+    cx: f64,
+    cy: f64,
+    min_r: f64,
+    max_r: f64,
+) -> impl Fn(usize) -> u32 {
+    let bins = max_r.ceil() as usize + 2;
+    let mut sectors = vec![0u128; bins];
+    for e in edges {
+        let (dx, dy) = (e.x - cx, e.y - cy);
+        let d = dx.hypot(dy);
+        if d < min_r - 1.0 || d > max_r + 1.0 {
+            continue;
+        }
+        let alignment = (dx * e.ux + dy * e.uy).abs() / d;
+        if alignment < 0.92 {
+            continue;
+        }
+        let sector = (((dy.atan2(dx) + std::f64::consts::PI) / std::f64::consts::TAU * 90.0)
+            as usize)
+            .min(89);
+        sectors[d.round() as usize] |= 1u128 << sector;
+    }
+    move |r: usize| {
+        let at = |r: usize| sectors.get(r).copied().unwrap_or(0);
+        (at(r.saturating_sub(1)) | at(r) | at(r + 1)).count_ones()
+    }
+}
+
+/// The radii around (cx, cy) at which the largest fractions of the circumference have an
+/// edge point pointing at the centre: the best [`RADII_PER_CENTRE`] local maxima.
+fn radii(edges: &[Edge], cx: f64, cy: f64, min_r: f64, max_r: f64) -> Vec<f64> {
+    let coverage = rim_coverage(edges, cx, cy, min_r, max_r);
+    let profile: Vec<(u32, usize)> = (min_r.ceil() as usize..=max_r.floor() as usize)
+        .map(|r| (coverage(r), r))
+        .collect();
+    let mut maxima: Vec<(u32, usize)> = profile
+        .iter()
+        .enumerate()
+        .filter(|&(i, &(c, _))| {
+            c >= 12
+                && profile[i.saturating_sub(1)].0 <= c
+                && profile.get(i + 1).is_none_or(|next| next.0 <= c)
+        })
+        .map(|(_, &p)| p)
+        .collect();
+    maxima.sort_by(|a, b| b.cmp(a));
+    let mut chosen: Vec<f64> = Vec::new();
+    for (_, r) in maxima {
+        let r = r as f64;
+        if chosen.iter().all(|&c| (c - r).abs() > 0.05 * c + 1.0) {
+            chosen.push(r);
+            if chosen.len() == RADII_PER_CENTRE {
+                break;
+            }
+        }
+    }
+    chosen
+}
