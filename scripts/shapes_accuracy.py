@@ -10,11 +10,13 @@ prints accuracy, confident errors and the observed fraction per shape. Usage:
     python3 scripts/shapes_accuracy.py --model models/ward6 --classes data/classes/classes6.json \
         --probes data/probes [--shapes torus,superquadric,capsule,blob,sphere] [--size 256] \
         [--out /tmp/shapes] [--binary target/release/reflectance] [--keep left|top|centre]
-        [--perturb noise:DEG|blur:PX|rotate:DEG] [--renderer ward|cycles] [--samples 256]
+        [--perturb noise:DEG|blur:PX|rotate:DEG] [--capture SEED] [--renderer ward|cycles]
+        [--samples 256]
         [--min-right 0.9] [--max-confident 0]
 
 With --renderer cycles the shapes are torus, suzanne, blob and capsule (the default then) and
-the white reference is the one `reflectance render` gives under the same probe.
+the white reference is the one `reflectance render` gives under the same probe. A render with
+no normal map beside it (`reflectance render`'s sphere) is classified by its manifest's circle.
 
 A confident error is a wrong label whose prediction set holds that label alone while the
 domain check calls the input in domain.
@@ -130,6 +132,65 @@ def perturbed(normals, how, seed=7):
     return path
 
 
+def read_pfm(path):
+    """A PFM's samples as a float array (rows top to bottom; H×W or H×W×3)."""
+    import numpy as np
+    with open(path, "rb") as f:
+        kind = f.readline().strip()
+        width, height = map(int, f.readline().split())
+        scale = float(f.readline())
+        samples = np.fromfile(f, dtype="<f4" if scale < 0 else ">f4")
+    shape = (height, width, 3) if kind == b"PF" else (height, width)
+    return samples.reshape(shape)[::-1].astype(float)
+
+
+def captured(image, white, seed):
+    """`image` (a linear render whose white reference is `white`) as the capture model of
+    docs/design.md ("Capture model") takes a photograph of it, the geometry kept (no resampling,
+    so the normal map still lines up): lens blur σ 0–1 px, exposure e 0.2–0.8 of full scale,
+    noise n 0–0.025 (shot share 0.5–1), clipped, then ¼ 8-bit sRGB PNG, ¼ 16-bit linear PNG,
+    ½ JPEG quality 70–98; the reported white e·(1 ± 5 %). Drawn per image from `seed` and its
+    name. Returns (path, reported white, encoding)."""
+    import zlib
+    import numpy as np
+    from PIL import Image
+    rng = np.random.default_rng([seed, zlib.crc32(os.path.basename(image).encode())])
+    blur, e = rng.uniform(0.0, 1.0), rng.uniform(0.2, 0.8)
+    n, share = rng.uniform(0.0, 0.025), rng.uniform(0.5, 1.0)
+    signal = read_pfm(image)
+    if blur > 0.05:
+        radius = int(np.ceil(3 * blur))
+        taps = np.exp(-0.5 * (np.arange(-radius, radius + 1) / blur) ** 2)
+        taps /= taps.sum()
+        for axis in (0, 1):
+            padded = np.pad(signal, [(radius, radius) if a == axis else (0, 0)
+                                     for a in range(signal.ndim)], mode="edge")
+            signal = sum(t * np.take(padded, range(k, k + signal.shape[axis]), axis=axis)
+                         for k, t in enumerate(taps))
+    x = signal / white * e
+    variance = n * n * share * e * x + n * n * (1.0 - share) * e * e
+    x = np.clip(x + rng.normal(size=x.shape) * np.sqrt(np.maximum(variance, 0.0)), 0.0, 1.0)
+    reported = e * (1.0 + rng.uniform(-0.05, 0.05))
+    encode = lambda v: np.where(v <= 0.0031308, 12.92 * v, 1.055 * v ** (1 / 2.4) - 0.055)
+    stem = os.path.splitext(image)[0] + f".cap{seed}"
+    draw = rng.uniform()
+    if draw < 0.25:
+        path, encoding = stem + ".png", "srgb"
+        Image.fromarray(np.round(encode(x) * 255).astype(np.uint8)).save(path)
+    elif draw < 0.5:
+        import png
+        path, encoding = stem + ".png", "linear"
+        codes = np.round(x * 65535).astype(np.uint16)
+        planes = 3 if codes.ndim == 3 else 1
+        png.Writer(codes.shape[1], codes.shape[0], greyscale=planes == 1, bitdepth=16).write(
+            open(path, "wb"), codes.reshape(codes.shape[0], -1).tolist())
+    else:
+        path, encoding = stem + ".jpg", "srgb"
+        Image.fromarray(np.round(encode(x) * 255).astype(np.uint8)).save(
+            path, quality=int(rng.integers(70, 99)))
+    return path, reported, encoding
+
+
 def half_mask(normals, keep):
     """A mask of the part of the image `keep` names (left, top, centre), beside `normals`."""
     from PIL import Image
@@ -143,14 +204,22 @@ def half_mask(normals, keep):
     return path
 
 
-def classify(binary, model, image, normals, white, keep=None, perturb=None):
+def classify(binary, model, image, normals, white, keep=None, perturb=None, capture=None,
+             circle=None):
+    encoding = None
+    if capture is not None:
+        image, white, encoding = captured(image, white, capture)
     command = [binary, "classify", image, "--model", model, "--json", "--white", str(white)]
+    if encoding:
+        command += ["--encoding", encoding]
     if normals and perturb:
         normals = perturbed(normals, perturb)
     if normals:
         command += ["--normals", normals]
         if keep:
             command += ["--mask", half_mask(normals, keep)]
+    elif circle:
+        command += ["--cx", circle[0], "--cy", circle[1], "--r", circle[2]]
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
         return None, done.stderr.strip().splitlines()[-1] if done.stderr.strip() else "failed"
@@ -176,6 +245,9 @@ def main():
                    help="exit 1 when a shape has fewer right than this share")
     p.add_argument("--max-confident", type=int,
                    help="exit 1 when a shape has more confident errors than this")
+    p.add_argument("--capture", type=int, metavar="SEED",
+                   help="classify each render as the capture model photographs it, its geometry "
+                   "kept (exposure, noise, blur, 8/16-bit PNG or JPEG; needs numpy, pypng, Pillow)")
     p.add_argument("--keep", choices=["left", "top", "centre"],
                    help="classify only this part of each object (a mask beside the normals)")
     args = p.parse_args()
@@ -192,7 +264,8 @@ def main():
                 white = float(entry.get("white") or 1.0)
                 answer, why = classify(args.binary, args.model, image,
                                        normals if os.path.exists(normals) else None, white,
-                                       args.keep, args.perturb)
+                                       args.keep, args.perturb, args.capture,
+                                       (entry["cx"], entry["cy"], entry["r"]))
                 rows.append((shape, entry["class"], entry.get("illumination", ""), answer, why))
     print(f"{'shape':<14}{'n':>4}{'right':>7}{'refused':>9}{'conf. wrong':>13}"
           f"{'out of dom.':>13}{'in set':>8}{'mean set':>10}{'observed':>10}{'scatter':>9}"
