@@ -70,7 +70,9 @@ fn detect_12mp_excluding_decode(bencher: Bencher) {
 /// alone, whatever it finds or refuses.
 #[divan::bench(sample_count = 10, args = ["chrome_boeyli_0200.jpg", "chrome_arhangoyal_grainger125_full.jpg", "other_husky_tennis0.jpg"])]
 fn detect_dev_photograph_excluding_decode(bencher: Bencher, name: &str) {
-    let path = std::path::Path::new("../shared/data/photos/dev").join(name);
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/photos/dev")
+        .join(name);
     let Ok(bytes) = std::fs::read(&path) else {
         return;
     };

@@ -169,16 +169,16 @@ pub fn find_spheres(
             .filter_map(|(rough, slack)| refine(luminance, rough, slack))
             .collect()
     };
-    let ranked = |found: Vec<Found>| ranked(luminance, found, work.view(), &edges, scale);
+    let rank = |found: Vec<Found>| ranked(luminance, found, work.view(), &edges, scale);
     let mut found = refined(candidates);
     if scale < 0.5 {
-        let first = ranked(found.clone());
+        let first = rank(found.clone());
         if first.first().is_some_and(settled) {
             return Ok(first);
         }
         found.extend(refined(small_balls(luminance)));
     }
-    Ok(ranked(found))
+    Ok(rank(found))
 }
 
 /// A ball found with a clear edge along this share of its rim needs no search for a smaller
