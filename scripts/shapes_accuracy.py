@@ -65,15 +65,16 @@ def render_cycles(binary, args, shape, out):
                     "--shape", shape, "--probes", *probes, "--assets", *assets, "--out", out,
                     "--size", str(args.size), "--samples", str(args.samples),
                     "--seed", str(args.seed)], **quiet)
-    c = (args.size - 1) / 2.0
     with open(os.path.join(out, "manifest.csv.part"), "w", newline="") as f:
         rows = csv.writer(f)
-        rows.writerow(["path", "class", "illumination", "cx", "cy", "r", "white"])
+        rows.writerow(["path", "class", "illumination", "cx", "cy", "r", "white", "normals"])
         for probe in probes:
             light = os.path.splitext(os.path.basename(probe))[0]
             for asset in assets:
                 cls = os.path.splitext(os.path.basename(asset))[0]
-                rows.writerow([f"{light}__{cls}.pfm", cls, light, c, c, args.size / 2.2, white[light]])
+                name = f"{light}__{cls}"
+                rows.writerow([f"{name}.pfm", cls, light, "", "", "", white[light],
+                               f"{name}.normals.png"])
     os.replace(os.path.join(out, "manifest.csv.part"), os.path.join(out, "manifest.csv"))
 
 
@@ -260,10 +261,9 @@ def main():
         with open(os.path.join(out, "manifest.csv")) as f:
             for entry in csv.DictReader(f):
                 image = os.path.join(out, entry["path"])
-                normals = os.path.splitext(image)[0] + ".normals.png"
+                normals = entry.get("normals") and os.path.join(out, entry["normals"])
                 white = float(entry.get("white") or 1.0)
-                answer, why = classify(args.binary, args.model, image,
-                                       normals if os.path.exists(normals) else None, white,
+                answer, why = classify(args.binary, args.model, image, normals, white,
                                        args.keep, args.perturb, args.capture,
                                        (entry["cx"], entry["cy"], entry["r"]))
                 rows.append((shape, entry["class"], entry.get("illumination", ""), answer, why))

@@ -30,12 +30,6 @@ pub struct ClassifyArgs {
     model: PathBuf,
     #[command(flatten)]
     sphere: SphereArgs,
-    /// An object of any shape instead of a sphere: its camera-space unit normals per pixel,
-    /// the image's size (+X right, +Y up, +Z toward the camera), as PNG (n = 2v/max − 1;
-    /// background black or transparent) or OpenEXR (float R, G, B = X, Y, Z); --mask then
-    /// gives the object's pixels.
-    #[arg(long, conflicts_with_all = ["cx", "cy", "r"])]
-    normals: Option<PathBuf>,
     /// How integer samples are linearized: srgb (default), linear or gamma:<g>.
     #[arg(long)]
     encoding: Option<Encoding>,
@@ -95,7 +89,7 @@ fn input(args: &ClassifyArgs) -> CliResult<Input> {
         .as_deref()
         .map(|m| read(m, "mask"))
         .transpose()?;
-    let normals = args
+    let normals = sphere
         .normals
         .as_deref()
         .map(|n| read(n, "normals"))
@@ -196,6 +190,7 @@ fn error_text(e: &InferenceError, args: &ClassifyArgs) -> String {
         InferenceError::Analysis(e) => super::analysis_error(e),
         InferenceError::Normals(e) => {
             let file = args
+                .sphere
                 .normals
                 .as_ref()
                 .map_or(String::new(), |f| format!("{}: ", f.display()));

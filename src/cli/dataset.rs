@@ -76,6 +76,8 @@ fn manifest_of_layout(folder: &Path) -> CliResult<Manifest> {
                         circle: None,
                         white: None,
                         encoding: None,
+                        normals: None,
+                        mask: None,
                     });
                 }
             }

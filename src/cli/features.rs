@@ -22,7 +22,7 @@ pub struct FeaturesArgs {
     /// How integer samples are linearized: srgb, linear or gamma:<g>.
     #[arg(long)]
     encoding: Option<String>,
-    /// Dataset manifest (path,class,illumination[,cx,cy,r,white,encoding]).
+    /// Dataset manifest (path,class,illumination[,cx,cy,r,white,encoding,normals,mask]).
     #[arg(long, requires = "out")]
     manifest: Option<PathBuf>,
     /// Output CSV for --manifest.
@@ -99,17 +99,18 @@ fn single(args: &FeaturesArgs, extractor: &Extractor, options: &DecodeOptions) -
     };
     let image = decode(path, options)?;
     let sphere = &args.sphere;
-    let locate = match (sphere.cx, sphere.cy, sphere.r, &sphere.mask) {
-        (Some(cx), Some(cy), Some(r), _) => Locate::Circle(Circle { cx, cy, r }),
-        (_, _, _, Some(mask)) => {
-            let linear = DecodeOptions {
-                encoding: Some(Encoding::Linear),
-                ..*options
-            };
-            Locate::Mask(analysis::mask_from_image(&decode(mask, &linear)?))
-        }
-        _ => Locate::Auto,
+    let read = |p: &Option<PathBuf>| {
+        p.as_ref()
+            .map(|p| std::fs::read(p).map_err(|e| CliError::at(p.display(), e)))
+            .transpose()
     };
+    let (mask, normals) = (read(&sphere.mask)?, read(&sphere.normals)?);
+    let circle = match (sphere.cx, sphere.cy, sphere.r) {
+        (Some(cx), Some(cy), Some(r)) => Some(Circle { cx, cy, r }),
+        _ => None,
+    };
+    let locate = Locate::read(circle, mask.as_deref(), normals.as_deref(), options)
+        .map_err(|e| CliError::at(path.display(), e))?;
     let white = match (sphere.white, &sphere.white_image) {
         (Some(v), _) => WhiteInput::Value(v),
         (None, Some(card)) => WhiteInput::Card {

@@ -129,6 +129,12 @@ pub struct SphereArgs {
     /// fitted to its edge. With --normals, the object's pixels.
     #[arg(long, conflicts_with_all = ["cx", "cy", "r"])]
     pub mask: Option<std::path::PathBuf>,
+    /// An object of any shape instead of a sphere: its camera-space unit normals per pixel,
+    /// the image's size (+X right, +Y up, +Z toward the camera), as PNG (n = 2v/max − 1;
+    /// background black or transparent) or OpenEXR (float R, G, B = X, Y, Z); --mask then
+    /// gives the object's pixels.
+    #[arg(long, conflicts_with_all = ["cx", "cy", "r"])]
+    pub normals: Option<std::path::PathBuf>,
     /// Linear luminance of an ideal white surface facing the viewer at the sphere.
     #[arg(long, allow_negative_numbers = true, conflicts_with = "card")]
     pub white: Option<f64>,

@@ -589,10 +589,12 @@ fn a_shape_renders_from_its_normals_with_the_map_beside() {
     let lit: Vec<(usize, usize)> = lit.map(|(at, _)| at).collect();
     assert!(lit.len() > 500, "{}", lit.len());
     assert!(lit.iter().all(|&(r, c)| map.at(r, c).is_some()));
+    // The manifest places it by its normal map, not by the sphere's circle.
     let manifest = std::fs::read_to_string(out.join("manifest.csv")).unwrap();
-    assert!(manifest.contains(&format!(
-        "{name}.pfm,shiny,polyhaven_dresden_square,35.5,35.5"
-    )));
+    assert!(manifest.starts_with("path,class,illumination,cx,cy,r,white,normals\n"));
+    let row = format!("{name}.pfm,shiny,polyhaven_dresden_square,,,,");
+    assert!(manifest.contains(&row), "{manifest}");
+    assert!(manifest.ends_with(&format!(",{name}.normals.png\n")));
     // Complete with its normals: a re-run renders nothing.
     let again = render_shape(&mesh, &out);
     let stderr = String::from_utf8_lossy(&again.stderr);
@@ -641,6 +643,71 @@ fn a_shape_renders_from_its_normals_with_the_map_beside() {
         stdout.contains("% in its own shadow (it shadows and lights itself)"),
         "{stdout}"
     );
+    // The manifest's row reads the object as `classify --normals` does: the same features.
+    let ward6_radius = "116.36363636363636";
+    let table = dir.join("torus.csv");
+    let manifest = torus.join("manifest.csv");
+    common::assert_success(&run(&[
+        "features",
+        "--manifest",
+        manifest.to_str().unwrap(),
+        "--out",
+        table.to_str().unwrap(),
+        "--log-features",
+        "--working-radius",
+        ward6_radius,
+        "--saturation",
+        "1.25",
+    ]));
+    let table = reflectance::dataset::FeatureTable::read(&table).unwrap();
+    let white = std::fs::read_to_string(&manifest).unwrap();
+    let white = white.lines().nth(1).unwrap().split(',').nth(6).unwrap();
+    let (image, normals) = (
+        torus.join(format!("{name}.pfm")),
+        torus.join(format!("{name}.normals.png")),
+    );
+    let answer = run(&[
+        "classify",
+        image.to_str().unwrap(),
+        "--model",
+        ward6.to_str().unwrap(),
+        "--white",
+        white,
+        "--normals",
+        normals.to_str().unwrap(),
+        "--json",
+        "--all-features",
+    ]);
+    common::assert_success(&answer);
+    let answer: serde_json::Value = serde_json::from_slice(&answer.stdout).unwrap();
+    let all = &answer["features"]["all"];
+    let served: std::collections::HashMap<&str, f64> = all["names"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(all["values"].as_array().unwrap())
+        .map(|(n, v)| (n.as_str().unwrap(), v.as_f64().unwrap()))
+        .collect();
+    for (name, value) in table.names.iter().zip(&table.samples[0].values) {
+        assert_eq!(served[name.as_str()], *value, "{name}");
+    }
+    // A capture moves and resizes the sphere, which the normal map would not follow.
+    let captured = run(&[
+        "render",
+        "--probes",
+        list.to_str().unwrap(),
+        "--classes",
+        dir.join("classes.json").to_str().unwrap(),
+        "--out",
+        dir.join("captured").to_str().unwrap(),
+        "--shape",
+        "torus",
+        "--captures",
+        "1",
+    ]);
+    assert!(!captured.status.success());
+    let stderr = String::from_utf8_lossy(&captured.stderr);
+    assert!(stderr.contains("captures are of spheres only"), "{stderr}");
     let unknown = render_shape("cube", &dir.join("bad"));
     assert!(!unknown.status.success());
     let stderr = String::from_utf8_lossy(&unknown.stderr);

@@ -46,7 +46,7 @@ fn render_tori() -> Vec<Rendered> {
         .entries
         .iter()
         .map(|e| {
-            let normals = e.file.with_extension("normals.png");
+            let normals = &e.normals.as_ref().unwrap().file;
             (
                 std::fs::read(&e.file).unwrap(),
                 std::fs::read(normals).unwrap(),

@@ -1,5 +1,6 @@
-//! Dataset manifests (`path,class,illumination[,cx,cy,r,white,encoding]`, paths relative
-//! to the manifest's folder) and feature tables (`path,class,illumination,<feature names>`).
+//! Dataset manifests (`path,class,illumination[,cx,cy,r,white,encoding,normals,mask]`,
+//! paths relative to the manifest's folder) and feature tables
+//! (`path,class,illumination,<feature names>`).
 
 use crate::features::Extractor;
 use crate::features::analysis::{self, AnalysisError, Locate, WhiteInput};
@@ -95,6 +96,32 @@ pub struct Entry {
     /// How the file's integer samples decode (`srgb`, `linear`, `gamma:<g>`); unset: the
     /// extraction's default.
     pub encoding: Option<decode::Encoding>,
+    /// An object of any shape: its normal map (docs/design.md §8), instead of a circle.
+    pub normals: Option<Beside>,
+    /// Which pixels are the sphere or the object (nonzero, or alpha), instead of a circle.
+    pub mask: Option<Beside>,
+}
+
+/// A file a manifest row names beside its image: its normal map or its mask.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Beside {
+    /// As written in the manifest.
+    pub path: String,
+    /// Resolved against the manifest's folder.
+    pub file: PathBuf,
+}
+
+impl Entry {
+    /// Where the row's object is ([`Locate::read`]).
+    pub fn locate(&self, options: &DecodeOptions) -> Result<Locate, AnalysisError> {
+        let read = |b: &Option<Beside>| {
+            b.as_ref()
+                .map(|b| std::fs::read(&b.file).map_err(decode::DecodeError::Io))
+                .transpose()
+        };
+        let (mask, normals) = (read(&self.mask)?, read(&self.normals)?);
+        Locate::read(self.circle, mask.as_deref(), normals.as_deref(), options)
+    }
 }
 
 /// A manifest's rows, as read: which images, their labels and how to read them.
@@ -153,6 +180,8 @@ pub fn read_manifest(path: &Path) -> Result<Manifest, DatasetError> {
         "r",
         "white",
         "encoding",
+        "normals",
+        "mask",
     ]
     .map(column);
     let base = path.parent().unwrap_or(Path::new("."));
@@ -175,7 +204,17 @@ pub fn read_manifest(path: &Path) -> Result<Manifest, DatasetError> {
                 .transpose()
         };
         let rel = text(Some(path_col)).ok_or_else(|| bad("empty path".into()))?;
-        let [class, illumination, cx, cy, r, white, encoding] = cols;
+        let [
+            class,
+            illumination,
+            cx,
+            cy,
+            r,
+            white,
+            encoding,
+            normals,
+            mask,
+        ] = cols;
         let encoding = text(encoding)
             .map(|e| {
                 decode::Encoding::parse(e).ok_or_else(|| {
@@ -190,6 +229,18 @@ pub fn read_manifest(path: &Path) -> Result<Manifest, DatasetError> {
             (None, None, None) => None,
             _ => return Err(bad("give all of cx, cy and r, or none".into())),
         };
+        let beside = |c: Option<usize>| {
+            text(c).map(|p| Beside {
+                path: p.to_string(),
+                file: base.join(p),
+            })
+        };
+        let (normals, mask) = (beside(normals), beside(mask));
+        if circle.is_some() && (normals.is_some() || mask.is_some()) {
+            return Err(bad(
+                "give a circle (cx, cy, r), or normals and/or a mask, not both".into(),
+            ));
+        }
         entries.push(Entry {
             line,
             path: rel.to_string(),
@@ -199,6 +250,8 @@ pub fn read_manifest(path: &Path) -> Result<Manifest, DatasetError> {
             circle,
             white: number("white", white)?,
             encoding,
+            normals,
+            mask,
         });
     }
     Ok(Manifest {
@@ -261,7 +314,7 @@ pub struct FeatureTable {
     pub samples: Vec<Sample>,
 }
 
-/// Features of one manifest entry: decode, locate (row circle or automatic), normalize
+/// Features of one manifest entry: decode, locate ([`Entry::locate`]), normalize
 /// (row white, or 1), extract.
 pub fn extract_entry(
     extractor: &Extractor,
@@ -273,7 +326,7 @@ pub fn extract_entry(
         ..*options
     };
     let image = decode::decode_file(&entry.file, &options)?;
-    let locate = entry.circle.map_or(Locate::Auto, Locate::Circle);
+    let locate = entry.locate(&options)?;
     let white = WhiteInput::Value(entry.white.unwrap_or(1.0));
     Ok(analysis::analyze(extractor, &image, &locate, &white)?.values)
 }
@@ -497,5 +550,58 @@ impl FeatureTable {
                     .ok_or_else(|| MissingColumn(w.clone()))
             })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn manifest(name: &str, text: &str) -> Result<Manifest, DatasetError> {
+        let dir = std::env::temp_dir().join(format!("manifest-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("manifest.csv");
+        std::fs::write(&path, text).unwrap();
+        let read = read_manifest(&path);
+        let _ = std::fs::remove_dir_all(&dir);
+        read
+    }
+
+    #[test]
+    fn a_row_is_placed_by_its_normals_its_mask_or_its_circle_never_two() {
+        let read = manifest(
+            "placed",
+            "path,class,cx,cy,r,normals,mask\n\
+             a.png,x,,,,a.normals.png,a.mask.png\n\
+             b.png,x,,,,,b.mask.png\n\
+             c.png,x,10,10,40,,\n",
+        )
+        .unwrap();
+        let [a, b, c] = [0, 1, 2].map(|i| &read.entries[i]);
+        let beside = |e: &Entry| {
+            (
+                e.normals.clone().map(|n| n.path),
+                e.mask.clone().map(|m| m.path),
+            )
+        };
+        assert_eq!(
+            beside(a),
+            (Some("a.normals.png".into()), Some("a.mask.png".into()))
+        );
+        assert_eq!(
+            a.normals.as_ref().unwrap().file,
+            a.file.with_file_name("a.normals.png")
+        );
+        assert_eq!(beside(b), (None, Some("b.mask.png".into())));
+        assert_eq!(
+            (beside(c), c.circle.map(|c| c.r)),
+            ((None, None), Some(40.0))
+        );
+        let both = manifest("both", "path,cx,cy,r,normals\nd.png,1,2,40,d.normals.png\n");
+        let error = both.unwrap_err().to_string();
+        assert!(
+            error.contains("line 2") && error.contains("not both"),
+            "{error}"
+        );
     }
 }

@@ -306,6 +306,12 @@ fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
              ≤ {MAX_CAPTURES}"
         )));
     }
+    if a.captures > 0 && a.shape != ShapeSpec::Sphere {
+        // A capture resizes and moves the sphere: an object's normal map would no longer fit.
+        return Err(RenderError::Options(
+            "captures are of spheres only: render --shape without --captures".into(),
+        ));
+    }
     Ok(())
 }
 
@@ -591,8 +597,13 @@ fn write_manifest(
 ) -> Result<PathBuf, RenderError> {
     let circle = super::circle(spec.size);
     let with_captures = spec.augment.captures > 0;
+    let object = spec.augment.shape != ShapeSpec::Sphere;
     let mut text = String::from("path,class,illumination,cx,cy,r,white");
-    text.push_str(if with_captures { ",encoding\n" } else { "\n" });
+    text.push_str(match (with_captures, object) {
+        (true, _) => ",encoding\n",
+        (false, true) => ",normals\n",
+        (false, false) => "\n",
+    });
     let mut settings = String::from(CAPTURE_COLUMNS);
     let mut white_cache: std::collections::HashMap<String, f64> = Default::default();
     for job in jobs {
@@ -610,12 +621,17 @@ fn write_manifest(
             let numbers = [c.cx, c.cy, c.r, white].map(format_f64).join(",");
             format!("{path},{class},{illumination},{numbers}")
         };
-        text.push_str(&row(
-            &format!("{}.pfm", job.name),
-            &illumination,
-            &circle,
-            white,
-        ));
+        let image = format!("{}.pfm", job.name);
+        if object {
+            // An object is placed by its normal map, not by the sphere's circle.
+            let normals = normals_file(&job.name);
+            let white = format_f64(white);
+            text.push_str(&format!(
+                "{image},{class},{illumination},,,,{white},{normals}\n"
+            ));
+            continue;
+        }
+        text.push_str(&row(&image, &illumination, &circle, white));
         text.push_str(if with_captures { ",\n" } else { "\n" });
         for k in 1..=spec.augment.captures {
             let view = CaptureView::new(spec, &probes[job.probe], job, k);

@@ -63,6 +63,12 @@ pub enum RowError {
     /// The row names no file of the dataset.
     #[error("no such image in the dataset")]
     Missing,
+    /// The row gives a normal map or a mask: a dataset here holds spheres by their circle.
+    #[error(
+        "the row gives a normal map or a mask; datasets taken in here hold spheres by their \
+         circle (train on objects from a manifest on disk: reflectance train --manifest)"
+    )]
+    NotByCircle,
     /// The image does not decode within the limits.
     #[error(transparent)]
     Decode(#[from] DecodeError),
@@ -84,6 +90,9 @@ fn check(entry: &Entry, options: &DecodeOptions) -> Result<(Entry, bool), RowErr
     }
     if !is_inside(&entry.path) {
         return Err(RowError::Outside);
+    }
+    if entry.normals.is_some() || entry.mask.is_some() {
+        return Err(RowError::NotByCircle);
     }
     if !entry.file.is_file() {
         return Err(RowError::Missing);
@@ -193,9 +202,9 @@ impl Coverage {
 }
 
 /// The manifest of `entries`, every column written (`path,class,illumination,cx,cy,r,
-/// white,encoding`); numbers in their shortest exact form.
+/// white,encoding,normals,mask`); numbers in their shortest exact form.
 pub fn manifest_csv(entries: &[Entry]) -> Vec<u8> {
-    let mut out = String::from("path,class,illumination,cx,cy,r,white,encoding\n");
+    let mut out = String::from("path,class,illumination,cx,cy,r,white,encoding,normals,mask\n");
     let quote = |s: &str| {
         if s.contains([',', '"', '\n', '\r']) {
             format!("\"{}\"", s.replace('"', "\"\""))
@@ -217,6 +226,11 @@ pub fn manifest_csv(entries: &[Entry]) -> Vec<u8> {
             circle[2].clone(),
             e.white.map(format_f64).unwrap_or_default(),
             e.encoding.map(|x| x.to_string()).unwrap_or_default(),
+            e.normals
+                .as_ref()
+                .map(|b| quote(&b.path))
+                .unwrap_or_default(),
+            e.mask.as_ref().map(|b| quote(&b.path)).unwrap_or_default(),
         ];
         out.push_str(&fields.join(","));
         out.push('\n');
@@ -250,6 +264,8 @@ mod tests {
             circle: None,
             white: None,
             encoding: None,
+            normals: None,
+            mask: None,
         };
         let mut rows = vec![entry("chrome", "a"), entry("chrome", "b")];
         assert!(
@@ -279,7 +295,13 @@ mod tests {
     fn a_written_manifest_reads_back_the_same() {
         let dir = std::env::temp_dir().join(format!("ingest-csv-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let entries = vec![Entry {
+        let beside = |path: &str| {
+            Some(crate::dataset::Beside {
+                path: path.into(),
+                file: dir.join(path),
+            })
+        };
+        let sphere = Entry {
             line: 2,
             path: "a, \"b\".png".into(),
             file: dir.join("a, \"b\".png"),
@@ -292,17 +314,31 @@ mod tests {
             }),
             white: Some(0.75),
             encoding: Some(decode::Encoding::Gamma(2.2)),
-        }];
+            normals: None,
+            mask: None,
+        };
+        let object = Entry {
+            line: 3,
+            circle: None,
+            normals: beside("n, 1.png"),
+            mask: beside("m.png"),
+            ..sphere.clone()
+        };
+        let refused = check(&object, &DecodeOptions::default()).unwrap_err();
+        assert!(matches!(refused, RowError::NotByCircle), "{refused}");
+        let entries = vec![sphere, object];
         let path = dir.join("manifest.csv");
         std::fs::write(&path, manifest_csv(&entries)).unwrap();
         let back = read_manifest(&path).unwrap().entries;
-        assert_eq!(back.len(), 1);
-        let (a, b) = (&entries[0], &back[0]);
-        assert_eq!((&a.path, &a.file, &a.class), (&b.path, &b.file, &b.class));
-        assert_eq!(
-            (a.circle, a.white, a.encoding),
-            (b.circle, b.white, b.encoding)
-        );
+        assert_eq!(back.len(), 2);
+        for (a, b) in entries.iter().zip(&back) {
+            assert_eq!((&a.path, &a.file, &a.class), (&b.path, &b.file, &b.class));
+            assert_eq!(
+                (a.circle, a.white, a.encoding),
+                (b.circle, b.white, b.encoding)
+            );
+            assert_eq!((&a.normals, &a.mask), (&b.normals, &b.mask));
+        }
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

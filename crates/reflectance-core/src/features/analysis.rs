@@ -6,7 +6,7 @@ use crate::features::observed::ObservedError;
 use crate::features::polar::UnwrapConfig;
 use crate::features::{CaptureMeasurements, Extractor};
 use crate::image::colour::{self, Rgb};
-use crate::image::decode::{DecodeError, LinearImage};
+use crate::image::decode::{self, DecodeError, DecodeOptions, Encoding, LinearImage};
 use crate::image::geometry::{self, Geometry, GeometryError, Method};
 use crate::image::normals::{self, EquivalentSphere, NormalMap, NormalsError};
 use crate::image::white::{self, White, WhiteError};
@@ -32,6 +32,29 @@ pub enum Locate {
         /// The object's pixels, when given apart from the normals.
         mask: Option<Array2<bool>>,
     },
+}
+
+impl Locate {
+    /// Where the object is, from what a caller gives as files: its normal map (then the
+    /// mask, if any, is the object's pixels), a mask of the sphere, a circle, or nothing
+    /// (found). A circle with a mask or normals is the caller's to refuse.
+    pub fn read(
+        circle: Option<geometry::Circle>,
+        mask: Option<&[u8]>,
+        normals: Option<&[u8]>,
+        options: &DecodeOptions,
+    ) -> Result<Locate, AnalysisError> {
+        let mask = mask.map(|m| decode_mask(m, options)).transpose()?;
+        Ok(match (normals, mask, circle) {
+            (Some(n), mask, _) => Locate::Normals {
+                normals: NormalMap::decode(n, &options.limits)?,
+                mask,
+            },
+            (None, Some(mask), _) => Locate::Mask(mask),
+            (None, None, Some(circle)) => Locate::Circle(circle),
+            (None, None, None) => Locate::Auto,
+        })
+    }
 }
 
 /// How bright white is.
@@ -116,6 +139,16 @@ pub struct Analysis {
     /// with their colour.
     #[serde(skip)]
     pub appearance: Option<Rgb>,
+}
+
+/// A mask file: it holds coverage, not light, so its samples are read as stored.
+pub fn decode_mask(bytes: &[u8], options: &DecodeOptions) -> Result<Array2<bool>, DecodeError> {
+    let as_stored = DecodeOptions {
+        encoding: Some(Encoding::Linear),
+        colour: false,
+        ..*options
+    };
+    Ok(mask_from_image(&decode::decode(bytes, &as_stored)?))
 }
 
 /// The mask of a decoded mask image.

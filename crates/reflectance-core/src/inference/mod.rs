@@ -4,7 +4,7 @@
 
 use crate::features::Extractor;
 use crate::features::analysis::{self, AnalysisError, Locate, WhiteInput};
-use crate::image::decode::{self, DecodeError, DecodeOptions, Encoding};
+use crate::image::decode::{self, DecodeError, DecodeOptions};
 use crate::image::display;
 use crate::image::geometry::{self};
 use crate::image::normals::{NormalMap, NormalsError};
@@ -274,15 +274,12 @@ fn decode_part(
     decode::decode(bytes, options).map_err(|source| InferenceError::Decode { part, source })
 }
 
-/// A mask file: it holds coverage, not light, so its samples are read as stored.
+/// A mask file ([`analysis::decode_mask`]).
 fn decode_mask(bytes: &[u8], options: &DecodeOptions) -> Result<Array2<bool>, InferenceError> {
-    let as_stored = DecodeOptions {
-        encoding: Some(Encoding::Linear),
-        colour: false,
-        ..*options
-    };
-    let mask = decode_part("mask: ", bytes, &as_stored)?;
-    Ok(analysis::mask_from_image(&mask))
+    analysis::decode_mask(bytes, options).map_err(|source| InferenceError::Decode {
+        part: "mask: ",
+        source,
+    })
 }
 
 /// Decode, locate, extract and classify (blocking).
