@@ -691,23 +691,41 @@ fn a_shape_renders_from_its_normals_with_the_map_beside() {
     for (name, value) in table.names.iter().zip(&table.samples[0].values) {
         assert_eq!(served[name.as_str()], *value, "{name}");
     }
-    // A capture moves and resizes the sphere, which the normal map would not follow.
-    let captured = run(&[
+    // Its captures keep its geometry: the same map fits them, and the manifest says so.
+    let captured = dir.join("captured");
+    common::assert_success(&run(&[
         "render",
         "--probes",
         list.to_str().unwrap(),
         "--classes",
         dir.join("classes.json").to_str().unwrap(),
         "--out",
-        dir.join("captured").to_str().unwrap(),
+        captured.to_str().unwrap(),
+        "--size",
+        "72",
+        "--pixel-samples",
+        "2",
         "--shape",
         "torus",
         "--captures",
-        "1",
-    ]);
-    assert!(!captured.status.success());
-    let stderr = String::from_utf8_lossy(&captured.stderr);
-    assert!(stderr.contains("captures are of spheres only"), "{stderr}");
+        "2",
+    ]));
+    let manifest = reflectance::dataset::read_manifest(&captured.join("manifest.csv")).unwrap();
+    assert_eq!(manifest.entries.len(), 3);
+    for entry in &manifest.entries {
+        let normals = entry.normals.as_ref().unwrap();
+        assert_eq!(normals.path, format!("{name}.normals.png"));
+        assert!(entry.circle.is_none());
+        let image = reflectance::image::decode::decode_file(&entry.file, &Default::default());
+        assert_eq!(image.unwrap().luminance.dim(), (72, 72), "{}", entry.path);
+    }
+    let captures = std::fs::read_to_string(captured.join("captures.csv")).unwrap();
+    for row in captures.lines().skip(1) {
+        let fields: Vec<&str> = row.split(',').collect();
+        // The render's radius (72 / 2.2), no centre or radius error.
+        assert!(fields[1].starts_with("32.72"), "{row}");
+        assert_eq!(&fields[9..], ["0.0", "0.0", "0.0"], "{row}");
+    }
     let unknown = render_shape("cube", &dir.join("bad"));
     assert!(!unknown.status.success());
     let stderr = String::from_utf8_lossy(&unknown.stderr);

@@ -306,12 +306,6 @@ fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
              ≤ {MAX_CAPTURES}"
         )));
     }
-    if a.captures > 0 && a.shape != ShapeSpec::Sphere {
-        // A capture resizes and moves the sphere: an object's normal map would no longer fit.
-        return Err(RenderError::Options(
-            "captures are of spheres only: render --shape without --captures".into(),
-        ));
-    }
     Ok(())
 }
 
@@ -484,9 +478,7 @@ fn render_job(
         return Ok(!complete);
     }
     let luminance = match &rendering {
-        Some(image) => ndarray::Array2::from_shape_fn((spec.size, spec.size), |(y, x)| {
-            f64::from(image.luminance[y * spec.size + x])
-        }),
+        Some(image) => plane(spec.size, &image.luminance),
         None => {
             let path = spec.out.join(format!("{}.pfm", job.name));
             crate::image::decode::decode_file(&path, &Default::default())
@@ -494,21 +486,49 @@ fn render_job(
                 .luminance
         }
     };
+    // An object is photographed with its geometry kept, over its own coverage.
+    let coverage = match (object, &rendering) {
+        (None, _) => None,
+        (Some(_), Some(image)) => Some(plane(spec.size, &image.coverage)),
+        (Some(_), None) => Some(read_coverage(spec, &job.name)?),
+    };
     let white = super::white(probe.map()?, &job.variant.view);
+    let circle = super::circle(spec.size);
     for view in captures {
         let mut rng = view.rng.clone();
-        let shot = capture::capture(
-            luminance.view(),
-            &super::circle(spec.size),
-            white,
-            &view.settings,
-            &mut rng,
-        )
+        let shot = match &coverage {
+            None => capture::capture(luminance.view(), &circle, white, &view.settings, &mut rng),
+            Some(coverage) => capture::capture_object(
+                luminance.view(),
+                coverage.view(),
+                &circle,
+                white,
+                &view.settings,
+                &mut rng,
+            ),
+        }
         .map_err(|e| RenderError::Options(e.to_string()))?;
         let path = spec.out.join(&view.file);
         write_atomic(&path, &shot.bytes).map_err(io_error(&path))?;
     }
     Ok(!complete)
+}
+
+/// A square render's row-major samples as a plane.
+fn plane(size: usize, samples: &[f32]) -> ndarray::Array2<f64> {
+    ndarray::Array2::from_shape_fn((size, size), |(y, x)| f64::from(samples[y * size + x]))
+}
+
+/// The coverage an image's `<name>.mask.png` holds (8-bit), as [`write_image`] wrote it.
+fn read_coverage(spec: &BatchSpec, name: &str) -> Result<ndarray::Array2<f64>, RenderError> {
+    let path = spec.out.join(format!("{name}.mask.png"));
+    let options = crate::image::decode::DecodeOptions {
+        encoding: Some(crate::image::decode::Encoding::Linear),
+        ..Default::default()
+    };
+    let mask = crate::image::decode::decode_file(&path, &options)
+        .map_err(|e| RenderError::Options(format!("{}: {e}", path.display())))?;
+    Ok(mask.luminance)
 }
 
 /// A shape's normals for every image of a run, and their PNG.
@@ -557,7 +577,13 @@ impl CaptureView {
         );
         let stem = format!("{illumination}__{}", spec.classes[job.class].name);
         let mut rng = Rng::fork(spec.seed, stable_hash(&stem));
-        let settings = spec.augment.capture_ranges.sample(&mut rng);
+        let mut settings = spec.augment.capture_ranges.sample(&mut rng);
+        if spec.augment.shape != ShapeSpec::Sphere {
+            // An object keeps its geometry ([`capture::capture_object`]).
+            settings.radius = super::circle(spec.size).r;
+            settings.centre_error = [0.0; 2];
+            settings.radius_error = 0.0;
+        }
         CaptureView {
             file: format!("{stem}.{}", settings.quantization.extension()),
             illumination,
@@ -599,11 +625,8 @@ fn write_manifest(
     let with_captures = spec.augment.captures > 0;
     let object = spec.augment.shape != ShapeSpec::Sphere;
     let mut text = String::from("path,class,illumination,cx,cy,r,white");
-    text.push_str(match (with_captures, object) {
-        (true, _) => ",encoding\n",
-        (false, true) => ",normals\n",
-        (false, false) => "\n",
-    });
+    text.push_str(if with_captures { ",encoding" } else { "" });
+    text.push_str(if object { ",normals\n" } else { "\n" });
     let mut settings = String::from(CAPTURE_COLUMNS);
     let mut white_cache: std::collections::HashMap<String, f64> = Default::default();
     for job in jobs {
@@ -617,28 +640,30 @@ fn write_manifest(
             }
         };
         let class = &spec.classes[job.class].name;
+        // An object is placed by its normal map, not by the sphere's circle.
+        let normals = object.then(|| normals_file(&job.name));
         let row = |path: &str, illumination: &str, c: &super::Circle, white: f64| {
-            let numbers = [c.cx, c.cy, c.r, white].map(format_f64).join(",");
-            format!("{path},{class},{illumination},{numbers}")
+            let circle = match &normals {
+                None => [c.cx, c.cy, c.r].map(format_f64).join(","),
+                Some(_) => ",,".into(),
+            };
+            let white = format_f64(white);
+            format!("{path},{class},{illumination},{circle},{white}")
+        };
+        let end = match &normals {
+            Some(normals) => format!(",{normals}\n"),
+            None => "\n".into(),
         };
         let image = format!("{}.pfm", job.name);
-        if object {
-            // An object is placed by its normal map, not by the sphere's circle.
-            let normals = normals_file(&job.name);
-            let white = format_f64(white);
-            text.push_str(&format!(
-                "{image},{class},{illumination},,,,{white},{normals}\n"
-            ));
-            continue;
-        }
         text.push_str(&row(&image, &illumination, &circle, white));
-        text.push_str(if with_captures { ",\n" } else { "\n" });
+        text.push_str(if with_captures { "," } else { "" });
+        text.push_str(&end);
         for k in 1..=spec.augment.captures {
             let view = CaptureView::new(spec, &probes[job.probe], job, k);
             let (reported, white) = capture::reported(&circle, &view.settings);
             let encoding = view.settings.quantization.encoding();
             text.push_str(&row(&view.file, &view.illumination, &reported, white));
-            text.push_str(&format!(",{encoding}\n"));
+            text.push_str(&format!(",{encoding}{end}"));
             settings.push_str(&capture_row(&view.file, &view.settings));
         }
     }

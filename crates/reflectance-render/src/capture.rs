@@ -226,6 +226,65 @@ fn capture_channels(
     let dim = channels.first().map_or((0, 0), ArrayView2::dim);
     let coverage = disc_coverage(dim, circle);
     let inside = scale(coverage.view(), factor);
+    let scenes: Vec<Array2<f64>> = channels.iter().map(|c| scale(*c, factor)).collect();
+    let (bytes, clipped) = photograph(&scenes, inside.view(), white, card, settings, rng)?;
+    let (circle, white) = reported(circle, settings);
+    Ok(Capture {
+        bytes,
+        quantization: settings.quantization,
+        circle,
+        white,
+        clipped,
+    })
+}
+
+/// Capture a render of an object with its geometry kept, so that its normal map still fits:
+/// the camera of [`capture`] (background, blur, exposure, noise, clipping, the file, white's
+/// error) without the resizing and the circle's errors, which no normal map would follow.
+/// `coverage` is the object's share of each pixel; the capture's circle is `circle`, as given.
+pub fn capture_object(
+    luminance: ArrayView2<f64>,
+    coverage: ArrayView2<f64>,
+    circle: &Circle,
+    white: f64,
+    settings: &CaptureSettings,
+    rng: &mut Rng,
+) -> Result<Capture, CaptureError> {
+    let kept = CaptureSettings {
+        radius: circle.r,
+        centre_error: [0.0; 2],
+        radius_error: 0.0,
+        ..*settings
+    };
+    check(&kept, circle, white)?;
+    if coverage.dim() != luminance.dim() {
+        return Err(CaptureError::Settings(
+            "the coverage must be the render's size".into(),
+        ));
+    }
+    let scene = [luminance.to_owned()];
+    let (bytes, clipped) = photograph(&scene, coverage, white, None, &kept, rng)?;
+    let (circle, white) = reported(circle, &kept);
+    Ok(Capture {
+        bytes,
+        quantization: kept.quantization,
+        circle,
+        white,
+        clipped,
+    })
+}
+
+/// The camera: each channel's `scene` over the settings' background where `inside` < 1,
+/// the card, the lens blur, the exposure with its noise and clipping, then the file; the
+/// file's bytes and the clipped share of the pixels at least half inside.
+fn photograph(
+    scenes: &[Array2<f64>],
+    inside: ArrayView2<f64>,
+    white: f64,
+    card: Option<&Card>,
+    settings: &CaptureSettings,
+    rng: &mut Rng,
+) -> Result<(Vec<u8>, f64), CaptureError> {
     let background = settings.background * white;
     let e = settings.exposure;
     let (shot, read) = (
@@ -233,9 +292,8 @@ fn capture_channels(
         settings.noise * settings.noise * (1.0 - settings.shot_share),
     );
     let mut clipped = (0usize, 0usize);
-    let mut exposed_channels = Vec::with_capacity(channels.len());
-    for (c, channel) in channels.iter().enumerate() {
-        let scene = scale(*channel, factor);
+    let mut exposed_channels = Vec::with_capacity(scenes.len());
+    for (c, scene) in scenes.iter().enumerate() {
         let mut signal = Array2::from_shape_fn(scene.dim(), |p| {
             let inside = inside[p].clamp(0.0, 1.0);
             inside * scene[p] + (1.0 - inside) * background
@@ -270,14 +328,7 @@ fn capture_channels(
         [grey] => encode(grey.view(), settings.quantization)?,
         channels => encode_rgb(channels, settings.quantization)?,
     };
-    let (circle, white) = reported(circle, settings);
-    Ok(Capture {
-        bytes,
-        quantization: settings.quantization,
-        circle,
-        white,
-        clipped: clipped.0 as f64 / clipped.1.max(1) as f64,
-    })
+    Ok((bytes, clipped.0 as f64 / clipped.1.max(1) as f64))
 }
 
 /// The circle (in captured pixels) and white (in decoded units) a user of a capture of a
@@ -665,6 +716,53 @@ mod tests {
         // At 45°, 50.2 px from the centre: partly covered.
         let rim = d[[90, 90]];
         assert!(rim > 0.0 && rim < 0.25, "{rim}");
+    }
+
+    #[test]
+    fn an_object_keeps_its_pixels_where_they_were() {
+        // An object that is no disc: a bright L of full coverage on black, a half-covered
+        // pixel at its foot. Captured without noise at another radius asked for: nothing moves.
+        let mut image = Array2::zeros((90, 120));
+        let mut coverage = Array2::zeros((90, 120));
+        for (y, x) in (10..70).map(|y| (y, 20)).chain((30..100).map(|x| (69, x))) {
+            image[[y, x]] = 1.5;
+            coverage[[y, x]] = 1.0;
+        }
+        coverage[[70, 20]] = 0.5;
+        let circle = Circle {
+            cx: 59.5,
+            cy: 44.5,
+            r: 40.0,
+        };
+        let settings = CaptureSettings {
+            background: 0.2,
+            centre_error: [3.0, -2.0],
+            radius_error: 0.1,
+            ..CaptureSettings::ideal(300.0)
+        };
+        let (view, cover) = (image.view(), coverage.view());
+        let shot = capture_object(view, cover, &circle, 2.0, &settings, &mut Rng::new(1)).unwrap();
+        assert_eq!(shot.circle, circle);
+        assert_eq!(shot.white, 0.5);
+        let d = decoded(&shot);
+        assert_eq!(d.dim(), (90, 120));
+        // White (2) lands at 0.5: the object at 0.375, the background (0.2 of white) at 0.1.
+        let expected = |y: usize, x: usize| {
+            let c = coverage[[y, x]];
+            (c * image[[y, x]] / 2.0 + (1.0 - c) * 0.2) * 0.5
+        };
+        for ((y, x), v) in d.indexed_iter() {
+            assert!((v - expected(y, x)).abs() < 1e-4, "({y}, {x}): {v}");
+        }
+        let bad = capture_object(
+            view,
+            cover.slice(ndarray::s![1.., ..]),
+            &circle,
+            2.0,
+            &settings,
+            &mut Rng::new(1),
+        );
+        assert!(bad.is_err());
     }
 
     #[test]
