@@ -20,9 +20,11 @@ use std::path::PathBuf;
 #[derive(Args, Debug)]
 #[group(required = true, multiple = false)]
 pub struct DataArgs {
-    /// Dataset manifest (features are extracted first).
+    /// Dataset manifest (features are extracted first); give it more than once to learn
+    /// from the rows of several (spheres and objects of other shapes, say), each row's path
+    /// then prefixed with its manifest's folder.
     #[arg(long)]
-    manifest: Option<PathBuf>,
+    manifest: Vec<PathBuf>,
     /// Feature table written by `reflectance features --out`.
     #[arg(long)]
     table: Option<PathBuf>,
@@ -45,15 +47,19 @@ impl DataArgs {
             let t = FeatureTable::read(table)?;
             return Ok((t, table.display().to_string(), None));
         }
-        let path = self.manifest.as_ref().ok_or("give --manifest or --table")?;
-        let manifest = dataset::read_manifest(path)?;
+        if self.manifest.is_empty() {
+            return Err("give --manifest or --table".into());
+        }
+        let manifests = self.manifest.iter().map(|p| dataset::read_manifest(p));
+        let manifest = Manifest::concat(manifests.collect::<Result<_, _>>()?);
         manifest.require_labels()?;
         let extractor = Extractor::new(config)?;
         let options = limits.decode_options();
         let table = progress::observed("features", |bar| {
             dataset::extract_manifest_with(&extractor, &manifest, &options, bar)
         })?;
-        Ok((table, path.display().to_string(), Some(manifest)))
+        let label = manifest.source.display().to_string();
+        Ok((table, label, Some(manifest)))
     }
 }
 

@@ -218,6 +218,26 @@ fn augmentation_adds_views_with_suffixed_illuminations() {
     assert_eq!(held_out, ["probe0", "probe1"]);
     // The other probe's 8 views and both synthetic maps, 3 classes each.
     assert!(folds.iter().all(|f| f["n_train"] == (8 + 2) * 3));
+    // Manifests given together learn from the rows of all: here the same one twice.
+    let manifest = out.join("manifest.csv");
+    let manifest = manifest.to_str().unwrap();
+    let twice = run(&[
+        "cv",
+        "--manifest",
+        manifest,
+        "--manifest",
+        manifest,
+        "--features",
+        "hand2",
+        "--classifier",
+        "nn",
+        "--json",
+    ]);
+    common::assert_success(&twice);
+    let report: serde_json::Value = serde_json::from_slice(&twice.stdout).unwrap();
+    assert_eq!(report["n"], 2 * 2 * 3);
+    let folds = report["folds"].as_array().unwrap();
+    assert!(folds.iter().all(|f| f["n_train"] == 2 * (8 + 2) * 3));
 }
 
 #[test]

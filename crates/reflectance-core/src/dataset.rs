@@ -261,6 +261,32 @@ pub fn read_manifest(path: &Path) -> Result<Manifest, DatasetError> {
 }
 
 impl Manifest {
+    /// The rows of several manifests as one. With more than one, each row's paths are
+    /// prefixed with its manifest's folder (so that rows of different folders stay apart)
+    /// and the source names them all, joined by " + ".
+    pub fn concat(mut manifests: Vec<Manifest>) -> Manifest {
+        if manifests.len() == 1 {
+            return manifests.remove(0);
+        }
+        let source = manifests.iter().map(|m| display(&m.source)).collect::<Vec<_>>();
+        let mut entries = Vec::new();
+        for manifest in manifests {
+            let folder = manifest.source.parent().unwrap_or(Path::new(""));
+            let within = |path: &mut String| *path = display(&folder.join(&*path));
+            for mut entry in manifest.entries {
+                within(&mut entry.path);
+                for beside in [&mut entry.normals, &mut entry.mask].into_iter().flatten() {
+                    within(&mut beside.path);
+                }
+                entries.push(entry);
+            }
+        }
+        Manifest {
+            source: PathBuf::from(source.join(" + ")),
+            entries,
+        }
+    }
+
     /// Only the rows of `shard`'s block (their line numbers kept for errors).
     pub fn shard(mut self, shard: Shard) -> Manifest {
         let block = shard.block(self.entries.len());
@@ -565,6 +591,31 @@ mod tests {
         let read = read_manifest(&path);
         let _ = std::fs::remove_dir_all(&dir);
         read
+    }
+
+    #[test]
+    fn manifests_concatenated_keep_their_rows_apart_by_folder() {
+        let dir = std::env::temp_dir().join(format!("manifest-concat-{}", std::process::id()));
+        let (a, b) = (dir.join("spheres"), dir.join("tori"));
+        for (folder, text) in [
+            (&a, "path,class,illumination,cx,cy,r\nx.pfm,c,p,10,10,40\n"),
+            (&b, "path,class,illumination,normals\nx.pfm,c,p,x.normals.png\n"),
+        ] {
+            std::fs::create_dir_all(folder).unwrap();
+            std::fs::write(folder.join("manifest.csv"), text).unwrap();
+        }
+        let read = |f: &Path| read_manifest(&f.join("manifest.csv")).unwrap();
+        let one = Manifest::concat(vec![read(&a)]);
+        assert_eq!(one.entries[0].path, "x.pfm");
+        let both = Manifest::concat(vec![read(&a), read(&b)]);
+        let _ = std::fs::remove_dir_all(&dir);
+        let paths: Vec<&str> = both.entries.iter().map(|e| e.path.as_str()).collect();
+        let (sphere, torus) = (display(&a.join("x.pfm")), display(&b.join("x.pfm")));
+        assert_eq!(paths, [sphere.as_str(), torus.as_str()]);
+        let normals = both.entries[1].normals.as_ref().unwrap();
+        assert_eq!(normals.path, display(&b.join("x.normals.png")));
+        assert_eq!(normals.file, b.join("x.normals.png"));
+        assert!(display(&both.source).contains(" + "));
     }
 
     #[test]
