@@ -618,20 +618,37 @@ async fn job_paths_and_parameters_are_checked() {
         "path,class,illumination\n../secret.csv,a,b\n",
     )
     .unwrap();
-    let evil = submit(
-        &server,
-        json!({"type": "cross_validate", "dataset": "evil.csv"}),
+    // So does one whose normal map or mask lies outside it.
+    std::fs::write(data.join("in.png"), b"not read").unwrap();
+    std::fs::write(
+        data.join("evil_normals.csv"),
+        "path,class,illumination,normals\nin.png,a,b,../secret.csv\n",
     )
-    .await;
-    let done = wait_for(&server, evil["id"].as_str().unwrap(), TERMINAL).await;
-    assert_eq!(done["state"], "failed");
-    assert!(
-        done["error"]
-            .as_str()
-            .unwrap()
-            .contains("outside the data directory"),
-        "{done}"
-    );
+    .unwrap();
+    std::fs::write(
+        data.join("evil_mask.csv"),
+        "path,class,illumination,mask\nin.png,a,b,/etc/passwd\n",
+    )
+    .unwrap();
+    for (manifest, what) in [
+        ("evil.csv", "image"),
+        ("evil_normals.csv", "normals"),
+        ("evil_mask.csv", "mask"),
+    ] {
+        let evil = submit(
+            &server,
+            json!({"type": "cross_validate", "dataset": manifest}),
+        )
+        .await;
+        let done = wait_for(&server, evil["id"].as_str().unwrap(), TERMINAL).await;
+        assert_eq!(done["state"], "failed");
+        let error = done["error"].as_str().unwrap();
+        assert!(
+            error.contains("outside the data directory")
+                && error.contains(&format!("manifest line 2 {what}")),
+            "{done}"
+        );
+    }
     for out in ["../out", "up/out", "/tmp/out"] {
         let job =
             json!({"type": "render", "probes": "probes", "classes": "classes.json", "out": out});

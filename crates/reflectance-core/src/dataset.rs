@@ -268,7 +268,10 @@ impl Manifest {
         if manifests.len() == 1 {
             return manifests.remove(0);
         }
-        let source = manifests.iter().map(|m| display(&m.source)).collect::<Vec<_>>();
+        let source = manifests
+            .iter()
+            .map(|m| display(&m.source))
+            .collect::<Vec<_>>();
         let mut entries = Vec::new();
         for manifest in manifests {
             let folder = manifest.source.parent().unwrap_or(Path::new(""));
@@ -599,7 +602,10 @@ mod tests {
         let (a, b) = (dir.join("spheres"), dir.join("tori"));
         for (folder, text) in [
             (&a, "path,class,illumination,cx,cy,r\nx.pfm,c,p,10,10,40\n"),
-            (&b, "path,class,illumination,normals\nx.pfm,c,p,x.normals.png\n"),
+            (
+                &b,
+                "path,class,illumination,normals\nx.pfm,c,p,x.normals.png\n",
+            ),
         ] {
             std::fs::create_dir_all(folder).unwrap();
             std::fs::write(folder.join("manifest.csv"), text).unwrap();

@@ -362,7 +362,13 @@ fn load_table(
     let manifest = dataset::read_manifest(&path)?;
     manifest.require_labels()?;
     for entry in &manifest.entries {
-        data.check_resolved(&format!("manifest line {} image", entry.line), &entry.file)?;
+        let line = entry.line;
+        data.check_resolved(&format!("manifest line {line} image"), &entry.file)?;
+        for (what, beside) in [("normals", &entry.normals), ("mask", &entry.mask)] {
+            if let Some(beside) = beside {
+                data.check_resolved(&format!("manifest line {line} {what}"), &beside.file)?;
+            }
+        }
     }
     let extractor = Extractor::new(config)?;
     let options = DecodeOptions {
