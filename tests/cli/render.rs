@@ -576,23 +576,22 @@ fn a_shape_renders_from_its_normals_with_the_map_beside() {
          f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 3 4 8 7\nf 2 3 7 6\nf 4 1 5 8\n",
     )
     .unwrap();
-    let render_shape = |shape: &str, out: &Path| {
-        run(&[
-            "render",
-            "--probes",
-            list.to_str().unwrap(),
-            "--classes",
-            dir.join("classes.json").to_str().unwrap(),
-            "--out",
+    let render_with = |shape: &str, out: &Path, more: &[&str]| {
+        let classes = dir.join("classes.json");
+        let mut args = vec!["render", "--probes", list.to_str().unwrap()];
+        args.extend(["--classes", classes.to_str().unwrap(), "--out"]);
+        args.extend([
             out.to_str().unwrap(),
             "--size",
             "72",
             "--pixel-samples",
             "2",
-            "--shape",
-            shape,
-        ])
+        ]);
+        args.extend(["--shape", shape]);
+        args.extend(more);
+        run(&args)
     };
+    let render_shape = |shape: &str, out: &Path| render_with(shape, out, &[]);
     // One render (the probe's lighting takes seconds in a debug build): a mesh file.
     let mesh = format!("mesh:{}", cube.display());
     let out = dir.join("mesh");
@@ -713,23 +712,7 @@ fn a_shape_renders_from_its_normals_with_the_map_beside() {
     }
     // Its captures keep its geometry: the same map fits them, and the manifest says so.
     let captured = dir.join("captured");
-    common::assert_success(&run(&[
-        "render",
-        "--probes",
-        list.to_str().unwrap(),
-        "--classes",
-        dir.join("classes.json").to_str().unwrap(),
-        "--out",
-        captured.to_str().unwrap(),
-        "--size",
-        "72",
-        "--pixel-samples",
-        "2",
-        "--shape",
-        "torus",
-        "--captures",
-        "2",
-    ]));
+    common::assert_success(&render_with("torus", &captured, &["--captures", "2"]));
     let manifest = reflectance::dataset::read_manifest(&captured.join("manifest.csv")).unwrap();
     assert_eq!(manifest.entries.len(), 3);
     for entry in &manifest.entries {
