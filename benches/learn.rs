@@ -229,7 +229,10 @@ fn decide_one(bencher: Bencher, case: &str) {
     let name = case.split(' ').next().unwrap_or(case);
     let (model, row) = shipped_row(name);
     let context = reflectance::inference::Context {
-        white_given: !case.ends_with("without white"),
+        request: reflectance::model::Request {
+            white_given: !case.ends_with("without white"),
+            object: false,
+        },
         radius: 100.0,
         measured: None,
         coverage: 0.95,

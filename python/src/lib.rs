@@ -240,7 +240,7 @@ impl Model {
     /// The class names, in the model's order.
     #[getter]
     fn classes(&self) -> Vec<String> {
-        self.loaded.file().head(true).classifier.classes().to_vec()
+        self.loaded.file().classifier.classes().to_vec()
     }
 
     /// [`classify`] with this model.

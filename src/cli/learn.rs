@@ -7,6 +7,7 @@ use crate::inference;
 use crate::learn::estimate;
 use crate::learn::{CvReport, DEFAULT_C, Dataset, FeatureSet, SpecText, TrainSpec};
 use crate::material::load_classes;
+use crate::model::Request;
 use crate::model::publish::{Activate, Current};
 use crate::model::registry::{self, Registry};
 use crate::model::train::{self, TrainOptions};
@@ -423,15 +424,26 @@ pub fn train(args: TrainArgs) -> CliResult {
             estimate_summary(report, Protocol::CrossValidated)
         );
     }
-    let registry = Registry::new(&args.models);
-    let current = Current::in_registry(&registry, &args.name);
-    let published = trained.publish_by(&registry, current, args.activate)?;
+    publish(&mut trained, &args.models, args.activate)
+}
+
+/// Publish a trained model as the next version of its name in the registry `models`,
+/// activated by `activate`; print its folder.
+fn publish(
+    trained: &mut train::Trained,
+    models: &std::path::Path,
+    activate: Activate,
+) -> CliResult {
+    let registry = Registry::new(models);
+    let name = trained.model.name.clone();
+    let current = Current::in_registry(&registry, &name);
+    let published = trained.publish_by(&registry, current, activate)?;
     if let Some(e) = &published.pin_failed {
         eprintln!("warning: could not pin the version active before: {e}");
     }
     let activated = published.decision.activates();
     if activated {
-        registry.set_active(&args.name, published.version)?;
+        registry.set_active(&name, published.version)?;
     }
     eprintln!(
         "version {} {} ({})",
@@ -454,6 +466,49 @@ pub fn train(args: TrainArgs) -> CliResult {
     }
     println!("{}", dir.display());
     Ok(())
+}
+
+#[derive(Args, Debug)]
+pub struct TrainObjectsArgs {
+    /// The model to extend: DIR/NAME (the active version), DIR/NAME/VERSION or a model.json.
+    #[arg(long)]
+    model: PathBuf,
+    /// Spheres and objects (manifests with a `normals` column), extracted with the model's
+    /// configuration; or a table extracted so.
+    #[command(flatten)]
+    data: DataArgs,
+    /// Model registry folder the new version is written to (as the next version of the
+    /// model's name there).
+    #[arg(long)]
+    models: PathBuf,
+    /// Folds of illuminations whose held-out decision values calibrate the classifier for
+    /// objects (0: every illumination held out in turn).
+    #[arg(long, default_value_t = crate::learn::pipeline::CALIBRATION_FOLDS)]
+    calibration_folds: usize,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Whether the new version becomes the active one: never, always or if-better (which,
+    /// without a cross-validated accuracy, activates it only where no version is active).
+    /// Spheres are answered by it exactly as by the model it extends.
+    #[arg(long, value_enum, default_value_t = Activate::Always)]
+    activate: Activate,
+    #[command(flatten)]
+    limits: LimitArgs,
+}
+
+pub fn train_objects(args: TrainObjectsArgs) -> CliResult {
+    let base = registry::load_path(&args.model)?;
+    let (table, label) = args.data.load(&args.limits, base.features.config)?;
+    let mut trained = progress::observed("train", |bar| {
+        train::add_objects(
+            &base,
+            &table,
+            &label,
+            (args.calibration_folds, args.seed),
+            bar,
+        )
+    })?;
+    publish(&mut trained, &args.models, args.activate)
 }
 
 #[derive(Args, Debug)]
@@ -517,7 +572,10 @@ pub fn predict(args: PredictArgs) -> CliResult {
         // As the service would: no white is no white, not white = 1.
         let measured = CaptureMeasurements::of_row(&layout, &sample.values);
         let context = inference::Context {
-            white_given: entry.white.is_some(),
+            request: Request {
+                white_given: entry.white.is_some(),
+                object: entry.normals.is_some(),
+            },
             radius: entry.circle.map_or(f64::NAN, |c| c.r),
             measured: measured.as_ref(),
             coverage,

@@ -46,6 +46,9 @@ enum Command {
     Cv(learn::CvArgs),
     /// Train a model and write it as a new version into a model registry.
     Train(learn::TrainArgs),
+    /// Give a trained model a classifier for objects (requests with normals), fitted on
+    /// spheres and objects' equivalent spheres, and write it as the model's next version.
+    TrainObjects(learn::TrainObjectsArgs),
     /// Classify the images of a manifest with a trained model.
     Predict(learn::PredictArgs),
     /// Classify one photograph with a trained model (the answer of `POST /v1/classify`).
@@ -183,6 +186,7 @@ pub fn main() -> ExitCode {
         Command::Materials(args) => materials::run(args),
         Command::Cv(args) => learn::cv(args),
         Command::Train(args) => learn::train(args),
+        Command::TrainObjects(args) => learn::train_objects(args),
         Command::Predict(args) => learn::predict(args),
         Command::Classify(args) => classify::run(args),
         Command::Dataset(command) => dataset::run(command),

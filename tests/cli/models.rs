@@ -254,12 +254,10 @@ fn train_and_cross_validate_through_the_binary() {
     assert!(String::from_utf8_lossy(&bad.stderr).contains("hand7"));
 }
 
-#[test]
-fn predict_rendered_spheres_with_a_trained_model() {
+/// Three small synthetic probes in `dir/probes`, and a class file of three materials.
+fn synthetic_probes_and_classes(dir: &Path) -> (PathBuf, PathBuf) {
     use reflectance::image::decode::rgbe;
     use reflectance::render::envmap::EnvMap;
-    let dir = temp_dir("predict");
-    let bin = env!("CARGO_BIN_EXE_reflectance");
     let maps = [
         EnvMap::from_fn(64, 32, |d| 0.3 + d.y.max(0.0) + 0.2 * (6.0 * d.x).sin()),
         EnvMap::from_fn(64, 32, |d| 0.5 + 0.4 * d.x + 0.1 * (9.0 * d.z).cos()),
@@ -284,16 +282,28 @@ fn predict_rendered_spheres_with_a_trained_model() {
                         {"name": "dark", "rho_d": 0.1, "rho_s": 0.0, "alpha": 0.0}]}"#,
     )
     .unwrap();
+    (probes, classes)
+}
+
+/// Run the binary; its stdout, or a panic with its stderr.
+fn run(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_reflectance"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+#[test]
+fn predict_rendered_spheres_with_a_trained_model() {
+    let dir = temp_dir("predict");
+    let (probes, classes) = synthetic_probes_and_classes(&dir);
     let data = dir.join("data");
-    let run = |args: &[&str]| {
-        let out = Command::new(bin).args(args).output().unwrap();
-        assert!(
-            out.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8(out.stdout).unwrap()
-    };
     run(&[
         "render",
         "--probes",
@@ -380,4 +390,161 @@ fn predict_rendered_spheres_with_a_trained_model() {
     assert!(lines[1].starts_with("p0__matte.pfm,matte,"), "{}", lines[1]);
     let explicit = predict("tiny/1", &predictions);
     assert_eq!(explicit, printed);
+}
+
+#[test]
+fn a_classifier_for_objects_answers_objects_and_spheres_stay_as_they_were() {
+    use reflectance::model::Request;
+    let dir = temp_dir("objects");
+    let (probes, classes) = synthetic_probes_and_classes(&dir);
+    let render = |out: &Path, shape: &[&str]| {
+        let mut args = vec!["render", "--probes", probes.to_str().unwrap()];
+        args.extend(["--classes", classes.to_str().unwrap()]);
+        args.extend(["--out", out.to_str().unwrap(), "--size", "96"]);
+        args.extend(shape);
+        run(&args)
+    };
+    let (spheres, torus) = (dir.join("spheres"), dir.join("torus"));
+    render(&spheres, &[]);
+    render(&torus, &["--shape", "torus"]);
+    let (spheres_csv, torus_csv) = (spheres.join("manifest.csv"), torus.join("manifest.csv"));
+    let models = dir.join("models");
+    run(&[
+        "train",
+        "--manifest",
+        spheres_csv.to_str().unwrap(),
+        "--features",
+        "hand6+log",
+        "--calibration-folds",
+        "0",
+        "--no-cv",
+        "--models",
+        models.to_str().unwrap(),
+        "--name",
+        "m",
+    ]);
+    let train_objects = |manifests: &[&Path]| {
+        let mut args = vec!["train-objects", "--calibration-folds", "0"];
+        let base = models.join("m/1");
+        args.extend(["--model", base.to_str().unwrap()]);
+        args.extend(["--models", models.to_str().unwrap()]);
+        for m in manifests {
+            args.extend(["--manifest", m.to_str().unwrap()]);
+        }
+        Command::new(env!("CARGO_BIN_EXE_reflectance"))
+            .args(&args)
+            .output()
+            .unwrap()
+    };
+    // Objects of two classes cannot teach a classifier of three.
+    let two_classes = torus.join("two.csv");
+    let rows = std::fs::read_to_string(&torus_csv).unwrap();
+    let rows: Vec<&str> = rows.lines().filter(|l| !l.contains(",dark,")).collect();
+    std::fs::write(&two_classes, rows.join("\n") + "\n").unwrap();
+    let refused = train_objects(&[&two_classes]);
+    assert!(!refused.status.success());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        stderr.contains(
+            "the data's classes (chrome, matte) are not the model's (chrome, dark, matte)"
+        ),
+        "{stderr}"
+    );
+    let added = train_objects(&[&spheres_csv, &torus_csv]);
+    common::assert_success(&added);
+    assert_eq!(
+        String::from_utf8_lossy(&added.stdout).trim(),
+        models.join("m/2").display().to_string()
+    );
+    let registry = Registry::new(&models);
+    let (v1, v2) = (
+        registry.load("m", 1).unwrap(),
+        registry.load("m", 2).unwrap(),
+    );
+    assert_eq!(v2.version, 2);
+    assert_eq!(
+        (&v2.classifier, &v2.no_white),
+        (&v1.classifier, &v1.no_white)
+    );
+    assert_eq!(
+        (&v2.prediction_sets, &v2.domain),
+        (&v1.prediction_sets, &v1.domain)
+    );
+    let objects = v2.objects.as_ref().unwrap();
+    assert_eq!(objects.training.as_ref().unwrap().images, 18);
+    assert!(objects.prediction_sets.is_some() && objects.domain.is_some());
+    // A manifest's first row, by column.
+    let row = |manifest: &Path| {
+        let text = std::fs::read_to_string(manifest).unwrap();
+        let mut lines = text.lines().map(|l| l.split(',').map(String::from));
+        let header = lines.next().unwrap();
+        header
+            .zip(lines.next().unwrap())
+            .collect::<std::collections::HashMap<String, String>>()
+    };
+    let classify = |version: u32, args: &[&str]| {
+        let model = models.join(format!("m/{version}"));
+        let mut all = vec!["classify", "--model", model.to_str().unwrap(), "--json"];
+        all.extend(args);
+        let answer: serde_json::Value = serde_json::from_str(&run(&all)).unwrap();
+        answer
+    };
+    // A sphere: version 2 answers exactly as version 1.
+    let sphere = row(&spheres_csv);
+    let image = spheres.join(&sphere["path"]);
+    let mut sphere_args = vec![image.to_str().unwrap()];
+    for (flag, column) in [
+        ("--white", "white"),
+        ("--cx", "cx"),
+        ("--cy", "cy"),
+        ("--r", "r"),
+    ] {
+        sphere_args.extend([flag, &sphere[column]]);
+    }
+    let (old, new) = (classify(1, &sphere_args), classify(2, &sphere_args));
+    for field in ["probabilities", "prediction_set", "domain", "classifier"] {
+        assert_eq!(old[field], new[field], "{field}");
+    }
+    assert_eq!(new["classifier"], "with_white");
+    // An object by its normals: version 2's classifier for objects answers it.
+    let object = row(&torus_csv);
+    let (image, normals) = (torus.join(&object["path"]), torus.join(&object["normals"]));
+    let answer = classify(
+        2,
+        &[
+            image.to_str().unwrap(),
+            "--white",
+            &object["white"],
+            "--normals",
+            normals.to_str().unwrap(),
+            "--all-features",
+        ],
+    );
+    assert_eq!(answer["classifier"], "objects");
+    let all = &answer["features"]["all"];
+    let values: Vec<f64> = all["values"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let request = Request {
+        white_given: true,
+        object: true,
+    };
+    let expected = v2.head(request).classifier.predict_proba(&values).unwrap();
+    let as_sphere = v1.classifier.predict_proba(&values).unwrap();
+    let served = |label: &str| {
+        let listed = answer["probabilities"].as_array().unwrap();
+        let entry = listed.iter().find(|p| p["label"] == label).unwrap();
+        entry["p"].as_f64().unwrap()
+    };
+    for (k, label) in v2.classifier.classes().iter().enumerate() {
+        assert!((served(label) - expected[k]).abs() < 1e-12, "{label}");
+    }
+    let differs = expected
+        .iter()
+        .zip(&as_sphere)
+        .any(|(a, b)| (a - b).abs() > 1e-6);
+    assert!(differs, "{expected:?} {as_sphere:?}");
 }

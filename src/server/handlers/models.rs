@@ -1,6 +1,7 @@
 //! `GET /v1/models` and `GET /v1/models/{name}`.
 
 use crate::inference::ClassOut;
+use crate::model::Request;
 use crate::server::error::{ApiError, Problem};
 use crate::server::state::{LoadedModel, SharedState};
 use axum::Json;
@@ -78,13 +79,16 @@ pub struct ReliabilityOut {
     pub domain: Option<DomainCalibrationOut>,
 }
 
-/// The calibrations of the classifier used with a white reference and of the one used
-/// without (absent when the model has none: it then answers with the first).
+/// The calibrations of the classifier used with a white reference, of the one used
+/// without and of the one used for objects located by their normals (each absent when the
+/// model has none: it then answers with the first).
 #[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
 pub struct CalibrationOut {
     pub with_white: ReliabilityOut,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub without_white: Option<ReliabilityOut>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub objects: Option<ReliabilityOut>,
 }
 
 fn reliability(head: crate::model::Head) -> ReliabilityOut {
@@ -168,8 +172,22 @@ pub fn detail(model: &LoadedModel, versions: Vec<u32>) -> ModelDetail {
         },
         cv: f.training.cv.clone(),
         calibration: CalibrationOut {
-            with_white: reliability(f.head(true)),
-            without_white: f.no_white.as_ref().map(|_| reliability(f.head(false))),
+            with_white: reliability(f.head(Request {
+                white_given: true,
+                object: false,
+            })),
+            without_white: f.no_white.as_ref().map(|_| {
+                reliability(f.head(Request {
+                    white_given: false,
+                    object: false,
+                }))
+            }),
+            objects: f.objects.as_ref().map(|_| {
+                reliability(f.head(Request {
+                    white_given: true,
+                    object: true,
+                }))
+            }),
         },
         sha256: f.sha256.clone(),
     }

@@ -13,7 +13,7 @@ use crate::learn::LearnError;
 use crate::learn::conformal;
 use crate::learn::domain::Verdict;
 use crate::learn::estimate::WardEstimate;
-use crate::model::{Head, ModelError, ModelFile};
+use crate::model::{Head, ModelError, ModelFile, Request};
 use ndarray::Array2;
 use std::sync::Arc;
 use std::time::Instant;
@@ -50,12 +50,12 @@ impl LoadedModel {
         if let Some(estimator) = &file.estimator {
             read.extend(&estimator.input_indices);
         }
-        if let Some(no_white) = &file.no_white {
-            read.extend(&no_white.classifier.selected_indices);
+        for head in file.stored_heads() {
+            read.extend(&head.classifier.selected_indices);
         }
         let domains = [file.domain.as_ref()]
             .into_iter()
-            .chain([file.no_white.as_ref().and_then(|n| n.domain.as_ref())]);
+            .chain(file.stored_heads().map(|h| h.domain.as_ref()));
         read.extend(
             domains
                 .flatten()
@@ -63,11 +63,8 @@ impl LoadedModel {
         );
         read.sort_unstable();
         read.dedup();
-        let pca = classifier.pca.is_some()
-            || file
-                .no_white
-                .as_ref()
-                .is_some_and(|n| n.classifier.pca.is_some());
+        let pca =
+            classifier.pca.is_some() || file.stored_heads().any(|h| h.classifier.pca.is_some());
         let needed = (!pca && read.len() < feature_names.len()).then_some(read);
         Ok(LoadedModel {
             file,
@@ -157,8 +154,12 @@ pub enum InferenceError {
 /// the input is one it knows.
 #[derive(Clone, Debug)]
 pub struct Decision {
+    /// Which classifier answered: the request it was chosen for.
+    pub request: Request,
     /// Classified by the classifier without white.
     pub without_white: bool,
+    /// Classified by the classifier for objects.
+    pub objects: bool,
     /// The most probable class (index in class order).
     pub class: usize,
     /// In class order.
@@ -178,6 +179,11 @@ pub struct Decision {
 }
 
 impl Decision {
+    /// The classifier that decided.
+    pub fn head<'a>(&self, file: &'a ModelFile) -> Head<'a> {
+        file.head(self.request)
+    }
+
     /// Out of domain: a check failed, or the capture is outside the envelope. The one
     /// source of the verdict: every surface (`/v1`'s [`Decision::domain`], V2 and gRPC's
     /// `in_domain`, `reflectance predict`'s CSV, the command line and Python) reads it here.
@@ -190,8 +196,9 @@ impl Decision {
 #[derive(Clone, Copy, Debug)]
 pub struct Context<'a> {
     /// Whether the request gave a white reference (else the classifier without white answers,
-    /// when the model has one).
-    pub white_given: bool,
+    /// when the model has one), and an object's normals (the classifier for objects then
+    /// answers, when the model has one).
+    pub request: Request,
     /// The sphere's radius as given (px).
     pub radius: f64,
     /// The capture measurements (size, exposure), for the capture-envelope check; `None` skips it.
@@ -204,7 +211,7 @@ pub struct Context<'a> {
 /// does: the classifier for the white given or not, the prediction set, the domain check
 /// and the capture envelope.
 pub fn decide(model: &ModelFile, values: &[f64], context: Context) -> Result<Decision, LearnError> {
-    let head = model.head(context.white_given);
+    let head = model.head(context.request);
     let classifier = head.classifier;
     let z = classifier.transform(values)?;
     let output = classifier.classify_transformed(&z);
@@ -221,11 +228,13 @@ pub fn decide(model: &ModelFile, values: &[f64], context: Context) -> Result<Dec
         &head,
         &output.probabilities,
         context.coverage,
-        context.white_given,
+        context.request.white_given,
     );
     let verdict = head.domain.map(|d| d.verdict(&z, values));
     Ok(Decision {
+        request: context.request,
         without_white: head.without_white,
+        objects: head.objects,
         class: output.class,
         probabilities: output.probabilities,
         set,
@@ -429,7 +438,10 @@ pub fn classify_decoded(
         ));
     }
     let context = Context {
-        white_given: analysis.white.method != WhiteMethod::None,
+        request: Request {
+            white_given: analysis.white.method != WhiteMethod::None,
+            object: analysis.equivalent.is_some(),
+        },
         radius: analysis.geometry.circle().r,
         measured: analysis.measured.as_ref(),
         coverage,
@@ -439,14 +451,14 @@ pub fn classify_decoded(
     if let (Some(envelope), Some(measured), true) =
         (envelope, &analysis.measured, decision.envelope.is_empty())
     {
-        let class = &model.file.head(context.white_given).classifier.classes[decision.class];
+        let class = &decision.head(&model.file).classifier.classes[decision.class];
         let working_radius = model.file.features.config.working_radius;
         let radius = context.radius;
         analysis
             .warnings
             .extend(envelope.outside(radius, working_radius, class, measured));
     }
-    let classifier = model.file.head(!decision.without_white).classifier;
+    let classifier = decision.head(&model.file).classifier;
     let selected = if classifier.pca.is_some() {
         decision.z.clone()
     } else {
@@ -498,7 +510,7 @@ pub fn classify_decoded(
 /// classes the answer names.
 pub fn estimate(file: &ModelFile, decision: &Decision, values: &[f64]) -> Option<WardEstimate> {
     let estimate = file.estimator.as_ref()?.estimate(values);
-    let classes = &file.head(!decision.without_white).classifier.classes;
+    let classes = &decision.head(file).classifier.classes;
     let named = match &decision.set {
         Some(set) => set.clone(),
         None => vec![decision.class],

@@ -500,6 +500,10 @@ pub struct ClassifyResponse {
     pub request_id: String,
     /// The model version that answered.
     pub model: ModelId,
+    /// Which of its classifiers answered: `with_white`, `without_white` (no white reference
+    /// given) or `objects` (an object given with normals, when the model has a classifier
+    /// for objects); the names of `GET /v1/models/{name}`'s `calibration`.
+    pub classifier: &'static str,
     /// The predicted class: the most probable one (the first of `probabilities` and of the
     /// prediction set).
     pub label: String,
@@ -593,7 +597,7 @@ pub(super) fn materials(
 impl Classified {
     /// The classifier that answered.
     fn head(&self) -> Head<'_> {
-        self.model.file.head(!self.decision.without_white)
+        self.decision.head(&self.model.file)
     }
 }
 
@@ -631,6 +635,7 @@ impl Classified {
     pub fn response(self, request_id: String, total_ms: f64) -> ClassifyResponse {
         let model = &self.model;
         let head = self.head();
+        let classifier = head.name();
         let classes = &head.classifier.classes;
         let d = &self.decision;
         let domain = d.domain();
@@ -706,6 +711,7 @@ impl Classified {
                 }),
             },
             geometry: GeometryOut::from(&self.analysis.geometry),
+            classifier,
             observed_fraction: self.analysis.observed,
             normal_scatter_deg: equivalent.map(|e| e.scatter_deg),
             not_convex_fraction: equivalent.map(|e| e.not_convex_fraction),

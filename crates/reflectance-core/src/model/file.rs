@@ -192,14 +192,19 @@ pub struct SelfTest {
     /// What the classifier without white gives it, when the model has one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub no_white_probabilities: Option<Vec<f64>>,
+    /// What the classifier for objects gives it, when the model has one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub objects_probabilities: Option<Vec<f64>>,
 }
 
-/// The classifier a model answers with when a request gives no white reference: it reads
-/// only features that do not change when the image is multiplied by a constant, with
-/// prediction sets and a domain check of its own (docs/design.md §3 "Without white").
+/// A classifier a model answers some requests with instead of its own, with prediction
+/// sets and a domain check of its own: the one without white (it reads only features that do
+/// not change when the image is multiplied by a constant, docs/design.md §3 "Without white")
+/// and the one for objects (fitted on objects' equivalent spheres as well as spheres,
+/// docs/design.md §9).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct NoWhite {
-    /// The classifier reading only the scale-invariant features.
+pub struct StoredHead {
+    /// The classifier.
     pub classifier: Classifier,
     /// Its prediction sets, calibrated on held-out illuminations.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -207,10 +212,13 @@ pub struct NoWhite {
     /// Its domain check.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub domain: Option<DomainCheck>,
+    /// What it was trained on, when not the model's own data (the classifier for objects).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub training: Option<Provenance>,
 }
 
-/// A classifier with what it knows of its own reliability: the model's own, or the one
-/// without white.
+/// A classifier with what it knows of its own reliability: the model's own, the one
+/// without white or the one for objects.
 #[derive(Clone, Copy, Debug)]
 pub struct Head<'a> {
     /// The classifier.
@@ -221,6 +229,38 @@ pub struct Head<'a> {
     pub domain: Option<&'a DomainCheck>,
     /// The classifier without white.
     pub without_white: bool,
+    /// The classifier for objects.
+    pub objects: bool,
+}
+
+impl<'a> Head<'a> {
+    /// Which classifier it is: `with_white`, `without_white` or `objects`.
+    pub fn name(&self) -> &'static str {
+        match (self.without_white, self.objects) {
+            (true, _) => "without_white",
+            (_, true) => "objects",
+            _ => "with_white",
+        }
+    }
+
+    fn stored(head: &'a StoredHead, without_white: bool, objects: bool) -> Head<'a> {
+        Head {
+            classifier: &head.classifier,
+            prediction_sets: head.prediction_sets.as_ref(),
+            domain: head.domain.as_ref(),
+            without_white,
+            objects,
+        }
+    }
+}
+
+/// What decides which classifier answers a request.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Request {
+    /// The request gave a white reference.
+    pub white_given: bool,
+    /// The request gave the object's normals (an object read as its equivalent sphere).
+    pub object: bool,
 }
 
 /// A trained model version as stored (docs/design.md §4): checksummed JSON, verified on
@@ -267,7 +307,11 @@ pub struct ModelFile {
     /// The classifier used without a white reference. Absent in older model files and in
     /// models without the log-domain features.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub no_white: Option<NoWhite>,
+    pub no_white: Option<StoredHead>,
+    /// The classifier used for objects located by their normals, with a white reference
+    /// (`train-objects`). Absent: objects are answered as spheres are.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub objects: Option<StoredHead>,
     /// SHA-256 (hex) of the canonical JSON of the document without this field.
     #[serde(default)]
     pub sha256: String,
@@ -467,18 +511,20 @@ impl ModelFile {
                 .validate(self.classifier.dim(), row_len)
                 .map_err(|e| ModelError::Inconsistent(e.0))?;
         }
-        if let Some(no_white) = &self.no_white {
-            let c = &no_white.classifier;
+        for (head, what) in [
+            (&self.no_white, "the classifier without white"),
+            (&self.objects, "the classifier for objects"),
+        ] {
+            let Some(head) = head else { continue };
+            let c = &head.classifier;
             c.validate()?;
             if c.input_names != names || c.classes != self.classifier.classes {
-                return inconsistent(
-                    "the classifier without white has other inputs or classes".into(),
-                );
+                return inconsistent(format!("{what} has other inputs or classes"));
             }
-            if let Some(sets) = &no_white.prediction_sets {
+            if let Some(sets) = &head.prediction_sets {
                 sets.validate().map_err(|e| ModelError::Inconsistent(e.0))?;
             }
-            if let Some(domain) = &no_white.domain {
+            if let Some(domain) = &head.domain {
                 domain
                     .validate(c.dim(), row_len)
                     .map_err(|e| ModelError::Inconsistent(e.0))?;
@@ -536,11 +582,13 @@ impl ModelFile {
             self.classifier.predict_proba(features)?,
             Some(&self.self_test.probabilities),
         )];
-        if let Some(no_white) = &self.no_white {
-            pairs.push((
-                no_white.classifier.predict_proba(features)?,
-                self.self_test.no_white_probabilities.as_ref(),
-            ));
+        for (head, stored) in [
+            (&self.no_white, &self.self_test.no_white_probabilities),
+            (&self.objects, &self.self_test.objects_probabilities),
+        ] {
+            if let Some(head) = head {
+                pairs.push((head.classifier.predict_proba(features)?, stored.as_ref()));
+            }
         }
         for (got, stored) in pairs {
             let Some(stored) = stored.filter(|s| s.len() == got.len()) else {
@@ -558,23 +606,26 @@ impl ModelFile {
         Ok(())
     }
 
-    /// The classifier to answer with: the one without white when there is no white
-    /// reference and the model has one.
-    pub fn head(&self, white_given: bool) -> Head<'_> {
-        match (&self.no_white, white_given) {
-            (Some(n), false) => Head {
-                classifier: &n.classifier,
-                prediction_sets: n.prediction_sets.as_ref(),
-                domain: n.domain.as_ref(),
-                without_white: true,
-            },
+    /// The classifier to answer a request with: without a white reference the one without
+    /// white, for an object with one the one for objects, when the model has them; else
+    /// its own.
+    pub fn head(&self, request: Request) -> Head<'_> {
+        match (&self.no_white, &self.objects, request.white_given) {
+            (Some(n), _, false) => Head::stored(n, true, false),
+            (_, Some(o), true) if request.object => Head::stored(o, false, true),
             _ => Head {
                 classifier: &self.classifier,
                 prediction_sets: self.prediction_sets.as_ref(),
                 domain: self.domain.as_ref(),
                 without_white: false,
+                objects: false,
             },
         }
+    }
+
+    /// The extra classifiers the model carries (without white, for objects).
+    pub fn stored_heads(&self) -> impl Iterator<Item = &StoredHead> {
+        self.no_white.iter().chain(&self.objects)
     }
 }
 

@@ -14,8 +14,8 @@ use crate::learn::{self, Classifier, CvReport, Dataset, FeatureSet, LearnError, 
 use crate::material::Material;
 use crate::material::{CaptureEnvelope, CaptureRanges, VIEW_TAG};
 use crate::model::{
-    self, ClassInfo, Exemplar, FeatureSpec, ModelError, ModelFile, NoWhite, Provenance, SelfTest,
-    StoredCv, Ward,
+    self, ClassInfo, Exemplar, FeatureSpec, ModelError, ModelFile, Provenance, SelfTest, StoredCv,
+    StoredHead, Ward,
 };
 use crate::util::progress::{Observer, Silent};
 use rayon::prelude::*;
@@ -43,6 +43,17 @@ pub enum TrainError {
          --domain-features may be left out)"
     )]
     EstimatorColumns(String),
+    /// Data for a classifier for objects that do not have the model's classes.
+    #[error(
+        "the data's classes ({data}) are not the model's ({model}): a classifier for objects \
+         answers with the model's classes, and needs images of each"
+    )]
+    ObjectsClasses {
+        /// The data's classes, comma-separated.
+        data: String,
+        /// The model's.
+        model: String,
+    },
     /// A manifest or table cannot be read.
     #[error(transparent)]
     Dataset(#[from] crate::dataset::DatasetError),
@@ -207,7 +218,8 @@ pub fn train_with(
     }
     let ds = Dataset::from_table(table)?;
     let column = |name: &str| table.names.iter().position(|n| n == name);
-    let (classifier, prediction_sets, domain) = fit_classifier(&ds, options, &column, observer)?;
+    let (classifier, prediction_sets, domain) =
+        fit_classifier(&ds, &options.spec, options.seed, &column, observer)?;
     let no_white = match (&options.images, config.log_domain) {
         (Some(manifest), true) => {
             let table = without_white(manifest, config, &options.decode, observer)?;
@@ -245,7 +257,13 @@ pub fn train_with(
             set: classifier.feature_set.clone(),
             selected: classifier.selected.clone(),
         },
-        training: provenance(table, &ds, dataset, options, report.as_ref()),
+        training: provenance(
+            table,
+            &ds,
+            dataset,
+            (&options.spec, options.seed),
+            report.as_ref(),
+        ),
         self_test: self_test(&ds, &classifier, no_white.as_ref())?,
         exemplars: exemplars(table, &ds, &classifier, options.images.as_ref())?,
         classifier,
@@ -254,6 +272,7 @@ pub fn train_with(
         prediction_sets,
         domain,
         no_white,
+        objects: None,
         sha256: String::new(),
     };
     model.verify()?;
@@ -267,7 +286,8 @@ pub fn train_with(
 /// The classifier on every row, with its prediction sets and domain check.
 fn fit_classifier(
     ds: &Dataset,
-    options: &TrainOptions,
+    spec: &TrainSpec,
+    seed: u64,
     column: &dyn Fn(&str) -> Option<usize>,
     observer: &dyn Observer,
 ) -> Result<(Classifier, Option<PredictionSets>, Option<DomainCheck>), TrainError> {
@@ -277,15 +297,9 @@ fn fit_classifier(
     observer.stage("fit");
     observer.progress(0, 2);
     let rows: Vec<usize> = (0..ds.n_rows()).collect();
-    let (classifier, held_out) = fit_rows_held_out(ds, &rows, &options.spec, options.seed)?;
-    let (prediction_sets, domain) = reliability(
-        ds,
-        &rows,
-        &classifier,
-        held_out.as_ref(),
-        column,
-        options.seed,
-    )?;
+    let (classifier, held_out) = fit_rows_held_out(ds, &rows, spec, seed)?;
+    let (prediction_sets, domain) =
+        reliability(ds, &rows, &classifier, held_out.as_ref(), column, seed)?;
     observer.progress(1, 2);
     if observer.cancelled() {
         return Err(LearnError::Cancelled.into());
@@ -318,16 +332,15 @@ fn provenance(
     table: &FeatureTable,
     ds: &Dataset,
     dataset: &str,
-    options: &TrainOptions,
+    (spec, seed): (&TrainSpec, u64),
     report: Option<&CvReport>,
 ) -> Provenance {
-    let spec = &options.spec;
     Provenance {
         dataset: dataset.to_string(),
         dataset_sha256: model::sha256_hex(&table.to_csv()),
         images: table.samples.len(),
         illuminations: ds.group_names.len(),
-        seed: options.seed,
+        seed,
         options: json!({
             "features": spec.features.to_string(),
             "classifier": spec.classifier.to_string(),
@@ -343,7 +356,7 @@ fn provenance(
 fn self_test(
     ds: &Dataset,
     classifier: &Classifier,
-    no_white: Option<&NoWhite>,
+    no_white: Option<&StoredHead>,
 ) -> Result<SelfTest, LearnError> {
     let probe = ds.augmented.iter().position(|a| !a).unwrap_or(0);
     let features = ds.x.row(probe).to_vec();
@@ -352,6 +365,7 @@ fn self_test(
         no_white_probabilities: no_white
             .map(|n| n.classifier.predict_proba(&features))
             .transpose()?,
+        objects_probabilities: None,
         features,
     })
 }
@@ -455,7 +469,7 @@ fn fit_no_white(
     ds: &Dataset,
     options: &TrainOptions,
     column: &dyn Fn(&str) -> Option<usize>,
-) -> Result<Option<NoWhite>, LearnError> {
+) -> Result<Option<StoredHead>, LearnError> {
     let names = crate::features::named_set("scale_free").unwrap_or_default();
     if options.spec.classifier != learn::ClassifierKind::Svm
         || names.iter().any(|n| column(n).is_none())
@@ -482,11 +496,69 @@ fn fit_no_white(
         &without_brightness,
         options.seed,
     )?;
-    Ok(Some(NoWhite {
+    Ok(Some(StoredHead {
         classifier,
         prediction_sets,
         domain,
+        training: None,
     }))
+}
+
+/// `base` with a classifier for objects (docs/design.md §9): the base's classifier kind,
+/// features, C and γ, fitted on `table` (spheres and objects' equivalent spheres, extracted
+/// with the base's configuration), with prediction sets and a domain check calibrated over
+/// `calibration_folds` folds of illuminations (0: one per illumination); `dataset` names the
+/// data. Everything else of the base is kept, so spheres are answered exactly as before.
+pub fn add_objects(
+    base: &ModelFile,
+    table: &FeatureTable,
+    dataset: &str,
+    (calibration_folds, seed): (usize, u64),
+    observer: &dyn Observer,
+) -> Result<Trained, TrainError> {
+    if table.names != base.features.config.names() {
+        return Err(TrainError::Columns);
+    }
+    let (c, gamma) = match base.classifier.model() {
+        learn::pipeline::Model::Svm(svm) => (svm.c, Some(svm.gamma)),
+        _ => (learn::DEFAULT_C, None),
+    };
+    let classifier = base.classifier.kind().to_string();
+    let text = learn::SpecText {
+        features: &base.features.set,
+        classifier: &classifier,
+        c,
+        gamma,
+        grid: false,
+        calibration_folds,
+    };
+    let spec = text.parse(&table.names)?;
+    let ds = Dataset::from_table(table)?;
+    if ds.classes != base.classifier.classes {
+        return Err(TrainError::ObjectsClasses {
+            data: ds.classes.join(", "),
+            model: base.classifier.classes.join(", "),
+        });
+    }
+    let column = |name: &str| table.names.iter().position(|n| n == name);
+    let (classifier, prediction_sets, domain) =
+        fit_classifier(&ds, &spec, seed, &column, observer)?;
+    let mut model = base.clone();
+    model.self_test.objects_probabilities =
+        Some(classifier.predict_proba(&model.self_test.features)?);
+    model.objects = Some(StoredHead {
+        classifier,
+        prediction_sets,
+        domain,
+        training: Some(provenance(table, &ds, dataset, (&spec, seed), None)),
+    });
+    model.created = model::now_rfc3339();
+    model.verify()?;
+    Ok(Trained {
+        model,
+        report: None,
+        estimate: None,
+    })
 }
 
 /// The estimator of `data` for a model of `table`'s columns and `options`' feature set.
