@@ -392,6 +392,21 @@ fn uncalibrated_object(analysis: &analysis::Analysis) -> Option<String> {
     (!reasons.is_empty()).then(|| reasons.join(" and "))
 }
 
+/// The prediction set's coverage: the one asked for (else the default), widened to
+/// [`PARTIAL_COVERAGE`] with a warning for an object outside what the sets were calibrated on.
+fn widened_for_objects(analysis: &mut analysis::Analysis, asked: Option<f64>) -> f64 {
+    let coverage = asked.unwrap_or(conformal::DEFAULT_COVERAGE);
+    let Some(why) = uncalibrated_object(analysis) else {
+        return coverage;
+    };
+    analysis.warnings.push(format!(
+        "{why}: the prediction set is widened to {} % coverage (the sets are calibrated on \
+         whole spheres of exact geometry)",
+        PARTIAL_COVERAGE * 100.0
+    ));
+    coverage.max(PARTIAL_COVERAGE)
+}
+
 /// The coverage of a partly seen object's prediction set: the sets are calibrated on whole
 /// spheres, and on the centre quarters of rendered objects the 95 % set missed the true class
 /// 10 times in 96 where the 99.9 % set missed it once (docs/accuracy.md).
@@ -428,15 +443,7 @@ pub fn classify_decoded(
     drop(image);
     let features_ms = ms(t);
     let t = Instant::now();
-    let mut coverage = answer.coverage.unwrap_or(conformal::DEFAULT_COVERAGE);
-    if let Some(why) = uncalibrated_object(&analysis) {
-        coverage = coverage.max(PARTIAL_COVERAGE);
-        analysis.warnings.push(format!(
-            "{why}: the prediction set is widened to {} % coverage (the sets are calibrated on \
-             whole spheres of exact geometry)",
-            PARTIAL_COVERAGE * 100.0
-        ));
-    }
+    let coverage = widened_for_objects(&mut analysis, answer.coverage);
     let context = Context {
         request: Request {
             white_given: analysis.white.method != WhiteMethod::None,

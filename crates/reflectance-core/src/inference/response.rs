@@ -631,15 +631,9 @@ impl Decision {
 }
 
 impl Classified {
-    /// The answer, as the service sends it; `total_ms` is the whole request's time.
-    pub fn response(self, request_id: String, total_ms: f64) -> ClassifyResponse {
-        let model = &self.model;
-        let head = self.head();
-        let classifier = head.name();
-        let classes = &head.classifier.classes;
+    /// The answer's warnings: out of domain, without white, without sets, then the analysis's.
+    fn warnings(&self, domain: &DomainOut) -> Vec<String> {
         let d = &self.decision;
-        let domain = d.domain();
-        let equivalent = self.analysis.equivalent.as_ref();
         let mut warnings = Vec::new();
         if !domain.in_domain {
             warnings.push(format!(
@@ -660,6 +654,19 @@ impl Classified {
                 .filter(|w| !(d.without_white && *w == crate::image::white::MISSING_WARNING))
                 .cloned(),
         );
+        warnings
+    }
+
+    /// The answer, as the service sends it; `total_ms` is the whole request's time.
+    pub fn response(self, request_id: String, total_ms: f64) -> ClassifyResponse {
+        let model = &self.model;
+        let head = self.head();
+        let classifier = head.name();
+        let classes = &head.classifier.classes;
+        let d = &self.decision;
+        let domain = d.domain();
+        let equivalent = self.analysis.equivalent.as_ref();
+        let warnings = self.warnings(&domain);
         let mut probabilities: Vec<LabelProbability> = classes
             .iter()
             .zip(&d.probabilities)
