@@ -1175,3 +1175,27 @@ async fn a_model_without_the_calibrations_answers_without_a_set_and_says_so() {
     let detail = send(&server.data, get("/v1/models/ward6")).await.json();
     assert_eq!(detail["calibration"], json!({"with_white": {}}), "{detail}");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_shipped_version_2_shows_its_classifier_for_objects_and_answers_spheres_with_the_first()
+{
+    let models = common::server::temp_dir("shipped-objects").join("models");
+    let shipped = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/ward6/2");
+    common::server::copy_dir(&shipped, &models.join("ward6/2"));
+    let server = start(config(&models));
+    let detail = send(&server.data, get("/v1/models/ward6")).await.json();
+    let calibration = &detail["calibration"];
+    assert_eq!(calibration["objects"]["prediction_sets"]["images"], 11340);
+    assert!(calibration["objects"]["domain"]["images"].as_u64().unwrap() > 0);
+    assert_ne!(calibration["objects"], calibration["with_white"]);
+    let sphere = std::fs::read(common::fixtures().join("features/sphere_rgb8.png")).unwrap();
+    let circle = [("cx", "96.5"), ("cy", "94.25"), ("r", "85")];
+    let mut fields: Vec<(&str, Part)> = vec![("image", Part::File(&sphere))];
+    fields.extend(circle.map(|(k, v)| (k, Part::Text(v))));
+    let without = send(&server.data, post_multipart("/v1/classify", &fields)).await;
+    assert_eq!(without.json()["classifier"], "without_white");
+    fields.push(("white", Part::Text("0.8")));
+    let with = send(&server.data, post_multipart("/v1/classify", &fields)).await;
+    assert_eq!(with.json()["classifier"], "with_white");
+    assert_eq!(with.json()["model"]["version"], 2);
+}
