@@ -470,7 +470,7 @@ fn publish(
 
 #[derive(Args, Debug)]
 pub struct TrainObjectsArgs {
-    /// The model to extend: DIR/NAME (the active version), DIR/NAME/VERSION or a model.json.
+    /// The model to extend: DIR/NAME (the active version), or DIR/NAME/VERSION.
     #[arg(long)]
     model: PathBuf,
     /// Spheres and objects (manifests with a `normals` column), extracted with the model's

@@ -201,7 +201,7 @@ pub struct SelfTest {
 /// sets and a domain check of its own: the one without white (it reads only features that do
 /// not change when the image is multiplied by a constant, docs/design.md §3 "Without white")
 /// and the one for objects (fitted on objects' equivalent spheres as well as spheres,
-/// docs/design.md §9).
+/// docs/design.md §8).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StoredHead {
     /// The classifier.
