@@ -592,6 +592,11 @@ function show(answer) {
   warnings.replaceChildren(...answer.warnings.map((text) => element("li", text)));
   $("warnings-box").hidden = answer.warnings.length === 0;
   showImages(answer.images);
+  $("equivalent-classifier").textContent = {
+    objects: "Read by the model's classifier for objects, trained on such spheres of objects.",
+    with_white: "Read by the model's classifier for spheres (it has none for objects).",
+    without_white: "Read by the model's classifier without white.",
+  }[answer.classifier] || "";
   showNeighbours(answer.explain);
   $("result").hidden = false;
   const beside = document.body.classList.contains("answered") || window.innerWidth >= 1120;

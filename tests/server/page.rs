@@ -567,6 +567,15 @@ fn an_object_shows_its_equivalent_sphere(browser: &Browser, dir: &Path) {
     assert!(outcome.is_number(), "{outcome}");
     let label = browser.script("return document.getElementById('label').textContent;");
     assert!(!label.as_str().unwrap().is_empty(), "{label}");
+    let read_by =
+        browser.script("return document.getElementById('equivalent-classifier').textContent;");
+    assert!(
+        read_by
+            .as_str()
+            .unwrap()
+            .starts_with("Read by the model's classifier"),
+        "{read_by}"
+    );
 }
 
 fn classify_and_read_the_answer_on_a_phone(browser: &Browser) {
