@@ -13,7 +13,8 @@
 //!    ball of r 190 px in a 4096 px room is 29 px on the small copy), unless the first
 //!    search has [`SETTLED`] on a ball. The circle a clean
 //!    background gives (the caller's segmentation, on the same copy) is one more.
-//! 2. **Sub-pixel fit** (on the full-resolution linear image): along 360 rays through the
+//! 2. **Sub-pixel fit** (a wide first fit on the reduced copy when the circle is large there,
+//!    the narrow one on the full-resolution linear image): along 360 rays through the
 //!    candidate's rim, the position of the steepest luminance change, interpolated between
 //!    samples, kept where the luminance there changes across the rim rather than along it;
 //!    a circle fitted to those positions with outliers (highlights and shadows near the
@@ -163,12 +164,7 @@ pub fn find_spheres(
     }
     let mut candidates: Vec<(Circle, f64)> = clean.into_iter().collect();
     candidates.extend(rough_circles(&edges, (wh, ww), scale, (min_r, max_r)));
-    let refined = |candidates: Vec<(Circle, f64)>| -> Vec<Found> {
-        candidates
-            .into_iter()
-            .filter_map(|(rough, slack)| refine(luminance, rough, slack))
-            .collect()
-    };
+    let refined = |candidates| refine_all(luminance, (small.view(), scale), candidates);
     let rank = |found: Vec<Found>| ranked(luminance, found, work.view(), &edges, scale);
     let mut found = refined(candidates);
     if scale < 0.5 {
@@ -662,16 +658,78 @@ const ELONGATE_FIRST: usize = 4;
 /// range: below, it is no sphere; above, the circle already follows its rim.
 const TRY_ELONGATED: std::ops::Range<f64> = 0.25..0.9;
 
-/// Refine a rough circle on the full image; `slack` is the rough circle's uncertainty (px).
-fn refine(luminance: ArrayView2<f64>, rough: Circle, slack: f64) -> Option<Found> {
+/// Refine rough circles on the full image: each (circle, slack) is the rough circle and its
+/// uncertainty (px). A circle whose first fit lands where an earlier one's did is the same
+/// circle, and is refined once.
+fn refine_all(
+    luminance: ArrayView2<f64>,
+    small: (ArrayView2<f64>, f64),
+    candidates: Vec<(Circle, f64)>,
+) -> Vec<Found> {
+    let mut first_fits: Vec<Circle> = Vec::new();
+    let mut found = Vec::new();
+    for (rough, slack) in candidates {
+        let Some(circle) = first_fit(luminance, small, rough, slack) else {
+            continue;
+        };
+        if first_fits.iter().any(|c| same_fit(c, &circle)) {
+            continue;
+        }
+        first_fits.push(circle);
+        found.extend(narrow_fit(luminance, circle, rough.r));
+    }
+    found
+}
+
+/// Two first fits that landed on the same circle: centres and radii within a tenth of a
+/// percent of r (plus a tenth of a pixel).
+fn same_fit(a: &Circle, b: &Circle) -> bool {
+    let tolerance = 0.001 * a.r + 0.1;
+    (a.cx - b.cx).hypot(a.cy - b.cy) <= tolerance && (a.r - b.r).abs() <= tolerance
+}
+
+/// A rough circle at least this large on the reduced copy (px) takes its first fit there.
+const COARSE_FIT_MIN_RADIUS: f64 = 40.0;
+
+/// The first, wide fit of a rough circle with uncertainty `slack` (px). It runs on the reduced
+/// copy `small` (at `scale`) when the circle is large there: its rim is as sharp relative to
+/// r, and the wide window costs a fraction of the samples.
+fn first_fit(
+    luminance: ArrayView2<f64>,
+    (small, scale): (ArrayView2<f64>, f64),
+    rough: Circle,
+    slack: f64,
+) -> Option<Circle> {
     if rough.r < MIN_RADIUS * 0.9 {
         return None;
     }
-    let mut circle = rough;
-    for window in [slack + 0.04 * rough.r + 2.0, 0.015 * rough.r + 2.0] {
-        let points = rim_points(luminance, &Outline::of(&circle), window);
-        circle = robust_fit(&points, &circle)?;
+    let wide = slack + 0.04 * rough.r + 2.0;
+    if scale < 1.0 && rough.r * scale >= COARSE_FIT_MIN_RADIUS {
+        let to_small = |v: f64| (v + 0.5) * scale - 0.5;
+        let to_full = |v: f64| (v + 0.5) / scale - 0.5;
+        let start = Circle {
+            cx: to_small(rough.cx),
+            cy: to_small(rough.cy),
+            r: rough.r * scale,
+        };
+        let points = rim_points(small, &Outline::of(&start), wide * scale);
+        let fitted = robust_fit(&points, &start)?;
+        Some(Circle {
+            cx: to_full(fitted.cx),
+            cy: to_full(fitted.cy),
+            r: fitted.r / scale,
+        })
+    } else {
+        let points = rim_points(luminance, &Outline::of(&rough), wide);
+        robust_fit(&points, &rough)
     }
+}
+
+/// The narrow fit on the full image after the first (the window set by the rough radius
+/// `rough_r`), and its confidence.
+fn narrow_fit(luminance: ArrayView2<f64>, first: Circle, rough_r: f64) -> Option<Found> {
+    let points = rim_points(luminance, &Outline::of(&first), 0.015 * rough_r + 2.0);
+    let circle = robust_fit(&points, &first)?;
     if circle.r < MIN_RADIUS {
         return None;
     }
