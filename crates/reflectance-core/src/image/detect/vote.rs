@@ -150,9 +150,13 @@ impl VoteMap {
 
     /// A vote at (x, y) (in cells) from `sector`; false when outside the map.
     fn add(&mut self, x: f64, y: f64, sector: u16) -> bool {
-        if x < 0.0 || y < 0.0 || x >= self.width || y >= self.height {
+        if !(x >= 0.0 && y >= 0.0 && x < self.width && y < self.height) {
             return false;
         }
+        // SAFETY: x and y are not NaN and lie in [0, width) and [0, height), which a u32
+        // holds: their integer parts are representable (this skips the saturating casts'
+        // checks in the vote's innermost loop).
+        let (x, y) = unsafe { (x.to_int_unchecked::<u32>(), y.to_int_unchecked::<u32>()) };
         self.cells[y as usize * self.cw + x as usize].add(sector);
         true
     }
