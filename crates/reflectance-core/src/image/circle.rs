@@ -16,6 +16,29 @@ pub struct Circle {
     pub r: f64,
 }
 
+impl Circle {
+    /// The circle on a copy of the image resampled by `scale` (pixel centres map to pixel
+    /// centres).
+    pub fn reduced(&self, scale: f64) -> Circle {
+        let at = |v: f64| (v + 0.5) * scale - 0.5;
+        Circle {
+            cx: at(self.cx),
+            cy: at(self.cy),
+            r: self.r * scale,
+        }
+    }
+
+    /// The circle on the original image, of one found on a copy resampled by `scale`.
+    pub fn enlarged(&self, scale: f64) -> Circle {
+        let at = |v: f64| (v + 0.5) / scale - 0.5;
+        Circle {
+            cx: at(self.cx),
+            cy: at(self.cy),
+            r: self.r / scale,
+        }
+    }
+}
+
 /// Gaussian elimination with partial pivoting; None when singular.
 pub(crate) fn solve<const N: usize>(mut a: [[f64; N]; N], mut b: [f64; N]) -> Option<[f64; N]> {
     for col in 0..N {

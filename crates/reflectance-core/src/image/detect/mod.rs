@@ -141,15 +141,7 @@ pub fn find_spheres(
         )));
     }
     let (small, scale) = reduced(luminance);
-    let clean = clean(small.view()).map(|c| {
-        let full = |v: f64| (v + 0.5) / scale - 0.5;
-        let circle = Circle {
-            cx: full(c.cx),
-            cy: full(c.cy),
-            r: c.r / scale,
-        };
-        (circle, 2.0 / scale)
-    });
+    let clean = clean(small.view()).map(|c| (c.enlarged(scale), 2.0 / scale));
     let work = working_copy(small.view());
     let edges = edge_points(work.view());
     if edges.len() < 32 {
@@ -230,12 +222,7 @@ fn distinct_circles(mut found: Vec<Found>) -> Vec<Found> {
 /// band between them.
 fn judge_ball_likeness(found: &mut [Found], work: ArrayView2<f64>, edges: &[Edge], scale: f64) {
     for f in found.iter_mut() {
-        let c = &f.circle;
-        let on_work = Circle {
-            cx: (c.cx + 0.5) * scale - 0.5,
-            cy: (c.cy + 0.5) * scale - 0.5,
-            r: c.r * scale,
-        };
+        let on_work = f.circle.reduced(scale);
         f.ball_like = !flat_band(work, &on_work, 0.0, 0.8) && !ringed(work, edges, &on_work);
     }
 }
@@ -705,20 +692,9 @@ fn first_fit(
     }
     let wide = slack + 0.04 * rough.r + 2.0;
     if scale < 1.0 && rough.r * scale >= COARSE_FIT_MIN_RADIUS {
-        let to_small = |v: f64| (v + 0.5) * scale - 0.5;
-        let to_full = |v: f64| (v + 0.5) / scale - 0.5;
-        let start = Circle {
-            cx: to_small(rough.cx),
-            cy: to_small(rough.cy),
-            r: rough.r * scale,
-        };
+        let start = rough.reduced(scale);
         let points = rim_points(small, &Outline::of(&start), wide * scale);
-        let fitted = robust_fit(&points, &start)?;
-        Some(Circle {
-            cx: to_full(fitted.cx),
-            cy: to_full(fitted.cy),
-            r: fitted.r / scale,
-        })
+        Some(robust_fit(&points, &start)?.enlarged(scale))
     } else {
         let points = rim_points(luminance, &Outline::of(&rough), wide);
         robust_fit(&points, &rough)

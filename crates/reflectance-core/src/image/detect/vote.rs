@@ -22,11 +22,7 @@ pub(super) fn rough_circles(
     let mut out = Vec::new();
     for (cx, cy, r_bin, cell) in vote(edges, dims, min_r, max_r) {
         for r in radii(edges, cx, cy, r_bin / RADIUS_RATIO, r_bin * RADIUS_RATIO) {
-            let rough = Circle {
-                cx: (cx + 0.5) / scale - 0.5,
-                cy: (cy + 0.5) / scale - 0.5,
-                r: r / scale,
-            };
+            let rough = Circle { cx, cy, r }.enlarged(scale);
             out.push((rough, (1.5 + 0.5 * cell) / scale));
         }
     }
@@ -107,8 +103,8 @@ const SECTORS: f64 = 16.0;
 struct VoteCell(u32);
 
 impl VoteCell {
-    fn votes(self) -> f32 {
-        (self.0 & 0xffff) as f32
+    fn votes(self) -> f64 {
+        f64::from(self.0 & 0xffff)
     }
 
     fn directions(self) -> u16 {
@@ -126,9 +122,6 @@ struct VoteMap {
     cell: f64,
     cw: usize,
     ch: usize,
-    /// `cw` and `ch` as the bounds a vote is checked against.
-    width: f64,
-    height: f64,
     cells: Vec<VoteCell>,
 }
 
@@ -142,15 +135,13 @@ impl VoteMap {
             cell,
             cw,
             ch,
-            width: cw as f64,
-            height: ch as f64,
             cells: vec![VoteCell::default(); ch * cw],
         }
     }
 
     /// A vote at (x, y) (in cells) from `sector`; false when outside the map.
     fn add(&mut self, x: f64, y: f64, sector: u16) -> bool {
-        if !(x >= 0.0 && y >= 0.0 && x < self.width && y < self.height) {
+        if !(x >= 0.0 && y >= 0.0 && x < self.cw as f64 && y < self.ch as f64) {
             return false;
         }
         // SAFETY: x and y are not NaN and lie in [0, width) and [0, height), which a u32
@@ -251,7 +242,7 @@ fn vote(
 /// the part of the circle inside the picture.
 fn bin_peaks(map: &VoteMap, r: f64, (h, w): (usize, usize)) -> Vec<(f64, f64, f64)> {
     let (ch, cw, cell) = (map.ch, map.cw, map.cell);
-    let grid = Array2::from_shape_fn((ch, cw), |(y, x)| f64::from(map.cells[y * cw + x].votes()));
+    let grid = Array2::from_shape_fn((ch, cw), |(y, x)| map.cells[y * cw + x].votes());
     let smooth = crate::image::blur::gaussian_blur(grid.view(), 1.0);
     // A circle's centre cell gathers about one vote per edge point per pixel of cell.
     let circumference = std::f64::consts::TAU * r * cell / CELL;
