@@ -3,15 +3,15 @@
 
 use divan::Bencher;
 use ndarray::Array2;
-use reflectance::features::analysis::{self, Locate, WhiteInput};
-use reflectance::features::pyramid::{self, Edge};
-use reflectance::features::spectrum::SpectrumPlan;
-use reflectance::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
-use reflectance::image::decode::{self, DecodeOptions, LinearImage};
-use reflectance::image::geometry::Circle;
+use reflectance_core::analysis::{self, Locate, WhiteInput};
+use reflectance_core::decode::{self, DecodeOptions, LinearImage};
+use reflectance_core::features::pyramid::{self, Edge};
+use reflectance_core::features::spectrum::SpectrumPlan;
+use reflectance_core::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
+use reflectance_core::locate::Circle;
 
 fn main() {
-    // As the binary does: see `reflectance::util::heap`.
+    // As the binary does: see `reflectance_core::util::heap`.
     assert!(reflectance::tune_heap(), "heap thresholds refused");
     divan::main();
 }
@@ -103,12 +103,12 @@ fn features_with_every_extension(bencher: Bencher) {
 #[divan::bench]
 fn features_of_the_shipped_model(bencher: Bencher) {
     let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
-    let registry = reflectance::model::registry::Registry::new(&models);
+    let registry = reflectance_core::model::registry::Registry::new(&models);
     let file = registry
         .active("ward6")
         .and_then(|version| registry.load("ward6", version))
         .expect("the shipped ward6 model");
-    let model = reflectance::inference::LoadedModel::new(file).expect("model");
+    let model = reflectance_core::inference::LoadedModel::new(file).expect("model");
     let image = decoded();
     let locate = Locate::Circle(circle());
     let white = WhiteInput::Value(1.0);

@@ -11,16 +11,17 @@
 
 use divan::Bencher;
 use ndarray::{Array2, Axis};
-use reflectance::dataset::{FeatureTable, Sample};
-use reflectance::features::{default_names, named_set};
-use reflectance::learn::pipeline::{ClassifierKind, TrainSpec, fit};
-use reflectance::learn::scaler::Scaler;
-use reflectance::learn::svm::{Gram, KernelValue, SolverParams, train_one_vs_all};
-use reflectance::learn::{Dataset, FeatureSet, cross_validate};
-use reflectance::util::rng::Rng;
+use reflectance_core::classify::cross_validate;
+use reflectance_core::classify::pipeline::{ClassifierKind, TrainSpec, fit};
+use reflectance_core::classify::svm::{Gram, KernelValue, SolverParams, train_one_vs_all};
+use reflectance_core::dataset::{FeatureTable, Sample};
+use reflectance_core::features::{default_names, named_set};
+use reflectance_core::learn::scaler::Scaler;
+use reflectance_core::learn::{Dataset, FeatureSet};
+use reflectance_core::util::rng::Rng;
 
 fn main() {
-    // As the binary does: see `reflectance::util::heap`.
+    // As the binary does: see `reflectance_core::util::heap`.
     assert!(reflectance::tune_heap(), "heap thresholds refused");
     let path = std::env::temp_dir().join("reflectance_learn_bench.csv");
     table().write(&path).expect("write bench table");
@@ -213,7 +214,7 @@ fn predict_one(bencher: Bencher, set: &str) {
 #[divan::bench(args = ["ward6", "ward11"])]
 fn estimate_one(bencher: Bencher, name: &str) {
     let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
-    let model = reflectance::model::registry::Registry::new(models)
+    let model = reflectance_core::model::registry::Registry::new(models)
         .load(name, 1)
         .expect("shipped model");
     let estimator = model.estimator.expect("shipped models carry an estimator");
@@ -228,8 +229,8 @@ fn estimate_one(bencher: Bencher, name: &str) {
 fn decide_one(bencher: Bencher, case: &str) {
     let name = case.split(' ').next().unwrap_or(case);
     let (model, row) = shipped_row(name);
-    let context = reflectance::inference::Context {
-        request: reflectance::model::Request {
+    let context = reflectance_core::inference::Context {
+        request: reflectance_core::model::Request {
             white_given: !case.ends_with("without white"),
             object: false,
         },
@@ -237,7 +238,7 @@ fn decide_one(bencher: Bencher, case: &str) {
         measured: None,
         coverage: 0.95,
     };
-    bencher.bench(|| reflectance::inference::decide(&model, divan::black_box(&row), context));
+    bencher.bench(|| reflectance_core::inference::decide(&model, divan::black_box(&row), context));
 }
 
 /// The bare classifier on the same row (what `decide_one` adds to).
@@ -248,9 +249,9 @@ fn classify_one_shipped(bencher: Bencher, name: &str) {
 }
 
 /// A shipped model and its self-test row (a real training image's features).
-fn shipped_row(name: &str) -> (reflectance::model::ModelFile, Vec<f64>) {
+fn shipped_row(name: &str) -> (reflectance_core::model::ModelFile, Vec<f64>) {
     let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
-    let model = reflectance::model::registry::Registry::new(models)
+    let model = reflectance_core::model::registry::Registry::new(models)
         .load(name, 1)
         .expect("shipped model");
     let row = model.self_test.features.clone();

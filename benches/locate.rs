@@ -4,8 +4,8 @@
 
 use divan::Bencher;
 use ndarray::Array2;
-use reflectance::image::decode::{self, DecodeOptions};
-use reflectance::image::geometry;
+use reflectance_core::decode::{self, DecodeOptions};
+use reflectance_core::locate;
 
 fn main() {
     assert!(reflectance::tune_heap(), "heap thresholds refused");
@@ -55,7 +55,7 @@ fn locate_12mp_jpeg(bencher: Bencher) {
     bencher.bench(|| {
         let image =
             decode::decode(divan::black_box(&bytes), &DecodeOptions::default()).expect("decode");
-        geometry::detect(image.luminance.view()).expect("the ball")
+        locate::detect(image.luminance.view()).expect("the ball")
     });
 }
 
@@ -63,7 +63,7 @@ fn locate_12mp_jpeg(bencher: Bencher) {
 fn detect_12mp_excluding_decode(bencher: Bencher) {
     let image = decode::decode(&jpeg_bytes(), &DecodeOptions::default()).expect("decode");
     let luminance: Array2<f64> = image.luminance;
-    bencher.bench(|| geometry::detect(divan::black_box(luminance.view())).expect("the ball"));
+    bencher.bench(|| locate::detect(divan::black_box(luminance.view())).expect("the ball"));
 }
 
 /// Dev photographs (when `../shared/data/photos/dev/` holds them), decoded once: location
@@ -78,5 +78,5 @@ fn detect_dev_photograph_excluding_decode(bencher: Bencher, name: &str) {
     };
     let image = decode::decode(&bytes, &DecodeOptions::default()).expect("decode");
     let luminance: Array2<f64> = image.luminance;
-    bencher.bench(|| geometry::detect(divan::black_box(luminance.view())).is_ok());
+    bencher.bench(|| locate::detect(divan::black_box(luminance.view())).is_ok());
 }

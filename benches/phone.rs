@@ -11,10 +11,10 @@
 //! image's colour components on threads of its own).
 
 use divan::Bencher;
-use reflectance::features::Extractor;
-use reflectance::features::analysis::{self, Locate, WhiteInput};
-use reflectance::image::decode::{self, DecodeOptions};
-use reflectance::image::geometry::{self, Circle};
+use reflectance_core::analysis::{self, Locate, WhiteInput};
+use reflectance_core::decode::{self, DecodeOptions};
+use reflectance_core::features::Extractor;
+use reflectance_core::locate::{self, Circle};
 use std::collections::HashMap;
 use std::fmt;
 use std::path::Path;
@@ -131,7 +131,7 @@ fn extractor() -> &'static Extractor {
     static EXTRACTOR: OnceLock<Extractor> = OnceLock::new();
     EXTRACTOR.get_or_init(|| {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/ward6/1");
-        let file = reflectance::model::registry::load_path(&path).expect("models/ward6");
+        let file = reflectance_core::model::registry::load_path(&path).expect("models/ward6");
         Extractor::new(file.features.config).expect("its extractor")
     })
 }
@@ -184,7 +184,7 @@ fn detect_on_reduced_copy(bencher: Bencher, photo: &Photo) {
     let bytes = jpeg(photo);
     let d = decode::denominator_for(photo.width, photo.height, WORK_SIZE);
     let reduced = decode::decode_reduced(&bytes, &DecodeOptions::default(), d).expect("decode");
-    bencher.bench(|| geometry::detect(divan::black_box(reduced.image.luminance.view())).ok());
+    bencher.bench(|| locate::detect(divan::black_box(reduced.image.luminance.view())).ok());
 }
 
 /// The dev photograph, when present: 4096 × 3072, a ball of radius 201 px.

@@ -3,14 +3,14 @@
 //! Target (issue 3): ≤ 0.3 s per image on one core.
 
 use divan::Bencher;
-use reflectance::render::envmap::EnvMap;
-use reflectance::render::ward::Material;
-use reflectance::render::{Lighting, Quality, View, render};
-use reflectance::util::rng::Rng;
+use reflectance_core::util::rng::Rng;
+use reflectance_render::envmap::EnvMap;
+use reflectance_render::ward::Material;
+use reflectance_render::{Lighting, Quality, View, render};
 use std::sync::OnceLock;
 
 fn main() {
-    // As the binary does: see `reflectance::util::heap`.
+    // As the binary does: see `reflectance_core::util::heap`.
     assert!(reflectance::tune_heap(), "heap thresholds refused");
     divan::main();
 }

@@ -4,8 +4,8 @@
 //! Target: ≤ 20 ms for the mapping (docs/performance.md has the figures).
 
 use ndarray::Array2;
-use reflectance::image::normals::{NormalMap, equivalent_sphere};
 use reflectance::{Extractor, FeatureConfig};
+use reflectance_core::object::normals::{NormalMap, equivalent_sphere};
 
 fn main() {
     assert!(reflectance::tune_heap(), "heap thresholds refused");

@@ -4,7 +4,7 @@
 //! and limits on the number of members and the bytes unpacked (counted as they are
 //! written, whatever the archive declares) end the whole unpacking.
 
-use crate::dataset::ingest::Refusal;
+use reflectance_core::dataset::ingest::Refusal;
 use std::collections::BTreeSet;
 use std::fs::File;
 use std::io::{self, BufReader, Read, Seek, Write};

@@ -2,7 +2,7 @@
 //! lighting (Dror, Adelson & Willsky 2001). `docs/design.md` is the specification and
 //! `docs/architecture.md` the map. This crate is the binary's: the command line, the
 //! service and the reports, on `reflectance-core` (the pipeline, without HTTP) and
-//! `reflectance-render` (training data), whose modules it re-exports under their names.
+//! `reflectance-render` (training data), which it names by their own names.
 
 mod archive;
 mod cli;
@@ -10,9 +10,6 @@ mod heap;
 mod progress;
 mod report;
 mod server;
-
-pub use reflectance_core::{dataset, features, image, inference, learn, material, model, util};
-pub use reflectance_render as render;
 
 // The entry points for embedding: a photograph in, a classification out.
 pub use reflectance_core::{

@@ -3,8 +3,8 @@
 //! for logs of runs under `nohup` or CI. Nothing unless [`show_on_stderr`] was called: the
 //! server's stderr carries its logs, and its jobs report progress through the admin API.
 
-use crate::util::progress::Observer;
 use indicatif::{ProgressBar, ProgressStyle};
+use reflectance_core::util::progress::Observer;
 use std::io::{IsTerminal, Write};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};

@@ -6,7 +6,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use reflectance::{ArchiveLimits, unpack_archive as unpack};
-use reflectance::dataset::{ingest, read_manifest};
+use reflectance_core::dataset::{ingest, read_manifest};
 use std::path::{Component, Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 

@@ -5,10 +5,10 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use reflectance::features::analysis::{self, Locate, WhiteInput};
-use reflectance::features::{Extractor, FeatureConfig};
-use reflectance::image::decode::{DecodeOptions, Limits, decode, decode_reduced};
-use reflectance::image::geometry::Circle;
+use reflectance_core::analysis::{self, Locate, WhiteInput};
+use reflectance_core::features::{Extractor, FeatureConfig};
+use reflectance_core::decode::{DecodeOptions, Limits, decode, decode_reduced};
+use reflectance_core::locate::Circle;
 use std::sync::OnceLock;
 
 fn extractor() -> &'static Extractor {

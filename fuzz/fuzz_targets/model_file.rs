@@ -5,7 +5,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use reflectance::model::{ModelFile, checksum};
+use reflectance_core::model::{ModelFile, checksum};
 use reflectance::LoadedModel;
 use serde_json::Value;
 

@@ -7,9 +7,9 @@ use ndarray::Array2;
 use numpy::{PyReadonlyArray2, PyReadonlyArray3, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
-use reflectance_core::features::analysis;
-use reflectance_core::image::decode::{self, DecodeOptions, Encoding, LinearImage};
-use reflectance_core::image::normals::NormalMap;
+use reflectance_core::analysis;
+use reflectance_core::decode::{self, DecodeOptions, Encoding, LinearImage};
+use reflectance_core::object::normals::NormalMap;
 use std::path::PathBuf;
 
 /// An image: a file to decode, or linear luminance.

@@ -11,11 +11,11 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use reflectance_core::features::analysis::{self, AnalysisError, Locate, WhiteInput};
+use reflectance_core::analysis::{self, AnalysisError, Locate, WhiteInput};
+use reflectance_core::decode::LinearImage;
 use reflectance_core::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
-use reflectance_core::image::decode::LinearImage;
-use reflectance_core::image::geometry::GeometryError;
 use reflectance_core::inference::{self, Answer, InferenceError, LoadedModel, Placement};
+use reflectance_core::locate::GeometryError;
 use reflectance_core::model::registry;
 use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
@@ -95,7 +95,7 @@ fn locate(
 fn white_input(white: Option<f64>) -> PyResult<WhiteInput> {
     match white {
         Some(value) => {
-            reflectance_core::image::white::given(value).map_err(error)?;
+            reflectance_core::white::given(value).map_err(error)?;
             Ok(WhiteInput::Value(value))
         }
         None => Ok(WhiteInput::Missing),

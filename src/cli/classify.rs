@@ -3,12 +3,12 @@
 //! manifest; the same pipeline and, with `--json`, the same JSON as `POST /v1/classify`.
 
 use super::{CliError, CliResult, LimitArgs, SphereArgs};
-use crate::image::decode::Encoding;
-use crate::inference::{
+use clap::Args;
+use reflectance_core::decode::Encoding;
+use reflectance_core::inference::{
     self, Answer, ClassifyResponse, InferenceError, Input, LoadedModel, LocateSpec, WhiteSpec,
 };
-use crate::model::registry;
-use clap::Args;
+use reflectance_core::model::registry;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -151,7 +151,7 @@ fn write_gltf(path: &Path, answer: &ClassifyResponse, which: GltfMaterial) -> Cl
         };
         return Err(CliError::Invalid(format!("--gltf-material: {why}")));
     };
-    let material = crate::material::Material {
+    let material = reflectance_core::material::Material {
         name: chosen.name.clone(),
         rho_d: chosen.ward.rho_d,
         rho_s: chosen.ward.rho_s,
@@ -251,11 +251,11 @@ fn summary(answer: &ClassifyResponse) -> String {
         g.cy,
         g.r,
         inference::wire_name(&g.method),
-        crate::dataset::format_f64(answer.white.value),
+        reflectance_core::dataset::format_f64(answer.white.value),
         inference::wire_name(&answer.white.method)
     ));
     if let Some(w) = &answer.ward {
-        let part = |name: &str, i: &crate::learn::estimate::Interval| {
+        let part = |name: &str, i: &reflectance_core::estimate::Interval| {
             format!("{name} {:.3} [{:.3}, {:.3}]", i.value, i.low, i.high)
         };
         let mut parts = Vec::new();

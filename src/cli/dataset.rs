@@ -3,10 +3,10 @@
 //! as the server would.
 
 use super::{CliError, CliResult, LimitArgs};
-use crate::dataset::ingest::{self, Coverage};
-use crate::dataset::{Entry, Manifest, read_manifest};
 use crate::progress;
 use clap::{Args, Subcommand};
+use reflectance_core::dataset::ingest::{self, Coverage};
+use reflectance_core::dataset::{Entry, Manifest, read_manifest};
 use std::path::{Path, PathBuf};
 
 #[derive(Subcommand, Debug)]

@@ -1,19 +1,19 @@
 //! The command line's failures: the layers' own errors, as they are, and what the command
 //! line itself refuses. Each prints as one line on stderr (`main`).
 
-use crate::dataset::DatasetError;
-use crate::features::ConfigError;
-use crate::image::decode::DecodeError;
-use crate::image::geometry::GeometryError;
-use crate::image::white::WhiteError;
-use crate::learn::LearnError;
-use crate::material::ClassFileError;
-use crate::model::ModelError;
-use crate::model::registry::RegistryError;
-use crate::model::train::TrainError;
-use crate::render::batch::RenderError;
 use crate::report::ReportError;
-use crate::util::shard::ShardError;
+use reflectance_core::dataset::DatasetError;
+use reflectance_core::decode::DecodeError;
+use reflectance_core::features::ConfigError;
+use reflectance_core::learn::LearnError;
+use reflectance_core::locate::GeometryError;
+use reflectance_core::material::ClassFileError;
+use reflectance_core::model::ModelError;
+use reflectance_core::model::registry::RegistryError;
+use reflectance_core::model::train::TrainError;
+use reflectance_core::util::shard::ShardError;
+use reflectance_core::white::WhiteError;
+use reflectance_render::batch::RenderError;
 
 #[derive(Debug, thiserror::Error)]
 pub enum CliError {
@@ -28,7 +28,7 @@ pub enum CliError {
     #[error(transparent)]
     White(#[from] WhiteError),
     #[error(transparent)]
-    Input(#[from] crate::inference::InputError),
+    Input(#[from] reflectance_core::inference::InputError),
     #[error(transparent)]
     Learn(#[from] LearnError),
     #[error(transparent)]

@@ -2,13 +2,13 @@
 //! [--shard I/N]` (CSV).
 
 use super::{CliError, CliResult, LimitArgs, SphereArgs};
-use crate::dataset::{self, Manifest};
-use crate::features::Extractor;
-use crate::features::analysis::{self, Locate, WhiteInput};
-use crate::image::decode::{self, DecodeOptions, Encoding};
-use crate::image::geometry::Circle;
-use crate::util::shard::Shard;
 use clap::Args;
+use reflectance_core::analysis::{self, Locate, WhiteInput};
+use reflectance_core::dataset::{self, Manifest};
+use reflectance_core::decode::{self, DecodeOptions, Encoding};
+use reflectance_core::features::Extractor;
+use reflectance_core::locate::Circle;
+use reflectance_core::util::shard::Shard;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -34,7 +34,7 @@ pub struct FeaturesArgs {
     #[arg(long, value_name = "I/N", requires = "manifest")]
     shard: Option<Shard>,
     #[command(flatten)]
-    extensions: crate::features::FeatureOptions,
+    extensions: reflectance_core::features::FeatureOptions,
     #[command(flatten)]
     limits: LimitArgs,
 }
@@ -43,8 +43,8 @@ pub struct FeaturesArgs {
 struct Output<'a> {
     names: Vec<String>,
     values: &'a [f64],
-    geometry: &'a crate::image::geometry::Geometry,
-    white: &'a crate::image::white::White,
+    geometry: &'a reflectance_core::locate::Geometry,
+    white: &'a reflectance_core::white::White,
     warnings: &'a [String],
 }
 

@@ -1,11 +1,11 @@
 //! `reflectance gltf`: Ward materials as glTF 2.0 assets (a sphere with the material) for
 //! renderers: every class of a class file, or one (ρd, ρs, α). The mapping:
-//! [`crate::material::gltf`].
+//! [`reflectance_core::material::gltf`].
 
 use super::{CliError, CliResult};
-use crate::material::gltf::{Container, Rgb, parse_colour, sphere};
-use crate::material::{Material, load_classes};
 use clap::{Args, ValueEnum};
+use reflectance_core::material::gltf::{Container, Rgb, parse_colour, sphere};
+use reflectance_core::material::{Material, load_classes};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
@@ -58,9 +58,10 @@ pub(super) fn write(
 ) -> CliResult {
     material
         .validate()
-        .map_err(crate::material::ClassFileError::from)?;
+        .map_err(reflectance_core::material::ClassFileError::from)?;
     let bytes = sphere(material, colour, about).encode(Container::of_path(path));
-    crate::util::durable::write_atomic(path, &bytes).map_err(|e| CliError::at(path.display(), e))
+    reflectance_core::util::durable::write_atomic(path, &bytes)
+        .map_err(|e| CliError::at(path.display(), e))
 }
 
 pub fn run(args: GltfArgs) -> CliResult {
@@ -82,7 +83,7 @@ pub fn run(args: GltfArgs) -> CliResult {
         }
         (None, Some(rho_d), Some(rho_s), Some(alpha)) => {
             let name = args.name.unwrap_or_else(|| "material".into());
-            if !crate::model::registry::valid_name(&name) {
+            if !reflectance_core::model::registry::valid_name(&name) {
                 return Err(CliError::Invalid(format!(
                     "--name {name:?}: use 1–64 of a-z, 0-9, '_' and '-'"
                 )));

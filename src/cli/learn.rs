@@ -1,19 +1,20 @@
 //! `reflectance cv`, `train` and `predict`.
 
 use super::{CliError, CliResult, LimitArgs};
-use crate::dataset::{self, FeatureTable, Manifest};
-use crate::features::{CaptureMeasurements, Extractor, FeatureConfig};
-use crate::inference;
-use crate::learn::estimate;
-use crate::learn::{CvReport, DEFAULT_C, Dataset, FeatureSet, SpecText, TrainSpec};
-use crate::material::load_classes;
-use crate::model::Request;
-use crate::model::publish::{Activate, Current};
-use crate::model::registry::{self, Registry};
-use crate::model::train::{self, TrainOptions};
 use crate::progress;
 use crate::report::estimate::Protocol;
 use clap::Args;
+use reflectance_core::classify::{CvReport, DEFAULT_C, SpecText, TrainSpec};
+use reflectance_core::dataset::{self, FeatureTable, Manifest};
+use reflectance_core::estimate;
+use reflectance_core::features::{CaptureMeasurements, Extractor, FeatureConfig};
+use reflectance_core::inference;
+use reflectance_core::learn::{Dataset, FeatureSet};
+use reflectance_core::material::load_classes;
+use reflectance_core::model::Request;
+use reflectance_core::model::publish::{Activate, Current};
+use reflectance_core::model::registry::{self, Registry};
+use reflectance_core::model::train::{self, TrainOptions};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -76,7 +77,7 @@ pub struct SpecArgs {
     /// With --manifest: extensions of the extracted features (implied by sets that name
     /// them, such as hand6+log).
     #[command(flatten)]
-    extensions: crate::features::FeatureOptions,
+    extensions: reflectance_core::features::FeatureOptions,
     /// svm, nn (1-NN), knn5 or chance.
     #[arg(long, default_value = "svm")]
     classifier: String,
@@ -91,7 +92,7 @@ pub struct SpecArgs {
     grid: bool,
     /// Folds of illuminations whose held-out decision values calibrate the probabilities,
     /// the prediction sets and the domain check (0: every illumination held out in turn).
-    #[arg(long, default_value_t = crate::learn::pipeline::CALIBRATION_FOLDS)]
+    #[arg(long, default_value_t = reflectance_core::classify::pipeline::CALIBRATION_FOLDS)]
     calibration_folds: usize,
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -227,7 +228,7 @@ pub fn cv(args: CvArgs) -> CliResult {
     let spec = args.spec.spec(&table.names)?;
     let ds = Dataset::from_table(&table)?;
     let report = progress::observed("cv", |bar| {
-        crate::learn::cross_validate_with(&ds, &spec, args.spec.seed, bar)
+        reflectance_core::classify::cross_validate_with(&ds, &spec, args.spec.seed, bar)
     })?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
@@ -483,7 +484,7 @@ pub struct TrainObjectsArgs {
     models: PathBuf,
     /// Folds of illuminations whose held-out decision values calibrate the classifier for
     /// objects (0: every illumination held out in turn).
-    #[arg(long, default_value_t = crate::learn::pipeline::CALIBRATION_FOLDS)]
+    #[arg(long, default_value_t = reflectance_core::classify::pipeline::CALIBRATION_FOLDS)]
     calibration_folds: usize,
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -563,9 +564,9 @@ pub fn predict(args: PredictArgs) -> CliResult {
     csv.push('\n');
     let coverage = args
         .coverage
-        .map(crate::learn::conformal::check_coverage)
+        .map(reflectance_core::classify::conformal::check_coverage)
         .transpose()?
-        .unwrap_or(crate::learn::conformal::DEFAULT_COVERAGE);
+        .unwrap_or(reflectance_core::classify::conformal::DEFAULT_COVERAGE);
     let layout = model.features.config.layout();
     let mut tally = Tally::default();
     for (sample, entry) in table.samples.iter().zip(&manifest.entries) {
@@ -627,7 +628,7 @@ pub fn predict(args: PredictArgs) -> CliResult {
             &decision,
         );
     }
-    crate::util::durable::write_atomic(&args.out, csv.as_bytes())
+    reflectance_core::util::durable::write_atomic(&args.out, csv.as_bytes())
         .map_err(|e| CliError::at(args.out.display(), e))?;
     print!("{}", tally.summary(&name, version, coverage));
     match (&args.ward_classes, estimator) {

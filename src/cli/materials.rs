@@ -2,8 +2,8 @@
 //! over continuous Ward parameters (a Latin-hypercube design), for `render --classes`.
 
 use super::{CliError, CliResult};
-use crate::render::design::{self, Ranges};
 use clap::Args;
+use reflectance_render::design::{self, Ranges};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -33,7 +33,7 @@ pub fn run(args: MaterialsArgs) -> CliResult {
         "classes": materials,
     });
     let text = serde_json::to_string_pretty(&file)?;
-    crate::util::durable::write_atomic(&args.out, format!("{text}\n").as_bytes())
+    reflectance_core::util::durable::write_atomic(&args.out, format!("{text}\n").as_bytes())
         .map_err(|e| CliError::at(args.out.display(), e))?;
     println!("{}", args.out.display());
     Ok(())

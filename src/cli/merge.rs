@@ -2,8 +2,8 @@
 //! the file the unsharded run writes.
 
 use super::CliResult;
-use crate::util::shard;
 use clap::Args;
+use reflectance_core::util::shard;
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]

@@ -15,8 +15,8 @@ mod serve;
 
 pub use error::{CliError, CliResult};
 
-use crate::image::white::Rect;
 use clap::{Args, Parser, Subcommand};
+use reflectance_core::white::Rect;
 use std::process::ExitCode;
 
 #[derive(Parser, Debug)]
@@ -74,19 +74,19 @@ enum Command {
 #[derive(Args, Debug, Clone, Copy)]
 pub struct LimitArgs {
     /// Largest accepted image width in pixels.
-    #[arg(long, env = "REFLECTANCE_MAX_WIDTH", default_value_t = crate::image::decode::Limits::default().max_width)]
+    #[arg(long, env = "REFLECTANCE_MAX_WIDTH", default_value_t = reflectance_core::decode::Limits::default().max_width)]
     max_width: u32,
     /// Largest accepted image height in pixels.
-    #[arg(long, env = "REFLECTANCE_MAX_HEIGHT", default_value_t = crate::image::decode::Limits::default().max_height)]
+    #[arg(long, env = "REFLECTANCE_MAX_HEIGHT", default_value_t = reflectance_core::decode::Limits::default().max_height)]
     max_height: u32,
     /// Largest accepted number of pixels.
-    #[arg(long, env = "REFLECTANCE_MAX_PIXELS", default_value_t = crate::image::decode::Limits::default().max_pixels)]
+    #[arg(long, env = "REFLECTANCE_MAX_PIXELS", default_value_t = reflectance_core::decode::Limits::default().max_pixels)]
     max_pixels: u64,
 }
 
 impl LimitArgs {
-    pub fn limits(&self) -> crate::image::decode::Limits {
-        crate::image::decode::Limits {
+    pub fn limits(&self) -> reflectance_core::decode::Limits {
+        reflectance_core::decode::Limits {
             max_width: self.max_width,
             max_height: self.max_height,
             max_pixels: self.max_pixels,
@@ -95,8 +95,8 @@ impl LimitArgs {
 
     /// Decoding within these limits, each file with its own encoding (a manifest's column,
     /// else sRGB).
-    pub fn decode_options(&self) -> crate::image::decode::DecodeOptions {
-        crate::image::decode::DecodeOptions {
+    pub fn decode_options(&self) -> reflectance_core::decode::DecodeOptions {
+        reflectance_core::decode::DecodeOptions {
             encoding: None,
             limits: self.limits(),
             colour: false,
@@ -156,9 +156,9 @@ pub struct SphereArgs {
 
 /// An analysis failure in the command line's words: a sphere detection cannot find asks for
 /// the flags that place it.
-fn analysis_error(e: &crate::features::analysis::AnalysisError) -> String {
-    use crate::features::analysis::AnalysisError;
-    use crate::image::geometry::GeometryError;
+fn analysis_error(e: &reflectance_core::analysis::AnalysisError) -> String {
+    use reflectance_core::analysis::AnalysisError;
+    use reflectance_core::locate::GeometryError;
     match e {
         AnalysisError::Geometry(GeometryError::DetectionFailed { .. }) => {
             format!("{e}; give --cx, --cy and --r, or --mask")
@@ -219,7 +219,7 @@ mod tests {
                 .expect("a subcommand")
                 .render_long_help()
                 .to_string();
-            for set in crate::features::NAMED_SETS {
+            for set in reflectance_core::features::NAMED_SETS {
                 assert!(help.contains(set), "`{command} --help` does not name {set}");
             }
         }

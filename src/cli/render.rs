@@ -2,11 +2,11 @@
 //! [--shape SHAPE] [--shard I/N]`.
 
 use super::CliResult;
-use crate::render::Quality;
-use crate::render::batch::{self, Augment, BatchSpec};
-use crate::render::shapes::ShapeSpec;
-use crate::util::shard::Shard;
 use clap::Args;
+use reflectance_core::util::shard::Shard;
+use reflectance_render::Quality;
+use reflectance_render::batch::{self, Augment, BatchSpec};
+use reflectance_render::shapes::ShapeSpec;
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
@@ -74,7 +74,7 @@ pub struct RenderArgs {
 pub fn run(args: RenderArgs) -> CliResult {
     let spec = BatchSpec {
         probes: batch::probe_list(&args.probes)?,
-        classes: crate::material::load_classes(&args.classes)?,
+        classes: reflectance_core::material::load_classes(&args.classes)?,
         out: args.out,
         size: args.size,
         seed: args.seed,

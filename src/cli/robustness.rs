@@ -3,10 +3,10 @@
 //! (Markdown, JSON and a PNG plot).
 
 use super::{CliResult, RunArgs};
-use crate::dataset;
-use crate::render::capture::CaptureRanges;
 use crate::report::robustness;
 use clap::Args;
+use reflectance_core::dataset;
+use reflectance_render::capture::CaptureRanges;
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]

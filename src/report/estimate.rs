@@ -4,11 +4,11 @@
 
 use super::ReportError;
 use super::plots::{plot_error, render_png};
-use crate::learn::estimate::{
+use plotters::prelude::*;
+use reflectance_core::estimate::{
     Errors, EstimateDetails, EstimateReport, HeldOut, Interval, MIRROR_LOG_ALPHA,
 };
-use crate::learn::matrix::parse_illumination;
-use plotters::prelude::*;
+use reflectance_core::learn::matrix::parse_illumination;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -57,9 +57,11 @@ pub fn write(
     let json = serde_json::to_vec_pretty(&Written { report, details }).map_err(plot_error)?;
     let file = |name: &str, bytes: &[u8]| {
         let path = out.join(name);
-        crate::util::durable::write_atomic(&path, bytes).map_err(|source| ReportError::Io {
-            path: path.display().to_string(),
-            source,
+        reflectance_core::util::durable::write_atomic(&path, bytes).map_err(|source| {
+            ReportError::Io {
+                path: path.display().to_string(),
+                source,
+            }
         })
     };
     file("estimate.json", &json)?;

@@ -20,11 +20,12 @@ pub mod estimate;
 mod plots;
 pub(crate) mod robustness;
 
-use crate::dataset::{self, FeatureTable};
-use crate::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
-use crate::image::decode::DecodeOptions;
-use crate::learn::estimate::{self as ward, EstimateReport};
-use crate::learn::{self, ClassifierKind, CvReport, Dataset, FeatureSet, TrainSpec};
+use reflectance_core::classify::{self, ClassifierKind, CvReport, TrainSpec};
+use reflectance_core::dataset::{self, FeatureTable};
+use reflectance_core::decode::DecodeOptions;
+use reflectance_core::estimate::{self as ward, EstimateReport};
+use reflectance_core::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
+use reflectance_core::learn::{self, Dataset, FeatureSet};
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -100,7 +101,7 @@ pub struct Cell {
     pub log_loss: f64,
     pub ece: f64,
     pub paper: Option<f64>,
-    pub per_class: Vec<learn::cv::ClassScore>,
+    pub per_class: Vec<classify::cv::ClassScore>,
     pub confusion: Vec<Vec<usize>>,
     pub classes: Vec<String>,
 }
@@ -250,7 +251,7 @@ pub fn run(
             FeatureSet::parse_with(set, &table.names)?,
             classifier.parse::<ClassifierKind>()?,
         );
-        let report = learn::cross_validate(ds, &spec, seed)?;
+        let report = classify::cross_validate(ds, &spec, seed)?;
         let plotted =
             classifier == "svm" && ((set, protocol) == ("hand6", "paper") || set == "hand6+log");
         if plotted {
@@ -291,7 +292,7 @@ fn estimate_of(
     if !dir.join("manifest.csv").is_file() {
         return Ok(None);
     }
-    let materials = crate::material::load_classes(&dir.join(classes)).map_err(|e| {
+    let materials = reflectance_core::material::load_classes(&dir.join(classes)).map_err(|e| {
         ReportError::Input(format!(
             "{}: {e} (the materials' class file, as rendered, belongs beside the manifest)",
             dir.display()
@@ -309,7 +310,7 @@ fn estimate_of(
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
-    crate::util::durable::write_atomic(path, bytes).map_err(|source| ReportError::Io {
+    reflectance_core::util::durable::write_atomic(path, bytes).map_err(|source| ReportError::Io {
         path: path.display().to_string(),
         source,
     })

@@ -4,9 +4,10 @@
 //! skipped with a note on stderr.
 
 use super::ReportError;
-use crate::dataset::FeatureTable;
-use crate::learn::{self, ClassifierKind, CvReport, Dataset, FeatureSet, TrainSpec};
 use plotters::prelude::*;
+use reflectance_core::classify::{self, ClassifierKind, CvReport, TrainSpec};
+use reflectance_core::dataset::FeatureTable;
+use reflectance_core::learn::{Dataset, FeatureSet};
 use std::path::Path;
 use std::sync::OnceLock;
 
@@ -90,7 +91,7 @@ pub(super) fn render_png(
         image::ExtendedColorType::Rgb8,
     )
     .map_err(plot_error)?;
-    crate::util::durable::write_atomic(path, &png).map_err(|source| ReportError::Io {
+    reflectance_core::util::durable::write_atomic(path, &png).map_err(|source| ReportError::Io {
         path: path.display().to_string(),
         source,
     })
@@ -160,7 +161,7 @@ pub fn confusion(report: &CvReport, path: &Path) -> Result<(), ReportError> {
 /// decision regions of an SVM trained on those two features.
 pub fn fig7(table: &FeatureTable, ds: &Dataset, seed: u64, path: &Path) -> Result<(), ReportError> {
     let spec = TrainSpec::new(FeatureSet::Named("hand2"), ClassifierKind::Svm);
-    let model = learn::fit(ds, &spec, seed)?;
+    let model = classify::fit(ds, &spec, seed)?;
     let column = |name: &str| {
         table
             .names

@@ -1,4 +1,4 @@
-//! Accuracy through the camera: every test render captured by [`crate::render::capture`] at each
+//! Accuracy through the camera: every test render captured by [`reflectance_render::capture`] at each
 //! setting of a sweep (one factor at a time around a clean baseline, the extremes of the
 //! ranges all at once, and settings drawn at random within the ranges), then classified by
 //! each model exactly as the service would (`inference::classify` on the captured file,
@@ -6,16 +6,18 @@
 
 use super::ReportError;
 use super::plots::{colour, plot_error, render_png};
-use crate::dataset::{self, Manifest};
-use crate::image::decode::{self, DecodeOptions};
-use crate::image::geometry::Circle;
-use crate::inference::{self, Answer, Input, LoadedModel, LocateSpec, WhiteSpec};
 use crate::progress;
-use crate::render::capture::{self, CaptureRanges, CaptureSettings, DrawSettings, Quantization};
-use crate::util::rng::Rng;
 use ndarray::Array2;
 use plotters::prelude::*;
 use rayon::prelude::*;
+use reflectance_core::dataset::{self, Manifest};
+use reflectance_core::decode::{self, DecodeOptions};
+use reflectance_core::inference::{self, Answer, Input, LoadedModel, LocateSpec, WhiteSpec};
+use reflectance_core::locate::Circle;
+use reflectance_core::util::rng::Rng;
+use reflectance_render::capture::{
+    self, CaptureRanges, CaptureSettings, DrawSettings, Quantization,
+};
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -341,7 +343,7 @@ struct Shot {
     bytes: bytes::Bytes,
     white: f64,
     circle: Circle,
-    encoding: Option<crate::image::decode::Encoding>,
+    encoding: Option<reflectance_core::decode::Encoding>,
 }
 
 fn photograph(image: &TestImage, camera: Camera, rng: &mut Rng) -> Result<Shot, ReportError> {
@@ -350,7 +352,7 @@ fn photograph(image: &TestImage, camera: Camera, rng: &mut Rng) -> Result<Shot, 
             let (h, w) = image.luminance.dim();
             let values: Vec<f32> = image.luminance.iter().map(|&v| v as f32).collect();
             return Ok(Shot {
-                bytes: crate::image::decode::pfm::encode_gray(w, h, &values).into(),
+                bytes: reflectance_core::decode::pfm::encode_gray(w, h, &values).into(),
                 white: image.white,
                 circle: image.circle,
                 encoding: None,
@@ -438,7 +440,8 @@ pub fn load_models(
         .iter()
         .map(|path| {
             let fail = |e: String| ReportError::Input(format!("{}: {e}", path.display()));
-            let file = crate::model::registry::load_path(path).map_err(|e| fail(e.to_string()))?;
+            let file = reflectance_core::model::registry::load_path(path)
+                .map_err(|e| fail(e.to_string()))?;
             let model = LoadedModel::new(file).map_err(|e| fail(e.to_string()))?;
             Ok((path.display().to_string(), Arc::new(model)))
         })
@@ -453,9 +456,11 @@ pub fn write(cells: &[Cell], models: &[String], out: &Path) -> Result<(), Report
     })?;
     let save = |name: &str, bytes: &[u8]| {
         let path = out.join(name);
-        crate::util::durable::write_atomic(&path, bytes).map_err(|source| ReportError::Io {
-            path: path.display().to_string(),
-            source,
+        reflectance_core::util::durable::write_atomic(&path, bytes).map_err(|source| {
+            ReportError::Io {
+                path: path.display().to_string(),
+                source,
+            }
         })
     };
     save("robustness.md", markdown(cells, models).as_bytes())?;

@@ -4,7 +4,7 @@
 //! environment.
 
 use crate::archive::ArchiveLimits;
-use crate::image::decode::Limits;
+use reflectance_core::decode::Limits;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -187,7 +187,7 @@ impl Config {
         if self.admin_token.is_none() && !self.admin_listen.ip().is_loopback() {
             return Err(InvalidConfig::OpenAdmin(self.admin_listen));
         }
-        if !crate::model::registry::valid_name(&self.default_model) {
+        if !reflectance_core::model::registry::valid_name(&self.default_model) {
             return Err(InvalidConfig::DefaultModel(self.default_model.clone()));
         }
         let counts = [

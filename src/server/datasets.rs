@@ -11,11 +11,11 @@ use super::config::DatasetLimits;
 use super::error::{ApiError, Kind};
 use super::jobs::JobManager;
 use crate::archive;
-use crate::dataset::ingest::{self, Coverage, Refusal};
-use crate::dataset::{self, read_manifest};
-use crate::image::decode::DecodeOptions;
-use crate::util::durable::write_atomic;
-use crate::util::progress::Observer;
+use reflectance_core::dataset::ingest::{self, Coverage, Refusal};
+use reflectance_core::dataset::{self, read_manifest};
+use reflectance_core::decode::DecodeOptions;
+use reflectance_core::util::durable::write_atomic;
+use reflectance_core::util::progress::Observer;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -159,7 +159,7 @@ fn not_found(name: &str) -> ApiError {
 
 /// A dataset name: what model names may be.
 pub fn check_name(name: &str) -> Result<(), ApiError> {
-    if crate::model::registry::valid_name(name) {
+    if reflectance_core::model::registry::valid_name(name) {
         Ok(())
     } else {
         Err(ApiError::new(
@@ -270,7 +270,7 @@ impl DatasetStore {
         let info = DatasetInfo {
             name: name.to_string(),
             dataset: Self::relative(name).join(MANIFEST).display().to_string(),
-            created: crate::model::now_rfc3339(),
+            created: reflectance_core::model::now_rfc3339(),
             images: checked.entries.len(),
             located: checked.located,
             refused,
@@ -310,7 +310,7 @@ impl DatasetStore {
         };
         let mut names: Vec<String> = entries
             .filter_map(|e| e.ok()?.file_name().into_string().ok())
-            .filter(|n| crate::model::registry::valid_name(n))
+            .filter(|n| reflectance_core::model::registry::valid_name(n))
             .collect();
         names.sort();
         let datasets = names.iter().filter_map(|n| self.info(n).ok()).collect();

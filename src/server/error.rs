@@ -33,13 +33,13 @@ use serde::Serialize;
 use std::borrow::Cow;
 use utoipa::ToSchema;
 
-use crate::features::analysis::AnalysisError;
-use crate::image::decode::DecodeError;
-use crate::image::geometry::GeometryError;
-use crate::image::white::WhiteError;
-use crate::learn::LearnError;
-use crate::model::ModelError;
-use crate::model::registry::RegistryError;
+use reflectance_core::analysis::AnalysisError;
+use reflectance_core::decode::DecodeError;
+use reflectance_core::learn::LearnError;
+use reflectance_core::locate::GeometryError;
+use reflectance_core::model::ModelError;
+use reflectance_core::model::registry::RegistryError;
+use reflectance_core::white::WhiteError;
 
 pub const PROBLEM_JSON: &str = "application/problem+json";
 const TYPE_PREFIX: &str = "urn:reflectance:problem:";
@@ -452,9 +452,9 @@ impl From<GeometryError> for ApiError {
     }
 }
 
-impl From<crate::inference::InputError> for ApiError {
-    fn from(e: crate::inference::InputError) -> ApiError {
-        use crate::inference::InputError as E;
+impl From<reflectance_core::inference::InputError> for ApiError {
+    fn from(e: reflectance_core::inference::InputError) -> ApiError {
+        use reflectance_core::inference::InputError as E;
         let kind = match e {
             E::Geometry(e) => return e.into(),
             E::White(e) => return e.into(),
@@ -485,8 +485,8 @@ impl From<WhiteError> for ApiError {
     }
 }
 
-impl From<crate::render::preview::PreviewError> for ApiError {
-    fn from(e: crate::render::preview::PreviewError) -> ApiError {
+impl From<reflectance_render::preview::PreviewError> for ApiError {
+    fn from(e: reflectance_render::preview::PreviewError) -> ApiError {
         ApiError::new(Kind::InvalidField, e.to_string())
     }
 }
@@ -504,9 +504,9 @@ impl From<AnalysisError> for ApiError {
     }
 }
 
-impl From<crate::image::normals::NormalsError> for ApiError {
-    fn from(e: crate::image::normals::NormalsError) -> ApiError {
-        use crate::image::normals::NormalsError as E;
+impl From<reflectance_core::object::normals::NormalsError> for ApiError {
+    fn from(e: reflectance_core::object::normals::NormalsError) -> ApiError {
+        use reflectance_core::object::normals::NormalsError as E;
         match e {
             E::Decode(source) => {
                 let mut e = ApiError::from(source);
@@ -518,9 +518,9 @@ impl From<crate::image::normals::NormalsError> for ApiError {
     }
 }
 
-impl From<crate::inference::InferenceError> for ApiError {
-    fn from(e: crate::inference::InferenceError) -> ApiError {
-        use crate::inference::InferenceError as E;
+impl From<reflectance_core::inference::InferenceError> for ApiError {
+    fn from(e: reflectance_core::inference::InferenceError) -> ApiError {
+        use reflectance_core::inference::InferenceError as E;
         match e {
             E::Decode { part, source } => {
                 let mut e = ApiError::from(source);
@@ -724,7 +724,7 @@ mod tests {
             (DecodeError::UnsupportedFormat, 415),
             (
                 DecodeError::Corrupt {
-                    format: crate::image::decode::Format::Png,
+                    format: reflectance_core::decode::Format::Png,
                     detail: "x".into(),
                 },
                 422,

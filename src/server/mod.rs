@@ -47,7 +47,7 @@ pub enum StartError {
         reason: String,
     },
     #[error(transparent)]
-    Registry(#[from] crate::model::registry::RegistryError),
+    Registry(#[from] reflectance_core::model::registry::RegistryError),
     #[error("the model registry: {0}")]
     Models(String),
     #[error(transparent)]
@@ -71,7 +71,7 @@ pub enum StartError {
 pub fn build_state(config: Config) -> Result<SharedState, StartError> {
     config.check()?;
     let _ = metrics::handle();
-    let registry = crate::model::registry::Registry::new(&config.models);
+    let registry = reflectance_core::model::registry::Registry::new(&config.models);
     match registry.clean_staging() {
         Ok(0) => {}
         Ok(n) => tracing::info!(removed = n, "removed staging leftovers from the registry"),
@@ -275,16 +275,16 @@ pub async fn serve(
 }
 
 /// `reflectance serve`: everything, from configuration to shutdown.
-/// (The binary has already tuned the heap for repeated requests: `crate::util::heap`.)
+/// (The binary has already tuned the heap for repeated requests: `reflectance_core::util::heap`.)
 pub fn run(config: Config) -> Result<(), StartError> {
     init_logging(&config);
     // Before claiming to listen: the registry is there and holds the default model (its
     // file is verified while the server already answers, as loading takes a while).
-    let registry = crate::model::registry::Registry::new(&config.models);
+    let registry = reflectance_core::model::registry::Registry::new(&config.models);
     registry
         .active(&config.default_model)
         .map_err(|e| match e {
-            crate::model::registry::RegistryError::UnknownModel(name) => {
+            reflectance_core::model::registry::RegistryError::UnknownModel(name) => {
                 StartError::NoDefaultModel {
                     name,
                     registry: config.models.display().to_string(),

@@ -94,7 +94,7 @@ impl Modify for Extras {
     components(schemas(
         Problem,
         classify::RawInput,
-        crate::inference::ClassifyResponse,
+        reflectance_core::inference::ClassifyResponse,
         locate::LocateForm,
         datasets::DatasetForm,
         jobs::JobRequest,

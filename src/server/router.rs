@@ -37,7 +37,8 @@ fn new_request_id() -> String {
         let nanos = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0, |d| d.as_nanos() as u64);
-        crate::util::rng::Rng::new(nanos ^ u64::from(std::process::id()).rotate_left(32)).next_u64()
+        reflectance_core::util::rng::Rng::new(nanos ^ u64::from(std::process::id()).rotate_left(32))
+            .next_u64()
     });
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
     format!("{prefix:016x}{n:016x}")

@@ -6,7 +6,7 @@ use super::error::{ApiError, Kind};
 use super::jobs::JobManager;
 use super::metrics;
 pub use super::store::ModelStore;
-pub use crate::inference::LoadedModel;
+pub use reflectance_core::inference::LoadedModel;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, Ordering};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore};

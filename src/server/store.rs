@@ -3,8 +3,8 @@
 
 use super::error::{ApiError, Kind};
 use super::metrics;
-use crate::inference::LoadedModel;
-use crate::model::registry::{Registry, RegistryError};
+use reflectance_core::inference::LoadedModel;
+use reflectance_core::model::registry::{Registry, RegistryError};
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex, RwLock};
 
@@ -191,7 +191,7 @@ impl ModelStore {
         })?;
         let previous = self.active(name).map(|m| m.version());
         self.install(model);
-        crate::util::durable::test_pause("activate");
+        reflectance_core::util::durable::test_pause("activate");
         let warning = self.registry.set_active(name, version).err().map(|e| {
             let warning = format!(
                 "activation of {name} version {version} holds in memory only: the registry \

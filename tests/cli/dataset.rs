@@ -60,7 +60,8 @@ fn a_folder_of_photographs_is_packed_with_every_sphere_located() {
     };
     let unpacked = reflectance::unpack_archive(&out, &unpacked_dir, limits).unwrap();
     assert_eq!(unpacked.files.len(), 7, "{:?}", unpacked.files);
-    let manifest = reflectance::dataset::read_manifest(&unpacked_dir.join("manifest.csv")).unwrap();
+    let manifest =
+        reflectance_core::dataset::read_manifest(&unpacked_dir.join("manifest.csv")).unwrap();
     assert_eq!(manifest.entries.len(), 6);
     for entry in &manifest.entries {
         let circle = entry.circle.expect("every row has its circle");

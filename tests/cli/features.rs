@@ -171,8 +171,8 @@ fn manifest_to_feature_table() {
         out_csv.to_str().unwrap(),
     ]);
     common::assert_success(&out);
-    let table = reflectance::dataset::FeatureTable::read(&out_csv).unwrap();
-    assert_eq!(table.names, reflectance::features::default_names());
+    let table = reflectance_core::dataset::FeatureTable::read(&out_csv).unwrap();
+    assert_eq!(table.names, reflectance_core::features::default_names());
     assert_eq!(table.samples.len(), 3);
     assert_eq!(
         (

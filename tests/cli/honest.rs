@@ -4,7 +4,7 @@
 //! verdict the service gives, tests/server/honest.rs).
 
 use crate::common::{README_SPHERE_FLAGS, assert_success, fixtures};
-use reflectance::util::rng::Rng;
+use reflectance_core::util::rng::Rng;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -3,11 +3,12 @@
 
 use crate::common;
 
-use reflectance::dataset::FeatureTable;
-use reflectance::learn::{ClassifierKind, FeatureSet, TrainSpec};
-use reflectance::model::registry::{Registry, RegistryError};
-use reflectance::model::train::{TrainOptions, train};
-use reflectance::model::{ModelError, ModelFile};
+use reflectance_core::classify::{ClassifierKind, TrainSpec};
+use reflectance_core::dataset::FeatureTable;
+use reflectance_core::learn::FeatureSet;
+use reflectance_core::model::registry::{Registry, RegistryError};
+use reflectance_core::model::train::{TrainOptions, train};
+use reflectance_core::model::{ModelError, ModelFile};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -163,7 +164,7 @@ fn train_and_cross_validate_through_the_binary() {
     assert_eq!(cv.n, 432);
     // Every training image is an exemplar; a training row's nearest exemplar is itself.
     assert_eq!(model.exemplars.len(), 432);
-    let row = &reflectance::dataset::FeatureTable::read(&table)
+    let row = &reflectance_core::dataset::FeatureTable::read(&table)
         .unwrap()
         .samples[17];
     let nearest = model.nearest(&row.values, 3).unwrap();
@@ -256,8 +257,8 @@ fn train_and_cross_validate_through_the_binary() {
 
 /// Three small synthetic probes in `dir/probes`, and a class file of three materials.
 fn synthetic_probes_and_classes(dir: &Path) -> (PathBuf, PathBuf) {
-    use reflectance::image::decode::rgbe;
-    use reflectance::render::envmap::EnvMap;
+    use reflectance_core::decode::rgbe;
+    use reflectance_render::envmap::EnvMap;
     let maps = [
         EnvMap::from_fn(64, 32, |d| 0.3 + d.y.max(0.0) + 0.2 * (6.0 * d.x).sin()),
         EnvMap::from_fn(64, 32, |d| 0.5 + 0.4 * d.x + 0.1 * (9.0 * d.z).cos()),
@@ -394,7 +395,7 @@ fn predict_rendered_spheres_with_a_trained_model() {
 
 #[test]
 fn a_classifier_for_objects_answers_objects_and_spheres_stay_as_they_were() {
-    use reflectance::model::Request;
+    use reflectance_core::model::Request;
     let dir = temp_dir("objects");
     let (probes, classes) = synthetic_probes_and_classes(&dir);
     let render = |out: &Path, shape: &[&str]| {

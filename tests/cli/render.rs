@@ -2,8 +2,8 @@
 
 use crate::common;
 
-use reflectance::image::decode::rgbe;
-use reflectance::render::envmap::EnvMap;
+use reflectance_core::decode::rgbe;
+use reflectance_render::envmap::EnvMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -118,7 +118,7 @@ fn renders_a_dataset_that_resumes_and_feeds_the_features() {
         table.to_str().unwrap(),
     ]);
     common::assert_success(&features);
-    let table = reflectance::dataset::FeatureTable::read(&table).unwrap();
+    let table = reflectance_core::dataset::FeatureTable::read(&table).unwrap();
     assert_eq!(table.samples.len(), 6);
     // The white reference normalizes: a white-ish matte sphere's mean is below ρd = 0.8.
     let mean = table.samples[0].values[0];
@@ -598,12 +598,12 @@ fn a_shape_renders_from_its_normals_with_the_map_beside() {
     common::assert_success(&render_shape(&mesh, &out));
     let name = "polyhaven_dresden_square__shiny";
     let png = std::fs::read(out.join(format!("{name}.normals.png"))).unwrap();
-    let limits = reflectance::image::decode::Limits::default();
-    let map = reflectance::image::normals::NormalMap::from_png(&png, &limits).unwrap();
+    let limits = reflectance_core::decode::Limits::default();
+    let map = reflectance_core::object::normals::NormalMap::from_png(&png, &limits).unwrap();
     assert_eq!((map.width(), map.height()), (72, 72));
     // The object is lit where the map has normals, and only there.
     let pfm = out.join(format!("{name}.pfm"));
-    let image = reflectance::image::decode::decode_file(&pfm, &Default::default()).unwrap();
+    let image = reflectance_core::decode::decode_file(&pfm, &Default::default()).unwrap();
     let lit = image.luminance.indexed_iter().filter(|(_, v)| **v > 0.0);
     let lit: Vec<(usize, usize)> = lit.map(|(at, _)| at).collect();
     assert!(lit.len() > 500, "{}", lit.len());
@@ -678,7 +678,7 @@ fn a_shape_renders_from_its_normals_with_the_map_beside() {
         "--saturation",
         "1.25",
     ]));
-    let table = reflectance::dataset::FeatureTable::read(&table).unwrap();
+    let table = reflectance_core::dataset::FeatureTable::read(&table).unwrap();
     let white = std::fs::read_to_string(&manifest).unwrap();
     let white = white.lines().nth(1).unwrap().split(',').nth(6).unwrap();
     let (image, normals) = (
@@ -713,13 +713,14 @@ fn a_shape_renders_from_its_normals_with_the_map_beside() {
     // Its captures keep its geometry: the same map fits them, and the manifest says so.
     let captured = dir.join("captured");
     common::assert_success(&render_with("torus", &captured, &["--captures", "2"]));
-    let manifest = reflectance::dataset::read_manifest(&captured.join("manifest.csv")).unwrap();
+    let manifest =
+        reflectance_core::dataset::read_manifest(&captured.join("manifest.csv")).unwrap();
     assert_eq!(manifest.entries.len(), 3);
     for entry in &manifest.entries {
         let normals = entry.normals.as_ref().unwrap();
         assert_eq!(normals.path, format!("{name}.normals.png"));
         assert!(entry.circle.is_none());
-        let image = reflectance::image::decode::decode_file(&entry.file, &Default::default());
+        let image = reflectance_core::decode::decode_file(&entry.file, &Default::default());
         assert_eq!(image.unwrap().luminance.dim(), (72, 72), "{}", entry.path);
     }
     let captures = std::fs::read_to_string(captured.join("captures.csv")).unwrap();

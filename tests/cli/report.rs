@@ -2,8 +2,8 @@
 
 use crate::common;
 
-use reflectance::image::decode::rgbe;
-use reflectance::render::envmap::EnvMap;
+use reflectance_core::decode::rgbe;
+use reflectance_render::envmap::EnvMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

@@ -5,17 +5,18 @@ use axum::body::Body;
 use axum::http::{Request, Response};
 use reflectance::ServerConfig as Config;
 use reflectance::SharedState;
-use reflectance::dataset::{self, FeatureTable};
-use reflectance::features::{Extractor, FeatureConfig};
-use reflectance::image::decode::DecodeOptions;
-use reflectance::image::decode::rgbe;
-use reflectance::learn::{ClassifierKind, FeatureSet, TrainSpec};
-use reflectance::model::registry::Registry;
-use reflectance::model::train::{EstimatorData, TrainOptions, train};
-use reflectance::render::Quality;
-use reflectance::render::batch::{self, Augment, BatchSpec};
-use reflectance::render::envmap::EnvMap;
 use reflectance::{admin_router, build_state, data_router, load_models};
+use reflectance_core::classify::{ClassifierKind, TrainSpec};
+use reflectance_core::dataset::{self, FeatureTable};
+use reflectance_core::decode::DecodeOptions;
+use reflectance_core::decode::rgbe;
+use reflectance_core::features::{Extractor, FeatureConfig};
+use reflectance_core::learn::FeatureSet;
+use reflectance_core::model::registry::Registry;
+use reflectance_core::model::train::{EstimatorData, TrainOptions, train};
+use reflectance_render::Quality;
+use reflectance_render::batch::{self, Augment, BatchSpec};
+use reflectance_render::envmap::EnvMap;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -101,7 +102,7 @@ fn render(dir: &Path, probes: Vec<PathBuf>, out: &str) -> PathBuf {
     std::fs::write(&classes_path, CLASSES_JSON).unwrap();
     let spec = BatchSpec {
         probes,
-        classes: reflectance::material::load_classes(&classes_path).unwrap(),
+        classes: reflectance_core::material::load_classes(&classes_path).unwrap(),
         out: dir.join(out),
         size: 96,
         seed: 1,
@@ -124,7 +125,7 @@ pub fn fixture() -> &'static Fixture {
         let manifest = dataset::read_manifest(&train_manifest).unwrap();
         let table: FeatureTable =
             dataset::extract_manifest(&extractor, &manifest, &DecodeOptions::default()).unwrap();
-        let classes = reflectance::material::load_classes(&dir.join("classes.json")).unwrap();
+        let classes = reflectance_core::material::load_classes(&dir.join("classes.json")).unwrap();
         let options = TrainOptions {
             name: "ward6".into(),
             spec: TrainSpec::new(FeatureSet::Named("hand6"), ClassifierKind::Svm),
@@ -141,8 +142,8 @@ pub fn fixture() -> &'static Fixture {
                 label: "train/features.csv".into(),
                 materials: classes,
                 features: None,
-                regression: reflectance::learn::estimate::EstimatorOptions {
-                    regressor: reflectance::learn::estimate::Method::Ridge,
+                regression: reflectance_core::estimate::EstimatorOptions {
+                    regressor: reflectance_core::estimate::Method::Ridge,
                     ridge_features: 50,
                     ridge_lambda: 1e-2,
                     ridge_gamma: None,

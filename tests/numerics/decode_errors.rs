@@ -3,7 +3,7 @@
 use crate::common;
 
 use common::*;
-use reflectance::image::decode::{DecodeError, DecodeOptions, Limits, decode, pfm, rgbe};
+use reflectance_core::decode::{DecodeError, DecodeOptions, Limits, decode, pfm, rgbe};
 
 fn err(bytes: &[u8]) -> DecodeError {
     decode(bytes, &DecodeOptions::default()).expect_err("must be refused")
@@ -149,7 +149,7 @@ fn sixteen_bit_and_palette_pngs_decode_exactly() {
     let linear = decode(
         &out,
         &DecodeOptions {
-            encoding: Some(reflectance::image::decode::Encoding::Linear),
+            encoding: Some(reflectance_core::decode::Encoding::Linear),
             ..Default::default()
         },
     )
@@ -163,7 +163,7 @@ fn sixteen_bit_and_palette_pngs_decode_exactly() {
     let img = decode(
         &palette,
         &DecodeOptions {
-            encoding: Some(reflectance::image::decode::Encoding::Linear),
+            encoding: Some(reflectance_core::decode::Encoding::Linear),
             ..Default::default()
         },
     )

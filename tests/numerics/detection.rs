@@ -12,15 +12,15 @@
 //! rates per category; `REFLECTANCE_COMPOSITE_DUMP=DIR` writes the missed ones there.
 
 use ndarray::Array2;
-use reflectance::image::blur::gaussian_blur;
-use reflectance::image::decode::{DecodeOptions, Limits, decode};
-use reflectance::image::display::linear_to_srgb;
-use reflectance::image::geometry::{self, Circle, GeometryError};
-use reflectance::render::capture;
-use reflectance::render::envmap::EnvMap;
-use reflectance::render::ward::Material;
-use reflectance::render::{self, Lighting, Quality, View};
-use reflectance::util::rng::Rng;
+use reflectance_core::decode::{DecodeOptions, Limits, decode};
+use reflectance_core::image::blur::gaussian_blur;
+use reflectance_core::image::display::linear_to_srgb;
+use reflectance_core::locate::{self, Circle, GeometryError};
+use reflectance_core::util::rng::Rng;
+use reflectance_render::capture;
+use reflectance_render::envmap::EnvMap;
+use reflectance_render::ward::Material;
+use reflectance_render::{Lighting, Quality, View};
 use std::path::PathBuf;
 
 fn shared_probes() -> PathBuf {
@@ -74,7 +74,7 @@ fn spheres(probes: &[EnvMap]) -> Vec<Sphere> {
                 rho_s,
                 alpha,
             };
-            let image = render::render(
+            let image = reflectance_render::render(
                 &lighting,
                 &material,
                 size,
@@ -82,7 +82,7 @@ fn spheres(probes: &[EnvMap]) -> Vec<Sphere> {
                 &Quality::default(),
                 &mut Rng::new(1),
             );
-            let circle = render::circle(size);
+            let circle = reflectance_render::circle(size);
             let raw = Array2::from_shape_fn((size, size), |(y, x)| {
                 f64::from(image.luminance[y * size + x])
             });
@@ -625,7 +625,7 @@ fn photograph(staged: &Staged, rng: &mut Rng) -> (Vec<u8>, u8) {
 
 /// Within 2 % of the sphere's radius, in centre and in radius (of a stretched one: between
 /// its shortest and longest radius).
-fn matches(found: &geometry::Geometry, (truth, stretch): &(Circle, Stretch)) -> bool {
+fn matches(found: &locate::Geometry, (truth, stretch): &(Circle, Stretch)) -> bool {
     (found.cx - truth.cx).hypot(found.cy - truth.cy) <= 0.02 * truth.r
         && found.r >= 0.98 * truth.r
         && found.r <= 1.02 * truth.r * stretch.factor
@@ -662,7 +662,7 @@ fn spheres_are_found_in_photograph_like_composites() {
         let (jpeg, quality) = photograph(&staged, &mut rng);
         drop(staged.scene);
         let image = decode(&jpeg, &options).unwrap();
-        let found = geometry::detect(image.luminance.view());
+        let found = locate::detect(image.luminance.view());
         let good = found
             .as_ref()
             .is_ok_and(|g| staged.spheres.iter().any(|truth| matches(g, truth)));
@@ -726,7 +726,7 @@ fn refusals_say_why() {
         }
     });
     for image in [noise, flat, square] {
-        match geometry::detect(image.view()) {
+        match locate::detect(image.view()) {
             Err(e @ GeometryError::DetectionFailed { .. }) => {
                 // Why, in words; what to give instead is each surface's to say (the service
                 // its fields: tests/server; the command line its flags: tests/cli).
@@ -784,10 +784,10 @@ fn few_circles_are_chosen_in_scikit_image_samples() {
     };
     let mut chosen = Vec::new();
     for path in &paths {
-        let Ok(image) = reflectance::image::decode::decode_file(path, &options) else {
+        let Ok(image) = reflectance_core::decode::decode_file(path, &options) else {
             continue;
         };
-        if let Ok(g) = geometry::detect(image.luminance.view()) {
+        if let Ok(g) = locate::detect(image.luminance.view()) {
             let name = path.file_name().unwrap_or_default().to_string_lossy();
             chosen.push(format!(
                 "{name} ({:.0}, {:.0}, r {:.0}) at {:.2}",

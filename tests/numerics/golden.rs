@@ -1,12 +1,12 @@
 //! Golden tests against the independent numpy reference (`scripts/reference/`) and pyrtools.
 
 use ndarray::Array2;
-use reflectance::features::analysis::{self, Locate, WhiteInput};
-use reflectance::features::pyramid::{self, Edge};
-use reflectance::features::stats;
-use reflectance::features::{Extractor, FeatureConfig, default_names};
-use reflectance::image::decode::{self, DecodeOptions, Encoding};
-use reflectance::image::geometry::{Circle, GeometryError};
+use reflectance_core::analysis::{self, Locate, WhiteInput};
+use reflectance_core::decode::{self, DecodeOptions, Encoding};
+use reflectance_core::features::pyramid::{self, Edge};
+use reflectance_core::features::stats;
+use reflectance_core::features::{Extractor, FeatureConfig, default_names};
+use reflectance_core::locate::{Circle, GeometryError};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 

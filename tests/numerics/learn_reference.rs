@@ -3,11 +3,12 @@
 //! (6 classes × 12 illuminations × 6 views). Fixture and expectations:
 //! `scripts/learn_reference/make_fixture.py`.
 
-use reflectance::dataset::FeatureTable;
-use reflectance::learn::calibration::Sigmoid;
-use reflectance::learn::pipeline::{CalibrationKind, ClassifierKind, TrainSpec};
-use reflectance::learn::svm::argmax;
-use reflectance::learn::{Dataset, FeatureSet, cross_validate, select};
+use reflectance_core::classify::calibration::Sigmoid;
+use reflectance_core::classify::pipeline::{CalibrationKind, ClassifierKind, TrainSpec};
+use reflectance_core::classify::svm::argmax;
+use reflectance_core::classify::{cross_validate, select};
+use reflectance_core::dataset::FeatureTable;
+use reflectance_core::learn::{Dataset, FeatureSet};
 use serde_json::Value;
 use std::path::PathBuf;
 

@@ -13,8 +13,8 @@
 //! and tables, and their figure is printed apart; `REFLECTANCE_REAL_PHOTOS_ONLY=name` runs the
 //! photos whose file name contains it (no floor then).
 
-use reflectance::image::decode::{DecodeOptions, decode_file};
-use reflectance::image::geometry::{self, GeometryError};
+use reflectance_core::decode::{DecodeOptions, decode_file};
+use reflectance_core::locate::{self, GeometryError};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -139,13 +139,13 @@ fn real_photographs() {
         // What `classify` does without a circle: the alpha channel, else detection.
         let (found, ranked) = match &image.alpha_mask {
             Some(alpha) => (
-                geometry::fit_mask(alpha.view(), geometry::Method::Alpha),
+                locate::fit_mask(alpha.view(), locate::Method::Alpha),
                 Vec::new(),
             ),
-            None => geometry::detect_ranked(image.luminance.view()),
+            None => locate::detect_ranked(image.luminance.view()),
         };
         let seconds = t.elapsed().as_secs_f64();
-        let close = |g: &geometry::Geometry| {
+        let close = |g: &locate::Geometry| {
             (g.cx - photo.cx).hypot(g.cy - photo.cy) <= 0.04 * photo.r
                 && (g.r - photo.r).abs() <= 0.04 * photo.r
         };

@@ -1,10 +1,10 @@
 //! Physics of the renderer: known answers under uniform light, mirrors, white reference,
 //! energy, rotation, determinism.
 
-use reflectance::render::envmap::EnvMap;
-use reflectance::render::ward::{Material, WardBrdf};
-use reflectance::render::{Lighting, Quality, Rendering, View, circle, render, white};
-use reflectance::util::rng::Rng;
+use reflectance_core::util::rng::Rng;
+use reflectance_render::envmap::EnvMap;
+use reflectance_render::ward::{Material, WardBrdf};
+use reflectance_render::{Lighting, Quality, Rendering, View, circle, render, white};
 use std::f64::consts::PI;
 
 fn material(name: &str, rho_d: f64, rho_s: f64, alpha: f64) -> Material {
@@ -60,7 +60,7 @@ fn lambertian_sphere_in_uniform_light_is_rho_d() {
 /// Directional albedo of the Ward lobe by quadrature over the hemisphere (independent of
 /// the renderer's sampling): ∫ f_s cos θi dω for view angle `theta_v`.
 fn albedo(m: &Material, theta_v: f64) -> f64 {
-    use reflectance::render::Vec3;
+    use reflectance_render::Vec3;
     let n = Vec3::new(0.0, 0.0, 1.0);
     let v = Vec3::new(theta_v.sin(), 0.0, theta_v.cos());
     let (steps_t, steps_p) = (2000, 400);
@@ -116,7 +116,7 @@ fn ward_sphere_in_uniform_light_is_rho_s_times_albedo() {
 fn mirror_sphere_reflects_the_map() {
     // A smooth map; with dense sub-pixel sampling each pixel is the map's mean over the
     // directions its area reflects: compare with a 64×64 quadrature over the pixel.
-    use reflectance::render::Vec3;
+    use reflectance_render::Vec3;
     let map = EnvMap::from_fn(512, 256, |d| 1.0 + 0.5 * d.x + 0.3 * d.y * d.y - 0.2 * d.z);
     let lighting = Lighting::new(map.clone());
     let quality = Quality {

@@ -7,13 +7,13 @@
 //! reduced first: scale-2 features then agree within 0.05, every hand6 feature within 0.15.
 
 use ndarray::Array2;
-use reflectance::features::{
+use reflectance_core::features::{
     Extensions, Extractor, FeatureConfig, Preprocessing, default_names, named_set,
 };
-use reflectance::render::envmap::EnvMap;
-use reflectance::render::ward::Material;
-use reflectance::render::{Lighting, Quality, View, render};
-use reflectance::util::rng::Rng;
+use reflectance_core::util::rng::Rng;
+use reflectance_render::envmap::EnvMap;
+use reflectance_render::ward::Material;
+use reflectance_render::{Lighting, Quality, View, render};
 
 /// The shared ict_grace probe: texture, and a small bright source.
 fn lighting() -> Lighting {

@@ -227,7 +227,8 @@ async fn render_train_activate_roll_back_and_delete() {
     assert_eq!(done["result"]["activated"], false, "{done}");
     assert_eq!(classified_version(&server).await, "2");
     // Publishing did not make version 3 the registry's active version.
-    let registry = reflectance::model::registry::Registry::new(server.state.config.models.clone());
+    let registry =
+        reflectance_core::model::registry::Registry::new(server.state.config.models.clone());
     assert_eq!(registry.active("ward6").unwrap(), 2);
 
     // Roll back, and delete.
@@ -292,10 +293,10 @@ async fn render_train_activate_roll_back_and_delete() {
 
     // Cross-validation on a feature table.
     let table = fixture().dir.join("table.csv");
-    let extractor = reflectance::features::Extractor::new(Default::default()).unwrap();
+    let extractor = reflectance_core::features::Extractor::new(Default::default()).unwrap();
     let manifest =
-        reflectance::dataset::read_manifest(&data.join("renders/r96/manifest.csv")).unwrap();
-    reflectance::dataset::extract_manifest(&extractor, &manifest, &Default::default())
+        reflectance_core::dataset::read_manifest(&data.join("renders/r96/manifest.csv")).unwrap();
+    reflectance_core::dataset::extract_manifest(&extractor, &manifest, &Default::default())
         .unwrap()
         .write(&data.join("table.csv"))
         .unwrap();

@@ -642,10 +642,10 @@ async fn the_command_line_answers_as_the_service_does() {
 /// outside them: too noisy, clipped, or too small a sphere.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn warns_about_photographs_outside_the_captures_of_training() {
-    use reflectance::image::decode::{DecodeOptions, decode};
-    use reflectance::render::capture::{self, CaptureEnvelope, CaptureRanges, CaptureSettings};
+    use reflectance_core::decode::{DecodeOptions, decode};
+    use reflectance_render::capture::{self, CaptureEnvelope, CaptureRanges, CaptureSettings};
     let models = models_copy("envelope");
-    let registry = reflectance::model::registry::Registry::new(&models);
+    let registry = reflectance_core::model::registry::Registry::new(&models);
     let mut model = registry.load("ward6", 1).unwrap();
     model.capture = Some(CaptureEnvelope {
         ranges: CaptureRanges::default(),
@@ -665,13 +665,13 @@ async fn warns_about_photographs_outside_the_captures_of_training() {
     let server = start(config(&models));
     let (pfm, _, white) = &fixture().held_out[0];
     let render = decode(pfm, &DecodeOptions::default()).unwrap().luminance;
-    let circle = reflectance::image::geometry::Circle {
+    let circle = reflectance_core::locate::Circle {
         cx: 47.5,
         cy: 47.5,
         r: R.parse().unwrap(),
     };
     let warnings = |settings: CaptureSettings, white: f64| {
-        let mut rng = reflectance::util::rng::Rng::new(7);
+        let mut rng = reflectance_core::util::rng::Rng::new(7);
         let shot = capture::capture(render.view(), &circle, white, &settings, &mut rng).unwrap();
         let texts =
             [shot.white, shot.circle.cx, shot.circle.cy, shot.circle.r].map(|v| v.to_string());
@@ -888,7 +888,7 @@ async fn locates_reads_a_white_card_in_the_photo_and_draws_what_the_features_see
     .await
     .json();
     assert_eq!(doc["white"]["method"], "white_rect", "{doc}");
-    let card = reflectance::image::decode::srgb_to_linear(200.0 / 255.0);
+    let card = reflectance_core::decode::srgb_to_linear(200.0 / 255.0);
     assert!(
         (doc["white"]["value"].as_f64().unwrap() - card / 0.8).abs() < 1e-12,
         "{doc}"
@@ -1144,7 +1144,7 @@ async fn exports_a_material_as_gltf() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_model_without_the_calibrations_answers_without_a_set_and_says_so() {
     let models = models_copy("uncalibrated");
-    let registry = reflectance::model::registry::Registry::new(&models);
+    let registry = reflectance_core::model::registry::Registry::new(&models);
     let mut model = registry.load("ward6", 1).unwrap();
     assert!(model.prediction_sets.is_some() && model.domain.is_some());
     model.prediction_sets = None;

@@ -21,7 +21,7 @@ fn dataset_files(dir: &Path, lights: usize) -> (Vec<u8>, Vec<(String, PathBuf)>)
     let mut rows = 0;
     for part in ["train", "test"] {
         let source = fixture().dir.join(part);
-        let read = reflectance::dataset::read_manifest(&source.join("manifest.csv")).unwrap();
+        let read = reflectance_core::dataset::read_manifest(&source.join("manifest.csv")).unwrap();
         for entry in read.entries {
             let light = entry.illumination.unwrap();
             let probe: usize = light.trim_start_matches("probe").parse().unwrap();

@@ -603,7 +603,7 @@ fn start_up_falls_back_to_the_newest_version_that_loads() {
     let models = base.join("models");
     // The model has a name of its own: the counters checked below are process-wide, and
     // other tests of this binary count ward6's.
-    let registry = reflectance::model::registry::Registry::new(&models);
+    let registry = reflectance_core::model::registry::Registry::new(&models);
     let mut model = registry.load("ward6", 1).unwrap();
     model.name = "fallback".into();
     assert_eq!(registry.publish(&mut model, &[]).unwrap().0, 1);

@@ -11,14 +11,14 @@ use common::server::{
     Part, TestServer, config, copy_dir, post_json, post_multipart, send, start, temp_dir,
 };
 use ndarray::Array2;
-use reflectance::image::geometry::Circle;
-use reflectance::learn::domain::CheckKind;
-use reflectance::model::registry::Registry;
-use reflectance::render::capture::{self, CaptureSettings, Quantization};
-use reflectance::render::envmap::EnvMap;
-use reflectance::render::ward::Material;
-use reflectance::render::{self as renderer, Lighting, Quality, View};
-use reflectance::util::rng::Rng;
+use reflectance_core::classify::domain::CheckKind;
+use reflectance_core::locate::Circle;
+use reflectance_core::model::registry::Registry;
+use reflectance_core::util::rng::Rng;
+use reflectance_render::capture::{self, CaptureSettings, Quantization};
+use reflectance_render::envmap::EnvMap;
+use reflectance_render::ward::Material;
+use reflectance_render::{self as renderer, Lighting, Quality, View};
 use serde_json::{Value, json};
 use std::path::Path;
 
@@ -449,7 +449,10 @@ fn noise_png() -> Vec<u8> {
 
 /// A server on a copy of the shipped registry whose `ward6` was changed by `change` (and
 /// published again as version 1).
-fn shipped_with(name: &str, change: impl FnOnce(&mut reflectance::model::ModelFile)) -> TestServer {
+fn shipped_with(
+    name: &str,
+    change: impl FnOnce(&mut reflectance_core::model::ModelFile),
+) -> TestServer {
     let models = temp_dir(name).join("models");
     copy_dir(
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("models"),
@@ -468,7 +471,7 @@ fn shipped_with(name: &str, change: impl FnOnce(&mut reflectance::model::ModelFi
 /// classes scoring at most the ⌈(n + 1)·c⌉-th smallest calibration score.
 fn expected_set(
     doc: &Value,
-    sets: &reflectance::learn::conformal::PredictionSets,
+    sets: &reflectance_core::classify::conformal::PredictionSets,
     coverage: f64,
 ) -> Vec<String> {
     let n = sets.n;
@@ -565,7 +568,7 @@ async fn calibrated_sets_name_every_class_the_model_cannot_rule_out() {
 /// The Ward estimate's intervals hold the parameters of every class of the set (docs/design.md:
 /// the estimate never contradicts the classes the answer names); at 95 % on the README's
 /// sphere that widens ρs to K's 0.75, far above the regression's own estimate.
-fn assert_estimate_holds(doc: &Value, model: &reflectance::model::ModelFile, labels: &[&str]) {
+fn assert_estimate_holds(doc: &Value, model: &reflectance_core::model::ModelFile, labels: &[&str]) {
     for label in labels {
         let class = model.classes.iter().find(|c| c.name == *label).unwrap();
         let ward = class.ward.as_ref().unwrap();

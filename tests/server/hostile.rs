@@ -14,7 +14,7 @@ use common::server::{
     post_multipart, send, start, temp_dir, with_token, write_probes,
 };
 use common::{fixtures, png_raw, png_with_header_size, png8, sphere_png};
-use reflectance::image::decode::{pfm, rgbe};
+use reflectance_core::decode::{pfm, rgbe};
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use std::time::Duration;

@@ -226,7 +226,7 @@ fn the_jobs_feature_set_names_every_named_set() {
     let doc = document();
     let text = features_description(&doc["components"]["schemas"]["LearnParams"])
         .expect("LearnParams documents `features`");
-    for set in reflectance::features::NAMED_SETS {
+    for set in reflectance_core::features::NAMED_SETS {
         assert!(
             text.contains(set),
             "the job's `features` does not name {set}"

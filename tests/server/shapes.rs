@@ -7,9 +7,9 @@ use common::server::{
     CLASSES_JSON, Part, config, fixture, models_copy, post_multipart, send, start, temp_dir,
     write_probes,
 };
-use reflectance::render::Quality;
-use reflectance::render::batch::{self, Augment, BatchSpec};
-use reflectance::render::shapes::ShapeSpec;
+use reflectance_render::Quality;
+use reflectance_render::batch::{self, Augment, BatchSpec};
+use reflectance_render::shapes::ShapeSpec;
 
 /// An object's image and normals, its class and white.
 type Rendered = (Vec<u8>, Vec<u8>, String, f64);
@@ -29,7 +29,7 @@ fn render_tori() -> Vec<Rendered> {
     std::fs::write(&classes, CLASSES_JSON).unwrap();
     let spec = BatchSpec {
         probes: probes[3..].to_vec(),
-        classes: reflectance::material::load_classes(&classes).unwrap(),
+        classes: reflectance_core::material::load_classes(&classes).unwrap(),
         out: dir.join("tori"),
         size: 128,
         seed: 1,
@@ -41,7 +41,7 @@ fn render_tori() -> Vec<Rendered> {
         shard: None,
     };
     let manifest = batch::render_dataset(&spec).unwrap().manifest;
-    let manifest = reflectance::dataset::read_manifest(&manifest).unwrap();
+    let manifest = reflectance_core::dataset::read_manifest(&manifest).unwrap();
     manifest
         .entries
         .iter()

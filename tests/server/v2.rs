@@ -9,7 +9,7 @@ use axum::body::Body;
 use axum::http::Request;
 use base64::Engine;
 use common::server::{Answer, config, fixture, get, models_copy, post_json, send, start};
-use reflectance::model::registry::Registry;
+use reflectance_core::model::registry::Registry;
 use serde_json::{Value, json};
 use std::io::Write;
 

@@ -2,10 +2,10 @@
 //! paths relative to the manifest's folder) and feature tables
 //! (`path,class,illumination,<feature names>`).
 
+use crate::analysis::{self, AnalysisError, Locate, WhiteInput};
+use crate::decode::{self, DecodeOptions};
 use crate::features::Extractor;
-use crate::features::analysis::{self, AnalysisError, Locate, WhiteInput};
-use crate::image::decode::{self, DecodeOptions};
-use crate::image::geometry::Circle;
+use crate::locate::Circle;
 use crate::util::progress;
 use crate::util::shard::Shard;
 use rayon::prelude::*;

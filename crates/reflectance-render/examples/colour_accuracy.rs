@@ -11,11 +11,11 @@
 
 use rayon::prelude::*;
 use reflectance_core::image::colour::luminance;
-use reflectance_core::image::white::Rect;
 use reflectance_core::inference::{self, Answer, Input, LoadedModel, LocateSpec, WhiteSpec};
 use reflectance_core::material::CaptureRanges;
 use reflectance_core::model::registry;
 use reflectance_core::util::rng::Rng;
+use reflectance_core::white::Rect;
 use reflectance_render::capture::{Card, DrawSettings, capture_rgb};
 use reflectance_render::envmap::EnvMap;
 use reflectance_render::ward::Material;

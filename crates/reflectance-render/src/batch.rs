@@ -2,21 +2,21 @@
 //! deterministic for a seed, resumable, with `manifest.csv`
 //! (`path,class,illumination,cx,cy,r,white`; illumination = probe file stem, or
 //! `<stem>@<variant>` for augmented views). A shard renders one contiguous block of the
-//! same images and writes its part of the manifest ([`crate::util::shard`]).
+//! same images and writes its part of the manifest ([`reflectance_core::util::shard`]).
 
 use super::envmap::{EnvMap, EnvMapError};
 use super::shapes::{Normals, ShapeError, ShapeSpec};
 use super::ward::Material;
 use super::{Lighting, Quality, View, render, render_normals};
 use crate::capture::{self, CaptureRanges, CaptureSettings, DrawSettings};
-use crate::dataset::{SYNTHETIC_ILLUMINATION, format_f64};
-use crate::image::decode::pfm;
-use crate::util::durable::write_atomic;
-use crate::util::progress;
-use crate::util::rng::Rng;
-use crate::util::shard::Shard;
 use rayon::prelude::*;
+use reflectance_core::dataset::{SYNTHETIC_ILLUMINATION, format_f64};
+use reflectance_core::decode::pfm;
 use reflectance_core::material::ClassFileError;
+use reflectance_core::util::durable::write_atomic;
+use reflectance_core::util::progress;
+use reflectance_core::util::rng::Rng;
+use reflectance_core::util::shard::Shard;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
@@ -455,7 +455,7 @@ fn render_job(
     let rendering = if complete {
         None
     } else {
-        crate::util::durable::test_pause("render-image");
+        reflectance_core::util::durable::test_pause("render-image");
         let map = probe.map()?;
         let k = job.variant.lighting;
         let lighting =
@@ -481,7 +481,7 @@ fn render_job(
         Some(image) => plane(spec.size, &image.luminance),
         None => {
             let path = spec.out.join(format!("{}.pfm", job.name));
-            crate::image::decode::decode_file(&path, &Default::default())
+            reflectance_core::decode::decode_file(&path, &Default::default())
                 .map_err(|e| RenderError::Options(format!("{}: {e}", path.display())))?
                 .luminance
         }
@@ -522,11 +522,11 @@ fn plane(size: usize, samples: &[f32]) -> ndarray::Array2<f64> {
 /// The coverage an image's `<name>.mask.png` holds (8-bit), as [`write_image`] wrote it.
 fn read_coverage(spec: &BatchSpec, name: &str) -> Result<ndarray::Array2<f64>, RenderError> {
     let path = spec.out.join(format!("{name}.mask.png"));
-    let options = crate::image::decode::DecodeOptions {
-        encoding: Some(crate::image::decode::Encoding::Linear),
+    let options = reflectance_core::decode::DecodeOptions {
+        encoding: Some(reflectance_core::decode::Encoding::Linear),
         ..Default::default()
     };
-    let mask = crate::image::decode::decode_file(&path, &options)
+    let mask = reflectance_core::decode::decode_file(&path, &options)
         .map_err(|e| RenderError::Options(format!("{}: {e}", path.display())))?;
     Ok(mask.luminance)
 }

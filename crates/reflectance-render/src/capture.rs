@@ -14,13 +14,13 @@
 //! whole effect. [`capture_rgb`] takes three channel renders (a colour photograph, with a
 //! white card in it) through the same camera.
 
-use crate::image::blur::gaussian_blur;
-use crate::image::decode::Encoding;
-use crate::image::display::{grey_png, linear_to_srgb};
-use crate::image::geometry::Circle;
-use crate::util::rng::Rng;
 use ndarray::{Array2, ArrayView2};
+use reflectance_core::decode::Encoding;
+use reflectance_core::image::blur::gaussian_blur;
+use reflectance_core::image::display::{grey_png, linear_to_srgb};
+use reflectance_core::locate::Circle;
 pub use reflectance_core::material::{CaptureEnvelope, CaptureRanges, VIEW_TAG};
+use reflectance_core::util::rng::Rng;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -366,7 +366,7 @@ fn check(settings: &CaptureSettings, circle: &Circle, white: f64) -> Result<(), 
     if !finite {
         return fail("every value must be finite");
     }
-    if !(s.radius >= crate::image::geometry::MIN_RADIUS && s.radius <= 4096.0) {
+    if !(s.radius >= reflectance_core::locate::MIN_RADIUS && s.radius <= 4096.0) {
         return fail("radius must be within 32–4096 px");
     }
     if !(s.exposure > 0.0 && s.exposure <= 1.0) {
@@ -417,7 +417,7 @@ fn normal(rng: &mut Rng) -> f64 {
 /// centres map as (x + ½)·factor − ½).
 pub fn scale(image: ArrayView2<f64>, factor: f64) -> Array2<f64> {
     if factor <= 1.0 {
-        return crate::image::resample::downsample(image, factor);
+        return reflectance_core::image::resample::downsample(image, factor);
     }
     let (h, w) = image.dim();
     // (Less a hair: 110 × 150/50 must be 330, not 331.)
@@ -519,7 +519,7 @@ fn encode_rgb(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::image::decode::{DecodeOptions, decode};
+    use reflectance_core::decode::{DecodeOptions, decode};
 
     fn decoded(capture: &Capture) -> Array2<f64> {
         let options = DecodeOptions {

@@ -3,7 +3,7 @@
 //! d = (sin θ sin φ, cos θ, −sin θ cos φ). The rendered quantity is Rec. 709 luminance.
 
 use super::{Vec3, fastmath};
-use crate::image::decode::{DecodeError, Limits, rgbe};
+use reflectance_core::decode::{DecodeError, Limits, rgbe};
 use std::f64::consts::PI;
 use std::path::Path;
 

@@ -166,7 +166,7 @@ mod tests {
     use crate::testing::shared_probe;
 
     fn normals(count: usize) -> Vec<Vec3> {
-        let mut rng = crate::util::rng::Rng::new(11);
+        let mut rng = reflectance_core::util::rng::Rng::new(11);
         (0..count)
             .map(|_| {
                 let z = 2.0 * rng.next_f64() - 1.0;

@@ -25,13 +25,12 @@ pub mod ward;
 // The core's modules under the names the renderer has always used.
 /// The design of continuous materials (it lives with the materials, in the core).
 pub use reflectance_core::material::design;
-pub(crate) use reflectance_core::{dataset, image, util};
 
-use crate::image::geometry::Circle;
-use crate::util::rng::Rng;
 use envmap::EnvMap;
 use highlights::{BrightSources, SourcePoint, points_per_side};
 use irradiance::Irradiance;
+use reflectance_core::locate::Circle;
+use reflectance_core::util::rng::Rng;
 use std::f64::consts::PI;
 use std::ops::{Add, Mul, Sub};
 use ward::{Frame, LocalHalf, Material, WardBrdf, lobe_sample, local_half};
@@ -151,7 +150,7 @@ pub const SIZES: std::ops::RangeInclusive<usize> = 71..=4096;
     "size {0} must be between {min} (a sphere of radius {radius} px, the least that features \
      can be extracted from) and {max}",
     min = SIZES.start(),
-    radius = crate::image::geometry::MIN_RADIUS,
+    radius = reflectance_core::locate::MIN_RADIUS,
     max = SIZES.end()
 )]
 pub struct SizeError(pub usize);
@@ -642,8 +641,8 @@ mod tests {
     #[test]
     fn the_least_size_is_the_least_extractable_sphere() {
         let least = *SIZES.start();
-        assert!(circle(least).r >= crate::image::geometry::MIN_RADIUS);
-        assert!(circle(least - 1).r < crate::image::geometry::MIN_RADIUS);
+        assert!(circle(least).r >= reflectance_core::locate::MIN_RADIUS);
+        assert!(circle(least - 1).r < reflectance_core::locate::MIN_RADIUS);
         assert!(check_size(least - 1).is_err() && check_size(least).is_ok());
     }
 }

@@ -8,9 +8,9 @@
 use super::envmap::EnvMap;
 use super::ward::Material;
 use super::{Lighting, Quality, Vec3, View, render};
-use crate::image::display;
-use crate::util::rng::Rng;
 use ndarray::Array2;
+use reflectance_core::image::display;
+use reflectance_core::util::rng::Rng;
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 

@@ -11,7 +11,7 @@
 
 use super::Vec3;
 use super::envmap::EnvMap;
-use crate::util::rng::Rng;
+use reflectance_core::util::rng::Rng;
 use std::f64::consts::PI;
 
 /// Maps are 512 × 256, the size of the shipped probes.

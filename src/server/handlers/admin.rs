@@ -1,7 +1,5 @@
 //! Admin plane: jobs and the model registry (bearer token required).
 
-use crate::features::FeatureOptions;
-use crate::learn::estimate::EstimatorOptions;
 use crate::server::error::{ApiError, Kind, Problem, Unauthorized};
 use crate::server::jobs::{JobManager, JobRecord, JobRequest, JobState};
 use crate::server::state::SharedState;
@@ -10,6 +8,8 @@ use axum::extract::rejection::{JsonRejection, PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
 use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
+use reflectance_core::estimate::EstimatorOptions;
+use reflectance_core::features::FeatureOptions;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::sync::Arc;

@@ -2,9 +2,6 @@
 //! out. The CPU work (decode, locate, features, predict) runs on the CPU pool behind the
 //! admission semaphore (429 when saturated); the async side only moves bytes.
 
-use crate::image::decode::Encoding;
-use crate::image::white::Rect;
-use crate::inference::{self, Answer, Classified, ClassifyResponse, Input, LocateSpec, WhiteSpec};
 use crate::server::error::{ApiError, ClassificationProblems, Kind, Problem};
 use crate::server::metrics;
 use crate::server::state::SharedState;
@@ -15,6 +12,11 @@ use axum::extract::rejection::QueryRejection;
 use axum::extract::{Path, Query, State};
 use axum::http::{HeaderMap, HeaderValue};
 use axum::response::{IntoResponse, Response};
+use reflectance_core::decode::Encoding;
+use reflectance_core::inference::{
+    self, Answer, Classified, ClassifyResponse, Input, LocateSpec, WhiteSpec,
+};
+use reflectance_core::white::Rect;
 use serde::Deserialize;
 use std::time::Instant;
 use utoipa::{IntoParams, ToSchema};

@@ -3,7 +3,6 @@
 
 use super::admin::blocking;
 use super::classify::MultipartProblems;
-use crate::image::decode::DecodeOptions;
 use crate::server::datasets::{DatasetDetail, DatasetInfo, DatasetList, DatasetStore, Incoming};
 use crate::server::error::{ApiError, Kind, Problem, Unauthorized};
 use crate::server::state::SharedState;
@@ -12,6 +11,7 @@ use axum::extract::multipart::{Field, Multipart, MultipartRejection};
 use axum::extract::{Path, State};
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
+use reflectance_core::decode::DecodeOptions;
 use serde::Deserialize;
 use std::sync::Arc;
 use tokio::io::AsyncWriteExt;

@@ -2,13 +2,13 @@
 //! draws this circle for the user to check or correct before classifying.
 
 use super::classify::{self, MultipartProblems, RawInput};
-use crate::image::decode::{DecodeOptions, Encoding};
-use crate::inference::{self, LocateResponse};
 use crate::server::error::{ApiError, ClassificationProblems, Kind, Problem};
 use crate::server::state::SharedState;
 use axum::Json;
 use axum::extract::State;
 use axum::extract::multipart::{Multipart, MultipartRejection};
+use reflectance_core::decode::{DecodeOptions, Encoding};
+use reflectance_core::inference::{self, LocateResponse};
 use serde::Deserialize;
 use utoipa::ToSchema;
 

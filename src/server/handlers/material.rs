@@ -1,13 +1,13 @@
 //! `GET /v1/material.gltf`: a sphere with the glTF 2.0 material of given Ward parameters
-//! (an estimate or a class), for a renderer. The mapping: [`crate::material::gltf`].
+//! (an estimate or a class), for a renderer. The mapping: [`reflectance_core::material::gltf`].
 
-use crate::material::Material;
-use crate::material::gltf::{Container, parse_colour, sphere};
 use crate::server::error::{ApiError, Kind, Problem};
 use axum::extract::Query;
 use axum::extract::rejection::QueryRejection;
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
+use reflectance_core::material::Material;
+use reflectance_core::material::gltf::{Container, parse_colour, sphere};
 use serde::Deserialize;
 use serde_json::json;
 use utoipa::IntoParams;
@@ -69,7 +69,7 @@ pub async fn gltf(
 ) -> Result<Response, ApiError> {
     let Query(q) = query?;
     let name = q.name.unwrap_or_else(|| "material".into());
-    if !crate::model::registry::valid_name(&name) {
+    if !reflectance_core::model::registry::valid_name(&name) {
         return Err(ApiError::new(
             Kind::InvalidField,
             format!("invalid name {name:?} (use 1–64 of a-z, 0-9, '_' and '-')"),

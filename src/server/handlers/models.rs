@@ -1,11 +1,11 @@
 //! `GET /v1/models` and `GET /v1/models/{name}`.
 
-use crate::inference::ClassOut;
-use crate::model::Request;
 use crate::server::error::{ApiError, Problem};
 use crate::server::state::{LoadedModel, SharedState};
 use axum::Json;
 use axum::extract::{Path, State};
+use reflectance_core::inference::ClassOut;
+use reflectance_core::model::Request;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
@@ -55,7 +55,7 @@ pub struct SetsOut {
     /// Folds of whole illuminations (else stratified rows).
     pub folds: usize,
     pub by_illumination: bool,
-    pub measured: Vec<crate::learn::conformal::Measured>,
+    pub measured: Vec<reflectance_core::classify::conformal::Measured>,
 }
 
 /// The domain check's calibration.
@@ -91,7 +91,7 @@ pub struct CalibrationOut {
     pub objects: Option<ReliabilityOut>,
 }
 
-fn reliability(head: crate::model::Head) -> ReliabilityOut {
+fn reliability(head: reflectance_core::model::Head) -> ReliabilityOut {
     ReliabilityOut {
         prediction_sets: head.prediction_sets.map(|s| SetsOut {
             images: s.n,
@@ -104,7 +104,7 @@ fn reliability(head: crate::model::Head) -> ReliabilityOut {
             checks: d
                 .checks
                 .iter()
-                .map(|c| crate::inference::wire_name(&c.kind))
+                .map(|c| reflectance_core::inference::wire_name(&c.kind))
                 .collect(),
             false_alarm: d.false_alarm,
             held_out_flagged: d.held_out_flagged,
@@ -134,7 +134,7 @@ pub struct ModelDetail {
     pub classifier: ClassifierOut,
     pub training: TrainingOut,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub cv: Option<crate::model::StoredCv>,
+    pub cv: Option<reflectance_core::model::StoredCv>,
     /// Prediction sets and the domain check, calibrated on held-out illuminations.
     pub calibration: CalibrationOut,
     /// SHA-256 of the active version's model file content.
@@ -144,7 +144,7 @@ pub struct ModelDetail {
 pub fn detail(model: &LoadedModel, versions: Vec<u32>) -> ModelDetail {
     let f = model.file();
     let (c, gamma) = match f.classifier.model() {
-        crate::learn::pipeline::Model::Svm(m) => (Some(m.c), Some(m.gamma)),
+        reflectance_core::classify::pipeline::Model::Svm(m) => (Some(m.c), Some(m.gamma)),
         _ => (None, None),
     };
     ModelDetail {

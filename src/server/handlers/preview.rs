@@ -2,8 +2,6 @@
 //! estimate or a class looks like). Renders run on the CPU pool behind admission; the last
 //! answers are kept, since the same parameters always give the same picture.
 
-use crate::render::preview;
-use crate::render::ward::Material;
 use crate::server::error::{ApiError, ClassificationProblems, Problem};
 use crate::server::state::SharedState;
 use axum::body::Bytes;
@@ -11,6 +9,8 @@ use axum::extract::rejection::QueryRejection;
 use axum::extract::{Query, State};
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
+use reflectance_render::preview;
+use reflectance_render::ward::Material;
 use serde::Deserialize;
 use std::collections::VecDeque;
 use std::sync::Mutex;

@@ -3,7 +3,7 @@
 //! progress, and a persisted record per job.
 //!
 //! **Records are atomic JSON files**, one per job (`<jobs-dir>/<id>.json`, written with
-//! [`crate::util::durable::write_atomic`]: temporary file, fsync, rename). Jobs are rare and their
+//! [`reflectance_core::util::durable::write_atomic`]: temporary file, fsync, rename). Jobs are rare and their
 //! records change a few times a second at most, so an embedded database would buy nothing
 //! but build time (SQLite or sqlx) and a second storage format; a rename is crash-safe, a
 //! reader never sees a partial record, and the files are easy to inspect. On start-up,
@@ -15,13 +15,13 @@ mod run;
 
 use super::error::{ApiError, Kind};
 use super::metrics;
-use crate::features::FeatureOptions;
-use crate::image::decode::Limits;
-use crate::learn::estimate::EstimatorOptions;
 use crate::server::store::ModelStore;
-use crate::util::durable::write_atomic;
-use crate::util::progress::Observer;
 use paths::DataDir;
+use reflectance_core::decode::Limits;
+use reflectance_core::estimate::EstimatorOptions;
+use reflectance_core::features::FeatureOptions;
+use reflectance_core::util::durable::write_atomic;
+use reflectance_core::util::progress::Observer;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::path::{Path, PathBuf};
@@ -32,7 +32,7 @@ use utoipa::ToSchema;
 
 pub use run::JobResult;
 
-pub use crate::model::publish::Activate;
+pub use reflectance_core::model::publish::Activate;
 
 /// Where the labelled data of a `train` or `cross_validate` job come from: exactly one of
 /// `dataset` (a manifest; features are extracted first) or `table` (a feature table written
@@ -97,10 +97,10 @@ fn default_classifier() -> String {
     "svm".into()
 }
 fn default_c() -> f64 {
-    crate::learn::DEFAULT_C
+    reflectance_core::classify::DEFAULT_C
 }
 fn default_calibration_folds() -> usize {
-    crate::learn::pipeline::CALIBRATION_FOLDS
+    reflectance_core::classify::pipeline::CALIBRATION_FOLDS
 }
 
 fn default_seed() -> u64 {
@@ -446,7 +446,7 @@ impl JobManager {
 
     /// Records a previous process left unfinished become failed ("interrupted").
     fn recover(&self) {
-        let now = crate::model::now_rfc3339();
+        let now = reflectance_core::model::now_rfc3339();
         let (interrupted, forgotten) = {
             let mut jobs = self.lock();
             let mut interrupted = Vec::new();
@@ -514,7 +514,7 @@ impl JobManager {
             id: id.clone(),
             state: JobState::Queued,
             request,
-            created: crate::model::now_rfc3339(),
+            created: reflectance_core::model::now_rfc3339(),
             started: None,
             finished: None,
             progress: JobProgress {
@@ -596,7 +596,7 @@ impl JobManager {
             let queued = record.state == JobState::Queued;
             if queued {
                 record.state = JobState::Cancelled;
-                record.finished = Some(crate::model::now_rfc3339());
+                record.finished = Some(reflectance_core::model::now_rfc3339());
                 record.error = Some("cancelled before it started".into());
             }
             let record = record.clone();
@@ -666,7 +666,7 @@ impl JobManager {
                     continue;
                 };
                 record.state = JobState::Running;
-                record.started = Some(crate::model::now_rfc3339());
+                record.started = Some(reflectance_core::model::now_rfc3339());
                 record.progress.stage = "starting".into();
                 return Some((id, record.request.clone(), flag));
             }
@@ -792,7 +792,7 @@ impl JobManager {
         let Some(mut record) = self.lock().records.get(id).cloned() else {
             return;
         };
-        finish(&mut record, crate::model::now_rfc3339(), outcome);
+        finish(&mut record, reflectance_core::model::now_rfc3339(), outcome);
         let state = record.state.as_str();
         match &record.error {
             Some(error) => tracing::info!(job = %id, state, %error, "job finished"),

@@ -3,20 +3,21 @@
 
 use super::paths::{DataDir, PathError};
 use super::{JobRequest, LearnParams};
-use crate::dataset::{self, DatasetError, FeatureTable, Manifest};
-use crate::features::{ConfigError, Extractor, FeatureConfig, Preprocessing};
-use crate::image::decode::{DecodeOptions, Limits};
-use crate::learn::estimate::{self, EstimateReport};
-use crate::learn::{self, CvSummary, Dataset, FeatureSet, LearnError, SpecText, TrainSpec};
-use crate::material::{ClassFileError, load_classes};
-use crate::model::publish::{Activate, Current, Published};
-use crate::model::registry;
-use crate::model::train::{self, TrainError, TrainOptions};
-use crate::render::Quality;
-use crate::render::batch::{self, Augment, BatchSpec, RenderError};
 use crate::server::error::{ApiError, Kind};
 use crate::server::store::ModelStore;
-use crate::util::progress::Observer;
+use reflectance_core::classify::{self, CvSummary, SpecText, TrainSpec};
+use reflectance_core::dataset::{self, DatasetError, FeatureTable, Manifest};
+use reflectance_core::decode::{DecodeOptions, Limits};
+use reflectance_core::estimate::{self, EstimateReport};
+use reflectance_core::features::{ConfigError, Extractor, FeatureConfig, Preprocessing};
+use reflectance_core::learn::{Dataset, FeatureSet, LearnError};
+use reflectance_core::material::{ClassFileError, load_classes};
+use reflectance_core::model::publish::{Activate, Current, Published};
+use reflectance_core::model::registry;
+use reflectance_core::model::train::{self, TrainError, TrainOptions};
+use reflectance_core::util::progress::Observer;
+use reflectance_render::Quality;
+use reflectance_render::batch::{self, Augment, BatchSpec, RenderError};
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
@@ -285,7 +286,7 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
             captures,
             ..
         } => {
-            crate::render::check_size(*size).map_err(|e| invalid(e.to_string()))?;
+            reflectance_render::check_size(*size).map_err(|e| invalid(e.to_string()))?;
             if *captures > batch::MAX_CAPTURES {
                 return Err(invalid(format!(
                     "captures must be at most {}",
@@ -583,7 +584,7 @@ impl Context<'_> {
         let (table, _, _) = load_table(p, config, self.data, self.limits, self.observer)?;
         let ds = Dataset::from_table(&table)?;
         self.observer.stage("cross_validate");
-        let report = learn::cross_validate_with(&ds, &spec, p.seed, self.observer)?;
+        let report = classify::cross_validate_with(&ds, &spec, p.seed, self.observer)?;
         Ok(JobResult {
             cv: Some(report.summary),
             images: Some(table.samples.len()),

@@ -4,10 +4,10 @@
 //! `reflectance dataset pack` both use it.
 
 use super::{DatasetError, Entry, Manifest, format_f64};
-use crate::features::analysis::{self, Locate};
+use crate::analysis::{self, Locate};
+use crate::decode::{self, DecodeError, DecodeOptions};
 use crate::features::polar::UnwrapConfig;
-use crate::image::decode::{self, DecodeError, DecodeOptions};
-use crate::image::geometry::GeometryError;
+use crate::locate::GeometryError;
 use crate::util::progress;
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
@@ -307,7 +307,7 @@ mod tests {
             file: dir.join("a, \"b\".png"),
             class: Some("chrome".into()),
             illumination: Some("sun".into()),
-            circle: Some(crate::image::geometry::Circle {
+            circle: Some(crate::locate::Circle {
                 cx: 10.25,
                 cy: 0.1 + 0.2,
                 r: 40.0,

@@ -28,7 +28,7 @@
 
 use super::LOG_PIXEL_FLOOR;
 use super::stats;
-use crate::image::geometry::Circle;
+use crate::image::circle::Circle;
 use ndarray::ArrayView2;
 
 /// The disc, as a fraction of the radius: the mirror's reflected rays cover the

@@ -315,7 +315,7 @@ impl FeatureConfig {
         }
         if let Some(r) = self
             .working_radius
-            .filter(|r| !(r.is_finite() && *r >= crate::image::geometry::MIN_RADIUS))
+            .filter(|r| !(r.is_finite() && *r >= crate::locate::MIN_RADIUS))
         {
             return Err(ConfigError::BadWorkingRadius(r));
         }

@@ -13,8 +13,8 @@ use super::pyramid::{self, Edge, Level};
 use super::spectrum::{BandPowers, SpectrumPlan};
 use super::stats::{Moments, Summary, moments, percentiles_with, summarize};
 use super::{CENTRE_NAMES, LOG_PIXEL_FLOOR, ORIENTATION_PAIRS, RADIAL_RINGS};
-use crate::image::geometry::Circle;
-use crate::image::normals::EquivalentSphere;
+use crate::image::circle::Circle;
+use crate::object::normals::EquivalentSphere;
 use ndarray::{Array2, ArrayView2};
 use std::sync::{Arc, OnceLock};
 
@@ -122,7 +122,7 @@ impl Extractor {
     ///
     /// ```
     /// use ndarray::Array2;
-    /// use reflectance_core::image::geometry::{self, Circle};
+    /// use reflectance_core::locate::{Circle};
     /// use reflectance_core::{Extractor, FeatureConfig};
     ///
     /// // A matte (Lambertian) sphere of albedo 0.6 lit from the upper left, on black.
@@ -729,7 +729,7 @@ mod tests {
     use crate::features::polar::UnwrapConfig;
     use crate::features::{CAPTURE_NAMES, CENTRE_NAMES, DOMAIN_NAMES, FEATURE_COUNT, RADIAL_RINGS};
     use crate::features::{Extensions, Preprocessing, default_names, named_set};
-    use crate::image::geometry::Circle;
+    use crate::image::circle::Circle;
 
     #[test]
     fn names_are_canonical_and_unique() {

@@ -5,10 +5,8 @@
 //! measurements ([`outline`]) and the named feature sets.
 //!
 //! [`layout`] fixes where every feature sits; [`config`] is what a model file records;
-//! [`extract`] computes the vectors; [`analysis`] is the front half of the pipeline (a
-//! decoded image, where the sphere is and how bright white is → features).
+//! [`extract`] computes the vectors.
 
-pub mod analysis;
 pub(crate) mod centre;
 pub(crate) mod config;
 pub(crate) mod extract;

@@ -19,8 +19,8 @@
 //! edges, gives σ = √(FWHM²/8 ln 2 − baseline): the baseline is what a sharp capture
 //! shows (pixel area and the one-pixel slope).
 
-use crate::image::detect::{RIM_STEP, RimSlopes, rim_slopes};
-use crate::image::geometry::Circle;
+use crate::image::circle::Circle;
+use crate::locate::detect::{RIM_STEP, RimSlopes, rim_slopes};
 use ndarray::ArrayView2;
 use std::ops::Range;
 

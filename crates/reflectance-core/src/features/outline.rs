@@ -12,7 +12,7 @@
 //! edge follows the circle.
 
 use super::stats;
-use crate::image::geometry::Circle;
+use crate::image::circle::Circle;
 use ndarray::ArrayView2;
 use std::borrow::Cow;
 

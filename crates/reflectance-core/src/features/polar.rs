@@ -1,8 +1,8 @@
 //! Canonical unwrap: the annulus ρ ∈ [inner·r, outer·r] resampled onto a rows × cols grid
 //! (radius down, angle across), each cell the mean of s×s bilinear samples, s = ⌈r / r0⌉.
 
-use crate::image::footprint::Footprint;
-use crate::image::geometry::Circle;
+use crate::image::circle::Circle;
+use crate::object::footprint::Footprint;
 use ndarray::{Array2, ArrayView2};
 use std::f64::consts::PI;
 

@@ -1,10 +1,8 @@
-//! A sphere's outline in the image: the circle, the smallest radius extraction accepts, and
-//! the small linear solve that circle and outline fits share.
+//! A circle in an image's pixels, and the small linear solve that circle and outline fits
+//! share.
 
 use serde::{Deserialize, Serialize};
 
-/// Radii below this are refused.
-pub const MIN_RADIUS: f64 = 32.0;
 /// A circle in an image's pixels: pixel centres at integer coordinates, x across and y down.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Circle {

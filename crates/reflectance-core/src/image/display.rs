@@ -97,7 +97,7 @@ mod tests {
     #[test]
     fn srgb_round_trips_the_decoder() {
         for v in [0.0, 0.001, 0.0031308, 0.2, 0.5, 1.0] {
-            let back = crate::image::decode::srgb_to_linear(linear_to_srgb(v));
+            let back = crate::decode::srgb_to_linear(linear_to_srgb(v));
             assert!((back - v).abs() < 1e-12, "{v} → {back}");
         }
     }

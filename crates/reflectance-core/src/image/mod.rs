@@ -1,16 +1,9 @@
-//! From bytes to a located, white-normalized sphere: decoding, the circle (given, fitted to a
-//! mask, or detected), the white reference, and the resampling to the working radius.
+//! Pixel primitives the stages share: Gaussian blur, area-weighted resampling, colour, and
+//! pictures for people.
 
-pub(crate) mod blocks;
 pub mod blur;
-pub(crate) mod circle;
+pub mod circle;
 pub mod colour;
-pub mod decode;
-pub(crate) mod detect;
 pub mod display;
-pub mod footprint;
-pub mod geometry;
-pub mod normals;
-pub(crate) mod occlusion;
+pub mod regions;
 pub mod resample;
-pub mod white;

@@ -2,9 +2,9 @@
 //! Python all build, through its constructors.
 
 use super::Answer;
-use crate::image::decode::Encoding;
-use crate::image::geometry::{self, GeometryError};
-use crate::image::white::{Rect, WhiteError};
+use crate::decode::Encoding;
+use crate::locate::{self, GeometryError};
+use crate::white::{Rect, WhiteError};
 use bytes::Bytes;
 
 /// How white is given, before decoding.
@@ -33,7 +33,7 @@ pub enum WhiteSpec {
 impl WhiteSpec {
     /// A white reference given as a number: finite and positive.
     pub fn value(value: f64) -> Result<WhiteSpec, WhiteError> {
-        crate::image::white::given(value).map(|_| WhiteSpec::Value(value))
+        crate::white::given(value).map(|_| WhiteSpec::Value(value))
     }
 
     /// The white reference of a request: at most one of a value, a card's crop and a card
@@ -69,7 +69,7 @@ impl WhiteSpec {
 #[derive(Debug)]
 pub enum Placement<M> {
     /// A circle given in the image's pixels.
-    Circle(geometry::Circle),
+    Circle(locate::Circle),
     /// A mask image of the sphere (its alpha, else luminance ≥ 0.5); the circle is fitted to
     /// its edge.
     Mask(M),
@@ -94,7 +94,7 @@ impl<M> Placement<M> {
         r: Option<f64>,
         mask: Option<M>,
     ) -> Result<Placement<M>, InputError> {
-        Ok(match (geometry::given(cx, cy, r)?, mask) {
+        Ok(match (locate::given(cx, cy, r)?, mask) {
             (Some(_), Some(_)) => return Err(InputError::CircleAndMask),
             (Some(given), None) => Placement::Circle(given.circle()),
             (None, Some(mask)) => Placement::Mask(mask),

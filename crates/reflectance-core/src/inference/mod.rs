@@ -2,18 +2,18 @@
 //! classify, and the answer's JSON. No HTTP here: `POST /v1/classify`, the KServe endpoint
 //! and `reflectance classify` all call [`classify`] and give the same [`ClassifyResponse`].
 
+use crate::analysis::{self, AnalysisError, Locate, WhiteInput};
+use crate::classify::conformal;
+use crate::classify::domain::Verdict;
+use crate::decode::{self, DecodeError, DecodeOptions};
+use crate::estimate::WardEstimate;
 use crate::features::Extractor;
-use crate::features::analysis::{self, AnalysisError, Locate, WhiteInput};
-use crate::image::decode::{self, DecodeError, DecodeOptions};
 use crate::image::display;
-use crate::image::geometry::{self};
-use crate::image::normals::{NormalMap, NormalsError};
-use crate::image::white::Method as WhiteMethod;
 use crate::learn::LearnError;
-use crate::learn::conformal;
-use crate::learn::domain::Verdict;
-use crate::learn::estimate::WardEstimate;
+use crate::locate;
 use crate::model::{Head, ModelError, ModelFile, Request};
+use crate::object::normals::{NormalMap, NormalsError};
+use crate::white::Method as WhiteMethod;
 use ndarray::Array2;
 use std::sync::Arc;
 use std::time::Instant;
@@ -119,7 +119,7 @@ impl LoadedModel {
                 info.ward.as_ref().map(|w| (w.rho_d, w.rho_s, w.alpha))
             })
             .collect();
-        crate::learn::estimate::nearest_class(estimate, &estimator.half_widths, &wards?)
+        crate::estimate::nearest_class(estimate, &estimator.half_widths, &wards?)
     }
 }
 
@@ -582,7 +582,7 @@ pub fn locate(
         .take(CANDIDATES)
         .map(|g| CandidateOut {
             geometry: GeometryOut::from(g),
-            rim_visible: geometry::visible_rim(&g.circle(), width, height),
+            rim_visible: locate::visible_rim(&g.circle(), width, height),
         })
         .collect();
     let geometry = match chosen {

@@ -2,16 +2,16 @@
 //! prints) and how a classification becomes one.
 
 use super::{Classified, Decision, LoadedModel};
+use crate::analysis::Analysis;
+use crate::decode;
+use crate::estimate::{StatedEstimate, WardEstimate};
 use crate::features::Extractor;
-use crate::features::analysis::Analysis;
 use crate::image::colour::{self, Rgb};
-use crate::image::decode;
 use crate::image::display;
-use crate::image::geometry::{self, Method as GeometryMethod};
-use crate::image::white::Method as WhiteMethod;
-use crate::learn::estimate::{StatedEstimate, WardEstimate};
+use crate::locate::{self, Method as GeometryMethod};
 use crate::material::gltf::METAL_RATIO;
 use crate::model::{ClassInfo, Head, Ward};
+use crate::white::Method as WhiteMethod;
 use serde::{Deserialize, Serialize};
 
 /// Where the sphere is in a photograph, before classifying it.
@@ -294,8 +294,8 @@ pub struct GeometryOut {
     pub confidence: Option<f64>,
 }
 
-impl From<&geometry::Geometry> for GeometryOut {
-    fn from(g: &geometry::Geometry) -> GeometryOut {
+impl From<&locate::Geometry> for GeometryOut {
+    fn from(g: &locate::Geometry) -> GeometryOut {
         GeometryOut {
             cx: g.cx,
             cy: g.cy,
@@ -651,7 +651,7 @@ impl Classified {
             self.analysis
                 .warnings
                 .iter()
-                .filter(|w| !(d.without_white && *w == crate::image::white::MISSING_WARNING))
+                .filter(|w| !(d.without_white && *w == crate::white::MISSING_WARNING))
                 .cloned(),
         );
         warnings

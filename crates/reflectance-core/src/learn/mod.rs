@@ -1,34 +1,20 @@
-//! Learning: feature sets, automatic selection, PCA, standardization, the SVM (own SMO
-//! solver), k-NN and chance baselines, Platt calibration, the fitted pipeline
-//! ([`Classifier`]) and leave-one-illumination-out cross-validation.
+//! What the classifier and the estimator share: a feature table as a dense matrix
+//! ([`Dataset`]), feature-set specifications ([`FeatureSet`]), standardization, the normal
+//! distribution, and the learning layer's error type.
 //!
 //! Everything is deterministic for a fixed seed and independent of the number of threads:
 //! randomness comes only from [`crate::util::rng::Rng`] streams forked per task, and parallel
 //! loops collect their results in a fixed order.
 
-pub mod boost;
-pub mod calibration;
-pub mod conformal;
-pub mod cv;
-pub mod domain;
 pub(crate) mod error;
-pub mod estimate;
 pub(crate) mod feature_set;
-pub(crate) mod knn;
 pub mod matrix;
 pub(crate) mod normal;
-pub(crate) mod pca;
-pub mod pipeline;
-pub mod regress;
 pub mod scaler;
-pub mod select;
-pub mod svm;
 
-pub use cv::{CvReport, CvSummary, cross_validate, cross_validate_with};
 pub use error::{Inconsistent, LearnError};
 pub use feature_set::FeatureSet;
 pub use matrix::Dataset;
-pub use pipeline::{Classifier, ClassifierKind, DEFAULT_C, Grid, SpecText, TrainSpec, fit};
 
 #[cfg(test)]
 pub(crate) mod testutil {

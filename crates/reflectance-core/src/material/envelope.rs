@@ -50,12 +50,12 @@ impl Default for CaptureRanges {
 pub struct InvalidRanges(pub String);
 
 impl CaptureRanges {
-    /// Check the bounds: every range ordered, radius ≥ [`crate::image::geometry::MIN_RADIUS`],
+    /// Check the bounds: every range ordered, radius ≥ [`crate::locate::MIN_RADIUS`],
     /// exposure in [0.01, 1], noise ≤ 0.5, blur ≤ 10 px, qualities in 1–100 and the errors
     /// below their limits.
     pub fn validate(&self) -> Result<(), InvalidRanges> {
         let ordered = |[lo, hi]: [f64; 2], min: f64, max: f64| lo >= min && lo <= hi && hi <= max;
-        let ok = ordered(self.radius, crate::image::geometry::MIN_RADIUS, 4096.0)
+        let ok = ordered(self.radius, crate::locate::MIN_RADIUS, 4096.0)
             && ordered(self.exposure, 0.01, 1.0)
             && ordered(self.noise, 0.0, 0.5)
             && ordered(self.blur, 0.0, 10.0)

@@ -7,11 +7,12 @@
 //! formatting. Loading verifies schema, checksum, feature configuration and names, the
 //! classifier's shapes, and the self-test; a file failing any of these is refused.
 
+use crate::classify::Classifier;
+use crate::classify::conformal::PredictionSets;
+use crate::classify::domain::DomainCheck;
+use crate::estimate::WardRegressor;
 use crate::features::{ConfigError, FeatureConfig};
-use crate::learn::conformal::PredictionSets;
-use crate::learn::domain::DomainCheck;
-use crate::learn::estimate::WardRegressor;
-use crate::learn::{Classifier, LearnError};
+use crate::learn::LearnError;
 use crate::material::CaptureEnvelope;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -114,7 +115,7 @@ pub struct FeatureSpec {
     pub selected: Vec<String>,
 }
 
-/// The part of a leave-one-illumination-out [`crate::learn::CvSummary`] a model file keeps
+/// The part of a leave-one-illumination-out [`crate::classify::CvSummary`] a model file keeps
 /// (and the service shows with the version).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
@@ -128,13 +129,13 @@ pub struct StoredCv {
     /// Expected calibration error, in [0, 1].
     pub ece: f64,
     /// Each class's held-out images and accuracy, in class order.
-    pub per_class: Vec<crate::learn::cv::ClassScore>,
+    pub per_class: Vec<crate::classify::cv::ClassScore>,
     /// `confusion[truth][predicted]`, class order.
     pub confusion: Vec<Vec<usize>>,
 }
 
-impl From<&crate::learn::CvSummary> for StoredCv {
-    fn from(cv: &crate::learn::CvSummary) -> Self {
+impl From<&crate::classify::CvSummary> for StoredCv {
+    fn from(cv: &crate::classify::CvSummary) -> Self {
         StoredCv {
             accuracy: cv.accuracy,
             n: cv.n,

@@ -1,16 +1,17 @@
 //! From a feature table to a verified model file: fit the pipeline, cross-validate it,
 //! and record provenance and a self-test vector.
 
+use crate::classify::conformal::PredictionSets;
+use crate::classify::domain::{self, DomainCheck};
+use crate::classify::pipeline::{HeldOut, fit_rows_held_out};
+use crate::classify::{self, Classifier, CvReport, TrainSpec};
 use crate::dataset::{Entry, FeatureTable, Manifest, Sample};
+use crate::decode::{self, DecodeOptions};
+use crate::estimate::{self, EstimateReport, WardRegressor};
 use crate::features::stats;
 use crate::features::{CAPTURE_NAMES, Extensions, FeatureConfig, Preprocessing};
-use crate::image::decode::{self, DecodeOptions};
 use crate::image::display;
-use crate::learn::conformal::PredictionSets;
-use crate::learn::domain::{self, DomainCheck};
-use crate::learn::estimate::{self, EstimateReport, WardRegressor};
-use crate::learn::pipeline::{HeldOut, fit_rows_held_out};
-use crate::learn::{self, Classifier, CvReport, Dataset, FeatureSet, LearnError, TrainSpec};
+use crate::learn::{Dataset, FeatureSet, LearnError};
 use crate::material::Material;
 use crate::material::{CaptureEnvelope, CaptureRanges, VIEW_TAG};
 use crate::model::{
@@ -230,7 +231,7 @@ pub fn train_with(
     };
     let report = if options.cross_validate {
         observer.stage("cross_validate");
-        Some(learn::cross_validate_with(
+        Some(classify::cross_validate_with(
             &ds,
             &options.spec,
             options.seed,
@@ -471,7 +472,7 @@ fn fit_no_white(
     column: &dyn Fn(&str) -> Option<usize>,
 ) -> Result<Option<StoredHead>, LearnError> {
     let names = crate::features::named_set("scale_free").unwrap_or_default();
-    if options.spec.classifier != learn::ClassifierKind::Svm
+    if options.spec.classifier != classify::ClassifierKind::Svm
         || names.iter().any(|n| column(n).is_none())
     {
         return Ok(None);
@@ -520,11 +521,11 @@ pub fn add_objects(
         return Err(TrainError::Columns);
     }
     let (c, gamma) = match base.classifier.model() {
-        learn::pipeline::Model::Svm(svm) => (svm.c, Some(svm.gamma)),
-        _ => (learn::DEFAULT_C, None),
+        classify::pipeline::Model::Svm(svm) => (svm.c, Some(svm.gamma)),
+        _ => (classify::DEFAULT_C, None),
     };
     let classifier = base.classifier.kind().to_string();
-    let text = learn::SpecText {
+    let text = classify::SpecText {
         features: &base.features.set,
         classifier: &classifier,
         c,

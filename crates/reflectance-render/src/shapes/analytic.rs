@@ -3,8 +3,8 @@
 //! bisected, the normal its gradient's direction.
 
 use super::{Pose, Raster, Shape, ShapeError, facing};
-use crate::util::rng::Rng;
 use crate::{Vec3, sphere_normal};
+use reflectance_core::util::rng::Rng;
 
 /// One metaball: a Wyvill field w·(1 − d²/R²)³ within R of its centre.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -7,7 +7,7 @@
 //! mean and its coverage the fraction that hit. Analytic shapes are ray cast (exact normals
 //! from the implicit function's gradient; the sphere by the renderer's own formula), meshes
 //! by a z-buffer over the sub-pixel samples. Conventions of the core's normal maps
-//! ([`reflectance_core::image::normals`]): +X right, +Y up (image up), +Z toward the camera;
+//! ([`reflectance_core::object::normals`]): +X right, +Y up (image up), +Z toward the camera;
 //! background has no normal.
 //!
 //! [`crate::render_normals`] shades a map with the sphere's shader; [`Normals::to_png`]
@@ -23,9 +23,9 @@ pub use analytic::{Ball, Blob};
 pub use mesh::{CREASE_DEG, CornerNormals, Mesh, MeshLimits};
 pub(crate) use surface::MapSurface;
 
-use crate::util::rng::Rng;
 use crate::{Grid, Vec3};
-use reflectance_core::image::normals::NormalMap;
+use reflectance_core::object::normals::NormalMap;
+use reflectance_core::util::rng::Rng;
 use std::path::{Path, PathBuf};
 
 /// Why a shape could not be made or rasterized.

@@ -5,7 +5,7 @@
 
 use super::Normals;
 use crate::{Grid, Pixel, Surface, Vec3};
-use reflectance_core::image::normals::EDGE_ANGLE_DEG;
+use reflectance_core::object::normals::EDGE_ANGLE_DEG;
 
 pub(crate) struct MapSurface<'a> {
     normals: &'a Normals,

@@ -2,7 +2,7 @@ use super::*;
 use crate::envmap::EnvMap;
 use crate::ward::Material;
 use crate::{Lighting, Quality, View, render, render_normals};
-use reflectance_core::image::decode::Limits;
+use reflectance_core::decode::Limits;
 
 fn close(a: [f32; 3], b: Vec3, tolerance: f64) -> bool {
     let d = Vec3::new(f64::from(a[0]), f64::from(a[1]), f64::from(a[2])) - b;

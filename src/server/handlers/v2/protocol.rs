@@ -3,13 +3,13 @@
 //! REST handlers ([`super`]) and the gRPC service (`server::grpc`) both call these.
 
 use super::tensor::{Datatype, Elements, Tensor};
-use crate::image::colour;
-use crate::image::white::Method as WhiteMethod;
-use crate::inference::{Classified, LoadedModel};
-use crate::learn::estimate::Interval;
 use crate::server::error::{ApiError, Kind};
 use crate::server::handlers::classify::RawInput;
 use base64::Engine;
+use reflectance_core::estimate::Interval;
+use reflectance_core::image::colour;
+use reflectance_core::inference::{Classified, LoadedModel};
+use reflectance_core::white::Method as WhiteMethod;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 

@@ -20,7 +20,7 @@
 //! sphere brighter than any reflectance can be; a brighter light than any training probe's
 //! only comes near.
 
-use super::Inconsistent;
+use crate::learn::Inconsistent;
 
 use super::svm::squared_distance;
 use crate::util::rng::Rng;

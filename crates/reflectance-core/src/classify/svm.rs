@@ -11,7 +11,7 @@
 //! in memory, f32 saves memory bandwidth only, and the difference is within noise at these
 //! sizes, while f64 makes training and prediction use identical kernel values).
 
-use super::Inconsistent;
+use crate::learn::Inconsistent;
 
 use ndarray::ArrayView2;
 use rayon::prelude::*;

@@ -19,8 +19,8 @@
 //!   error is that of always guessing the most probable class, 1 − max prior, instead of
 //!   the error of a mixture fitted to rounding noise.
 
-use super::error::LearnError;
-use super::normal;
+use crate::learn::error::LearnError;
+use crate::learn::normal;
 use ndarray::ArrayView2;
 
 /// Relative floor of the per-class standard deviations.

@@ -1,17 +1,17 @@
 //! Leave-one-illumination-out cross-validation: each illumination (group) in turn is held
 //! out, the whole pipeline (selection or PCA, standardization, SVM, calibration) is fitted
 //! on the other groups' rows, and the held-out group's un-augmented rows are predicted.
-//! Augmented rows (`<probe>@<suffix>`, see [`super::matrix`]) train only, and leave the
+//! Augmented rows (`<probe>@<suffix>`, see [`crate::learn::matrix`]) train only, and leave the
 //! training set together with their probe.
 //!
 //! Folds run in parallel; each fold's seed is forked from the run's seed by its group index,
 //! and results are assembled in a fixed order, so the report does not depend on the number
 //! of threads.
 
-use super::error::LearnError;
-use super::matrix::Dataset;
 use super::pipeline::{Classifier, TrainSpec, fit_rows};
 use super::svm::squared_distance;
+use crate::learn::error::LearnError;
+use crate::learn::matrix::Dataset;
 use crate::util::progress::{Counter, Observer, Silent};
 use crate::util::rng::Rng;
 use rayon::prelude::*;
@@ -327,9 +327,9 @@ pub fn cross_validate_with(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::classify::pipeline::ClassifierKind;
     use crate::dataset::FeatureTable;
     use crate::learn::feature_set::FeatureSet;
-    use crate::learn::pipeline::ClassifierKind;
     use crate::learn::testutil::table;
 
     fn spec(features: &str, classifier: ClassifierKind) -> TrainSpec {

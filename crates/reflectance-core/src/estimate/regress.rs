@@ -12,7 +12,7 @@
 //! in-sample residuals r = y − Z A Zᵀ y, the held-out residuals of G are
 //! (I − Z_G A Z_Gᵀ)⁻¹ r_G, exactly.
 
-use super::error::LearnError;
+use crate::learn::error::LearnError;
 use crate::util::rng::Rng;
 use nalgebra::{DMatrix, DVector};
 use ndarray::{Array2, ArrayView2};

@@ -1,8 +1,8 @@
 //! Estimating the Ward parameters (ρd, ρs, α) themselves, with intervals, rather than naming
 //! a class.
 //!
-//! The regressor (gradient-boosted trees, [`super::boost`], or the kernel ridge of
-//! [`super::regress`]) predicts four outputs in well-conditioned spaces: the total reflectance
+//! The regressor (gradient-boosted trees, [`boost`], or the kernel ridge of
+//! [`regress`]) predicts four outputs in well-conditioned spaces: the total reflectance
 //! t = ρd + ρs, the specular fraction ρs / t, a mirror score (+1 for α = 0, −1 otherwise) and
 //! log10 α (mirrors placed at [`MIRROR_LOG_ALPHA`], below the glossy range). When the
 //! cosine-weighted centre [`TOTAL_ANCHOR`] is among the inputs, the total is predicted as
@@ -12,17 +12,20 @@
 //! their half-widths are quantiles of the leave-one-illumination-out errors of ρd, ρs and
 //! log10 α, so they hold for illuminations the model never saw.
 
-use super::Inconsistent;
+pub mod boost;
+pub mod regress;
 
-use super::boost::{self, BoostSpec, Boosted};
-use super::error::LearnError;
-use super::feature_set::FeatureSet;
-use super::matrix::Dataset;
-use super::regress::{self, Ridge, RidgeSpec};
-use super::scaler::Scaler;
+use crate::learn::Inconsistent;
+
+use crate::learn::error::LearnError;
+use crate::learn::feature_set::FeatureSet;
+use crate::learn::matrix::Dataset;
+use crate::learn::scaler::Scaler;
 use crate::material::Material;
 use crate::util::progress::{Observer, Silent};
+use boost::{BoostSpec, Boosted};
 use ndarray::{Array2, Axis};
+use regress::{Ridge, RidgeSpec};
 use serde::{Deserialize, Serialize};
 
 /// log10 α of a mirror on the regression's axis: half the smallest glossy α (0.005).

@@ -35,9 +35,11 @@
 //!    is sampled on fewer distinct pixels; circles inside the first are its reflections, not
 //!    runners-up).
 
+pub(crate) mod clean;
 mod vote;
 
-use crate::image::circle::{Circle, MIN_RADIUS};
+use crate::image::circle::Circle;
+use crate::locate::MIN_RADIUS;
 use ndarray::{Array2, ArrayView2};
 use vote::{Edge, edge_points, rim_coverage, rough_circles};
 

@@ -9,8 +9,8 @@
 //! 2^depth − 1 splits. Prediction is then `depth` comparisons per tree, with no pointers.
 //! There is no sampling: a fit is a function of its data alone.
 
-use super::error::LearnError;
 use super::regress;
+use crate::learn::error::LearnError;
 use crate::util::progress::{Counter, Observer, Silent};
 use ndarray::{Array2, ArrayView2};
 use rayon::prelude::*;

@@ -167,7 +167,7 @@ fn jpeg_reduced(bytes: &[u8], options: &DecodeOptions, denominator: usize) -> Op
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::image::decode::{DecodeError, Limits, decode};
+    use crate::decode::{DecodeError, Limits, decode};
 
     /// A `width` × `height` JPEG (grey, or RGB when `colour`) of a bright square around
     /// (`x`, `y`), half-side `half`, on a mid-grey ramp.

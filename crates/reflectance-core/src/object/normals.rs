@@ -11,10 +11,10 @@
 //! n = 2v / max − 1 per channel (8 or 16 bits); (0, 0, 0) or alpha 0 is background.
 
 use super::blocks::{Blocks, Border};
-use super::circle::Circle;
-use super::decode::{DecodeError, Limits, exr_file};
 use super::footprint::Footprint;
 use super::occlusion;
+use crate::decode::{DecodeError, Limits, exr_file};
+use crate::image::circle::Circle;
 use ndarray::Array2;
 use std::io::Cursor;
 

@@ -7,10 +7,10 @@
 //! on ties). A component whose eigenvalue is ≤ 1e-12 × the largest (the data has fewer
 //! dimensions than N) is not scaled: its scores are ~0 and stay so.
 
-use super::Inconsistent;
+use crate::learn::Inconsistent;
 
-use super::error::LearnError;
-use super::scaler::Scaler;
+use crate::learn::error::LearnError;
+use crate::learn::scaler::Scaler;
 use nalgebra::{DMatrix, SymmetricEigen};
 use ndarray::ArrayView2;
 use serde::{Deserialize, Serialize};

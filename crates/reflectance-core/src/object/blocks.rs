@@ -1,7 +1,7 @@
 //! A normal map reduced by square blocks: what the equivalent sphere reads of a large
 //! photograph (with its mean luminance), and the grid the own-shadow test integrates.
 
-use super::resample;
+use crate::image::resample;
 use ndarray::Array2;
 
 /// Per block, the normalized mean normal of its object pixels and their mean value; a block

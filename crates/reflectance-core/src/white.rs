@@ -3,8 +3,8 @@
 //! (median luminance, divided by the card's reflectance) in a separate crop or in a
 //! rectangle of the photograph itself, or absent.
 
+use crate::decode::LinearImage;
 use crate::image::colour::Rgb;
-use crate::image::decode::LinearImage;
 use ndarray::s;
 use serde::Serialize;
 use std::ops::Range;
@@ -240,7 +240,7 @@ fn median(values: &mut [f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::image::decode::Format;
+    use crate::decode::Format;
     use ndarray::Array2;
 
     fn card(values: &[f64]) -> LinearImage {

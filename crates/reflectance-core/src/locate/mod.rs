@@ -1,15 +1,22 @@
-//! Where the sphere is: an explicit circle, a circle fitted to a mask's edge, or automatic
-//! detection on a clean (dark or uniform) background. Pixel centres are at integer
+//! Where the sphere is (docs/design.md §3): a circle given, a circle fitted to a mask's edge
+//! ([`mask`]), or found in a photograph ([`detect`]). Pixel centres are at integer
 //! coordinates, so an image spans [−0.5, width − 0.5] × [−0.5, height − 0.5].
+//!
+//! The stage's one type is [`Geometry`], the circle used and how it was found; [`validate`]
+//! checks it against an image and the annulus the features sample.
 
-use super::circle::solve;
-pub use super::circle::{Circle, MIN_RADIUS};
-use ndarray::{Array2, ArrayView2};
+pub(crate) mod detect;
+pub(crate) mod fit;
+pub mod mask;
+
+pub use crate::image::circle::Circle;
+pub use detect::clean::{MIN_CONFIDENCE, detect_clean};
+pub use mask::fit_mask;
+use ndarray::ArrayView2;
 use serde::{Deserialize, Serialize};
-use std::collections::VecDeque;
 
-/// Automatic detection refuses below this confidence.
-pub const MIN_CONFIDENCE: f64 = 0.9;
+/// Radii below this are refused.
+pub const MIN_RADIUS: f64 = 32.0;
 
 /// How the sphere's circle was found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -55,7 +62,7 @@ impl Geometry {
         }
     }
 
-    fn new(circle: Circle, method: Method, confidence: Option<f64>) -> Self {
+    pub(crate) fn new(circle: Circle, method: Method, confidence: Option<f64>) -> Self {
         Geometry {
             cx: circle.cx,
             cy: circle.cy,
@@ -220,76 +227,7 @@ fn check_alone(circle: &Circle) -> Result<(), GeometryError> {
     Ok(())
 }
 
-/// Least-squares circle fitted to the edge of a mask (`method` is Mask or Alpha).
-pub fn fit_mask(mask: ArrayView2<bool>, method: Method) -> Result<Geometry, GeometryError> {
-    if !mask.iter().any(|&m| m) {
-        return Err(GeometryError::EmptyMask);
-    }
-    let edge = edge_points(mask);
-    if edge.len() < 16 {
-        return Err(GeometryError::NoMaskEdge);
-    }
-    let circle = fit_circle(&edge).ok_or(GeometryError::NoMaskEdge)?;
-    let rms = rms_residual(&edge, &circle);
-    if rms > (0.02 * circle.r).max(1.0) {
-        return Err(GeometryError::NotCircular { rms });
-    }
-    Ok(Geometry::new(circle, method, None))
-}
-
-/// Midpoints between 4-neighbouring inside/outside pixel pairs: the mask's edge, to
-/// sub-pixel accuracy on average. The image border is not an edge.
-fn edge_points(mask: ArrayView2<bool>) -> Vec<(f64, f64)> {
-    let (h, w) = mask.dim();
-    let mut points = Vec::new();
-    for ((y, x), &inside) in mask.indexed_iter() {
-        if x + 1 < w && inside != mask[[y, x + 1]] {
-            points.push((x as f64 + 0.5, y as f64));
-        }
-        if y + 1 < h && inside != mask[[y + 1, x]] {
-            points.push((x as f64, y as f64 + 0.5));
-        }
-    }
-    points
-}
-
-/// Algebraic (Kåsa) fit, in coordinates centred on the points' mean for conditioning.
-pub(crate) fn fit_circle(points: &[(f64, f64)]) -> Option<Circle> {
-    let n = points.len() as f64;
-    let mx = points.iter().map(|p| p.0).sum::<f64>() / n;
-    let my = points.iter().map(|p| p.1).sum::<f64>() / n;
-    // Minimize Σ (u² + v² + D u + E v + F)²: normal equations in (D, E, F).
-    let mut a = [[0.0f64; 3]; 3];
-    let mut b = [0.0f64; 3];
-    for &(x, y) in points {
-        let (u, v) = (x - mx, y - my);
-        let row = [u, v, 1.0];
-        let z = -(u * u + v * v);
-        for i in 0..3 {
-            for j in 0..3 {
-                a[i][j] += row[i] * row[j];
-            }
-            b[i] += row[i] * z;
-        }
-    }
-    let [d, e, f] = solve(a, b)?;
-    let r2 = d * d / 4.0 + e * e / 4.0 - f;
-    (r2 > 0.0).then(|| Circle {
-        cx: mx - d / 2.0,
-        cy: my - e / 2.0,
-        r: r2.sqrt(),
-    })
-}
-
-fn residual(p: &(f64, f64), c: &Circle) -> f64 {
-    ((p.0 - c.cx).hypot(p.1 - c.cy) - c.r).abs()
-}
-
-fn rms_residual(points: &[(f64, f64)], c: &Circle) -> f64 {
-    (points.iter().map(|p| residual(p, c).powi(2)).sum::<f64>() / points.len() as f64).sqrt()
-}
-
-/// Find the sphere in a photograph ([`crate::image::detect`]: table tops, scenes, JPEG), with the
+/// Find the sphere in a photograph ([`crate::locate::detect`]: table tops, scenes, JPEG), with the
 /// circle a clean background gives ([`detect_clean`]) as one more candidate. The
 /// confidence is the fraction of the rim with a clear edge on the circle.
 pub fn detect(luminance: ArrayView2<f64>) -> Result<Geometry, GeometryError> {
@@ -305,7 +243,7 @@ pub const ALTERNATIVE_CONFIDENCE: f64 = 0.3;
 pub fn detect_ranked(
     luminance: ArrayView2<f64>,
 ) -> (Result<Geometry, GeometryError>, Vec<Geometry>) {
-    use crate::image::detect::{self, NotFound};
+    use detect::NotFound;
     let ranked = match detect::find_spheres(luminance, |small| {
         detect_clean(small).ok().map(|g| g.circle())
     }) {
@@ -339,163 +277,10 @@ pub fn visible_rim(circle: &Circle, width: usize, height: usize) -> f64 {
     inside as f64 / STEPS as f64
 }
 
-/// Find a sphere on a clean background.
-///
-/// The background level and noise come from the image border (median and MAD); pixels far
-/// from it are foreground; background is what is connected to the border, so dark patches
-/// inside the sphere do not make holes. A circle is fitted to the largest foreground
-/// component's edge with outlier rejection. Confidence = fraction of edge points on the
-/// circle × agreement between the component's area and the circle's.
-pub fn detect_clean(luminance: ArrayView2<f64>) -> Result<Geometry, GeometryError> {
-    let fail = |reason: String| GeometryError::DetectionFailed { reason };
-    let (h, w) = luminance.dim();
-    if h < 2 * MIN_RADIUS as usize || w < 2 * MIN_RADIUS as usize {
-        return Err(fail(format!(
-            "the image ({w}×{h}) is too small to hold a sphere"
-        )));
-    }
-    let (background, noise) = border_level(luminance);
-    let mut sorted: Vec<f64> = luminance.iter().map(|v| (v - background).abs()).collect();
-    sorted.sort_unstable_by(f64::total_cmp);
-    let contrast = sorted[(sorted.len() as f64 * 0.99) as usize];
-    if contrast <= 0.0 || noise > 0.1 * contrast {
-        return Err(fail("the background is not uniform enough".into()));
-    }
-    let threshold = (6.0 * noise).max(0.02 * contrast);
-    let foreground = luminance.mapv(|v| (v - background).abs() > threshold);
-    let component = largest_component(&fill_holes(&foreground));
-    let area = component.iter().filter(|&&m| m).count() as f64;
-    if area == 0.0 {
-        return Err(fail("no object stands out from the background".into()));
-    }
-    let edge = edge_points(component.view());
-    let (circle, inliers) =
-        robust_fit(&edge).ok_or_else(|| fail("the object's edge is not round".into()))?;
-    let disc_area = std::f64::consts::PI * circle.r * circle.r;
-    let area_agreement = 1.0 - ((area - disc_area).abs() / disc_area).min(1.0);
-    let confidence = inliers * area_agreement;
-    if confidence < MIN_CONFIDENCE {
-        return Err(fail(format!(
-            "confidence {confidence:.2} is below {MIN_CONFIDENCE} (the object is not a clean disc)"
-        )));
-    }
-    Ok(Geometry::new(circle, Method::Auto, Some(confidence)))
-}
-
-/// Median and robust spread (1.4826·MAD) of a 2-pixel frame around the image.
-fn border_level(image: ArrayView2<f64>) -> (f64, f64) {
-    let (h, w) = image.dim();
-    let mut border: Vec<f64> = image
-        .indexed_iter()
-        .filter(|((y, x), _)| *y < 2 || *x < 2 || *y + 2 >= h || *x + 2 >= w)
-        .map(|(_, &v)| v)
-        .collect();
-    let median = median_of(&mut border);
-    let mut deviations: Vec<f64> = border.iter().map(|v| (v - median).abs()).collect();
-    (median, 1.4826 * median_of(&mut deviations))
-}
-
-fn median_of(values: &mut [f64]) -> f64 {
-    let mid = values.len() / 2;
-    values.select_nth_unstable_by(mid, f64::total_cmp);
-    values[mid]
-}
-
-/// Foreground plus every background region not connected to the image border.
-fn fill_holes(foreground: &Array2<bool>) -> Array2<bool> {
-    let (h, w) = foreground.dim();
-    let mut outside = Array2::from_elem((h, w), false);
-    let mut queue = VecDeque::new();
-    for (p, &fg) in foreground.indexed_iter() {
-        if (p.0 == 0 || p.1 == 0 || p.0 == h - 1 || p.1 == w - 1) && !fg {
-            outside[p] = true;
-            queue.push_back(p);
-        }
-    }
-    flood(&mut queue, (h, w), |p| {
-        let admit = !foreground[p] && !outside[p];
-        outside[p] |= admit;
-        admit
-    });
-    outside.mapv(|o| !o)
-}
-
-/// The largest 4-connected component of `mask`.
-fn largest_component(mask: &Array2<bool>) -> Array2<bool> {
-    let mut label = Array2::<u32>::zeros(mask.dim());
-    let mut sizes = vec![0usize];
-    for start in mask.indexed_iter().filter(|(_, m)| **m).map(|(p, _)| p) {
-        if label[start] != 0 {
-            continue;
-        }
-        let id = sizes.len() as u32;
-        label[start] = id;
-        let mut size = 1;
-        flood(&mut VecDeque::from([start]), mask.dim(), |p| {
-            let admit = mask[p] && label[p] == 0;
-            if admit {
-                label[p] = id;
-                size += 1;
-            }
-            admit
-        });
-        sizes.push(size);
-    }
-    let best = (1..sizes.len()).max_by_key(|&i| sizes[i]).unwrap_or(0) as u32;
-    label.mapv(|l| l == best && best != 0)
-}
-
-/// Breadth-first flood over 4-neighbours; `visit` marks a pixel and says whether to enter it.
-fn flood(
-    queue: &mut VecDeque<(usize, usize)>,
-    (h, w): (usize, usize),
-    mut visit: impl FnMut((usize, usize)) -> bool,
-) {
-    while let Some((y, x)) = queue.pop_front() {
-        let neighbours = [
-            (y.wrapping_sub(1), x),
-            (y + 1, x),
-            (y, x.wrapping_sub(1)),
-            (y, x + 1),
-        ];
-        for p in neighbours {
-            if p.0 < h && p.1 < w && visit(p) {
-                queue.push_back(p);
-            }
-        }
-    }
-}
-
-/// Fit, drop edge points far from the circle, refit; returns the circle and the fraction
-/// of all edge points within tolerance of it.
-fn robust_fit(points: &[(f64, f64)]) -> Option<(Circle, f64)> {
-    if points.len() < 16 {
-        return None;
-    }
-    let mut circle = fit_circle(points)?;
-    for _ in 0..4 {
-        let tolerance = (0.01 * circle.r).max(1.5);
-        let kept: Vec<(f64, f64)> = points
-            .iter()
-            .copied()
-            .filter(|p| residual(p, &circle) <= 3.0 * tolerance)
-            .collect();
-        if kept.len() < 16 {
-            return None;
-        }
-        circle = fit_circle(&kept)?;
-    }
-    let tolerance = (0.01 * circle.r).max(1.5);
-    let inliers = points
-        .iter()
-        .filter(|p| residual(p, &circle) <= tolerance)
-        .count();
-    Some((circle, inliers as f64 / points.len() as f64))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use ndarray::Array2;
 
     fn disc(h: usize, w: usize, c: Circle) -> Array2<bool> {
         Array2::from_shape_fn((h, w), |(y, x)| {

@@ -9,7 +9,7 @@
 //! its probabilities are the training class frequencies. The expected accuracy of guessing
 //! uniformly at random, 1/K, is reported separately by cross-validation.
 
-use super::Inconsistent;
+use crate::learn::Inconsistent;
 
 use super::svm::squared_distance;
 use serde::{Deserialize, Serialize};

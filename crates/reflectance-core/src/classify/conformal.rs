@@ -11,7 +11,7 @@
 //! class with probability ≥ c (if the new image is exchangeable with them; the fold models
 //! saw fewer illuminations than the final one, so the sets lean large).
 
-use super::Inconsistent;
+use crate::learn::Inconsistent;
 
 use super::svm::argmax;
 use serde::{Deserialize, Serialize};
@@ -26,11 +26,11 @@ pub const K_REG: usize = 1;
 pub const MEASURED_COVERAGES: [f64; 3] = [0.9, 0.95, 0.99];
 
 /// A coverage a request may ask for: within [0.5, 0.999].
-pub fn check_coverage(coverage: f64) -> Result<f64, super::LearnError> {
+pub fn check_coverage(coverage: f64) -> Result<f64, crate::learn::LearnError> {
     if coverage.is_finite() && (0.5..=0.999).contains(&coverage) {
         Ok(coverage)
     } else {
-        Err(super::LearnError::BadCoverage(coverage))
+        Err(crate::learn::LearnError::BadCoverage(coverage))
     }
 }
 

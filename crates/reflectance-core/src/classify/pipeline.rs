@@ -5,14 +5,14 @@
 //! model file can embed it; after deserializing, call [`Classifier::validate`] before use.
 
 use super::calibration::{self, Calibration, Sigmoid, stratified_folds};
-use super::error::LearnError;
-use super::feature_set::FeatureSet;
 use super::knn::{ChanceModel, KnnModel};
-use super::matrix::Dataset;
 use super::pca::Pca;
-use super::scaler::Scaler;
 use super::select;
 use super::svm::{self, Gram, SolverParams, SvmModel};
+use crate::learn::error::LearnError;
+use crate::learn::feature_set::FeatureSet;
+use crate::learn::matrix::Dataset;
+use crate::learn::scaler::Scaler;
 use crate::util::rng::Rng;
 use ndarray::{Array2, ArrayView2, Axis};
 use rayon::prelude::*;

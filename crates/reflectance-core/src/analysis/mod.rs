@@ -2,14 +2,14 @@
 //! image plus where the sphere is and how bright white is → features, with what was used
 //! and every warning.
 
+use crate::decode::{self, DecodeError, DecodeOptions, Encoding, LinearImage};
 use crate::features::observed::ObservedError;
 use crate::features::polar::UnwrapConfig;
 use crate::features::{CaptureMeasurements, Extractor};
 use crate::image::colour::{self, Rgb};
-use crate::image::decode::{self, DecodeError, DecodeOptions, Encoding, LinearImage};
-use crate::image::geometry::{self, Geometry, GeometryError, Method};
-use crate::image::normals::{self, EquivalentSphere, NormalMap, NormalsError};
-use crate::image::white::{self, White, WhiteError};
+use crate::locate::{self, Geometry, GeometryError, Method};
+use crate::object::normals::{self, EquivalentSphere, NormalMap, NormalsError};
+use crate::white::{self, White, WhiteError};
 use ndarray::Array2;
 use serde::Serialize;
 
@@ -17,7 +17,7 @@ use serde::Serialize;
 #[derive(Clone, Debug)]
 pub enum Locate {
     /// A circle in the image's pixels.
-    Circle(geometry::Circle),
+    Circle(locate::Circle),
     /// A separate mask image (same size as the image): alpha if it has one, else
     /// linear luminance ≥ 0.5.
     Mask(Array2<bool>),
@@ -39,7 +39,7 @@ impl Locate {
     /// mask, if any, is the object's pixels), a mask of the sphere, a circle, or nothing
     /// (found). A circle with a mask or normals is the caller's to refuse.
     pub fn read(
-        circle: Option<geometry::Circle>,
+        circle: Option<locate::Circle>,
         mask: Option<&[u8]>,
         normals: Option<&[u8]>,
         options: &DecodeOptions,
@@ -176,9 +176,8 @@ pub fn locate_ranked(image: &LinearImage, extractor: &Extractor) -> (Located, Ve
     }
     let unwrap = &extractor.config().unwrap;
     let (width, height) = (image.width(), image.height());
-    let fits =
-        |g: &Geometry| geometry::validate(&g.circle(), width, height, unwrap.outer, unwrap.r0);
-    let (chosen, ranked) = geometry::detect_ranked(image.luminance.view());
+    let fits = |g: &Geometry| locate::validate(&g.circle(), width, height, unwrap.outer, unwrap.r0);
+    let (chosen, ranked) = locate::detect_ranked(image.luminance.view());
     let chosen = chosen.and_then(|g| Ok((g, fits(&g)?)));
     let alternatives = ranked.into_iter().filter(|g| fits(g).is_ok()).collect();
     (chosen, alternatives)
@@ -189,7 +188,7 @@ pub(crate) fn locate_for(image: &LinearImage, how: &Locate, unwrap: &UnwrapConfi
     let (width, height) = (image.width(), image.height());
     let geometry = match how {
         Locate::Circle(c) => {
-            geometry::given(Some(c.cx), Some(c.cy), Some(c.r))?.ok_or(GeometryError::Incomplete)?
+            locate::given(Some(c.cx), Some(c.cy), Some(c.r))?.ok_or(GeometryError::Incomplete)?
         }
         Locate::Mask(mask) => {
             if mask.dim() != image.luminance.dim() {
@@ -200,15 +199,15 @@ pub(crate) fn locate_for(image: &LinearImage, how: &Locate, unwrap: &UnwrapConfi
                     height,
                 });
             }
-            geometry::fit_mask(mask.view(), Method::Mask)?
+            locate::fit_mask(mask.view(), Method::Mask)?
         }
         Locate::Normals { .. } => return Err(GeometryError::ObjectByNormals),
         Locate::Auto => match &image.alpha_mask {
-            Some(alpha) => geometry::fit_mask(alpha.view(), Method::Alpha)?,
-            None => geometry::detect(image.luminance.view())?,
+            Some(alpha) => locate::fit_mask(alpha.view(), Method::Alpha)?,
+            None => locate::detect(image.luminance.view())?,
         },
     };
-    let warnings = geometry::validate(&geometry.circle(), width, height, unwrap.outer, unwrap.r0)?;
+    let warnings = locate::validate(&geometry.circle(), width, height, unwrap.outer, unwrap.r0)?;
     Ok((geometry, warnings))
 }
 
@@ -405,9 +404,9 @@ fn analyze_object(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::decode::{self, Limits};
     use crate::features::{FeatureConfig, MIN_OBSERVED, default_names};
-    use crate::image::decode::{self, Limits};
-    use crate::image::geometry::Circle;
+    use crate::locate::Circle;
 
     /// A shiny sphere of radius `r` centred in a `size`² image under a sky with a sun: its
     /// luminance and its normal map (the shading depends on the normal only).

@@ -8,7 +8,7 @@
 //! "Path-traced objects"). Under an orthographic view the normals give the surface's slopes,
 //! so its heights follow up to a constant, and with them the horizon each pixel sees.
 
-use crate::image::blocks::{Blocks, Border};
+use crate::object::blocks::{Blocks, Border};
 
 /// A pixel is in the object's own shadow when the object hides more than this share of its
 /// cosine-weighted sky.
