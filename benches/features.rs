@@ -3,7 +3,7 @@
 
 use divan::Bencher;
 use ndarray::Array2;
-use reflectance_core::analysis::{self, Locate, WhiteInput};
+use reflectance_core::analysis::{self, Placement, WhiteSpec};
 use reflectance_core::decode::{self, DecodeOptions, LinearImage};
 use reflectance_core::features::pyramid::{self, Edge};
 use reflectance_core::features::spectrum::SpectrumPlan;
@@ -110,8 +110,8 @@ fn features_of_the_shipped_model(bencher: Bencher) {
         .expect("the shipped ward6 model");
     let model = reflectance_core::inference::LoadedModel::new(file).expect("model");
     let image = decoded();
-    let locate = Locate::Circle(circle());
-    let white = WhiteInput::Value(1.0);
+    let locate = Placement::Circle(circle());
+    let white = WhiteSpec::Value(1.0);
     let measure = model.file().capture.is_some();
     bencher.bench(|| {
         let wanted = model.needed();
@@ -155,8 +155,8 @@ fn features_with_outline(bencher: Bencher, outline: bool) {
 fn features_of_an_array(bencher: Bencher) {
     let luminance = decoded().luminance;
     let extractor = Extractor::new(FeatureConfig::default()).expect("config");
-    let locate = Locate::Circle(circle());
-    let white = WhiteInput::Value(1.0);
+    let locate = Placement::Circle(circle());
+    let white = WhiteSpec::Value(1.0);
     bencher.bench(|| {
         let image =
             decode::from_luminance(divan::black_box(&luminance).clone(), &Default::default())

@@ -11,7 +11,7 @@
 //! image's colour components on threads of its own).
 
 use divan::Bencher;
-use reflectance_core::analysis::{self, Locate, WhiteInput};
+use reflectance_core::analysis::{self, Placement, WhiteSpec};
 use reflectance_core::decode::{self, DecodeOptions};
 use reflectance_core::features::Extractor;
 use reflectance_core::locate::{self, Circle};
@@ -137,9 +137,9 @@ fn extractor() -> &'static Extractor {
 }
 
 /// Decode, then white, locate and extract as a request does.
-fn classify_front(bytes: &[u8], locate: &Locate) -> analysis::Analysis {
+fn classify_front(bytes: &[u8], locate: &Placement) -> analysis::Analysis {
     let image = decode::decode(bytes, &DecodeOptions::default()).expect("decode");
-    analysis::analyze(extractor(), &image, locate, &WhiteInput::Value(1.0)).expect("analysis")
+    analysis::analyze(extractor(), &image, locate, &WhiteSpec::Value(1.0)).expect("analysis")
 }
 
 #[divan::bench(args = PHOTOS, sample_count = 10)]
@@ -161,19 +161,19 @@ fn decode_for_location(bencher: Bencher, photo: &Photo) {
 #[divan::bench(args = PHOTOS, sample_count = 10)]
 fn located(bencher: Bencher, photo: &Photo) {
     let bytes = jpeg(photo);
-    let found = classify_front(&bytes, &Locate::Auto).geometry.circle();
+    let found = classify_front(&bytes, &Placement::Auto).geometry.circle();
     let truth = photo.circle();
     assert!(
         (found.cx - truth.cx).hypot(found.cy - truth.cy) < 0.04 * truth.r,
         "{photo}: found {found:?}"
     );
-    bencher.bench(|| classify_front(divan::black_box(&bytes), &Locate::Auto));
+    bencher.bench(|| classify_front(divan::black_box(&bytes), &Placement::Auto));
 }
 
 #[divan::bench(args = PHOTOS, sample_count = 10)]
 fn circle_given(bencher: Bencher, photo: &Photo) {
     let bytes = jpeg(photo);
-    let locate = Locate::Circle(photo.circle());
+    let locate = Placement::Circle(photo.circle());
     bencher.bench(|| classify_front(divan::black_box(&bytes), &locate));
 }
 
@@ -215,14 +215,20 @@ fn dev_photo_located(bencher: Bencher) {
     bencher.bench(|| {
         let image =
             decode::decode(divan::black_box(&bytes), &DecodeOptions::default()).expect("decode");
-        analysis::analyze(extractor(), &image, &Locate::Auto, &WhiteInput::Value(1.0)).ok()
+        analysis::analyze(
+            extractor(),
+            &image,
+            &Placement::Auto,
+            &WhiteSpec::Value(1.0),
+        )
+        .ok()
     });
 }
 
 #[divan::bench(sample_count = 10)]
 fn dev_photo_circle_given(bencher: Bencher) {
     let Some(bytes) = dev_photo() else { return };
-    let locate = Locate::Circle(Circle {
+    let locate = Placement::Circle(Circle {
         cx: 2348.6,
         cy: 2252.6,
         r: 201.4,

@@ -5,7 +5,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use reflectance_core::analysis::{self, Locate, WhiteInput};
+use reflectance_core::analysis::{self, Placement, WhiteSpec};
 use reflectance_core::features::{Extractor, FeatureConfig};
 use reflectance_core::decode::{DecodeOptions, Limits, decode, decode_reduced};
 use reflectance_core::locate::Circle;
@@ -50,7 +50,7 @@ fuzz_target!(|data: &[u8]| {
         assert_eq!(mask.dim(), image.luminance.dim());
     }
     let extractor = extractor();
-    if let Ok(a) = analysis::analyze(extractor, &image, &Locate::Auto, &WhiteInput::Missing) {
+    if let Ok(a) = analysis::analyze(extractor, &image, &Placement::Auto, &WhiteSpec::Missing) {
         assert_eq!(a.values.len(), extractor.config().names().len());
     }
     let (w, h) = (image.width() as f64, image.height() as f64);
@@ -64,8 +64,8 @@ fuzz_target!(|data: &[u8]| {
         let _ = analysis::analyze(
             extractor,
             &image,
-            &Locate::Circle(circle),
-            &WhiteInput::Value(0.5),
+            &Placement::Circle(circle),
+            &WhiteSpec::Value(0.5),
         );
     }
 });

@@ -5,16 +5,15 @@
 mod input;
 
 use input::{ImageArg, MaskArg, NormalsArg};
-use ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2};
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use reflectance_core::analysis::{self, AnalysisError, Locate, WhiteInput};
+use reflectance_core::analysis::{self, AnalysisError, Placement, WhiteSpec};
 use reflectance_core::decode::LinearImage;
 use reflectance_core::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
-use reflectance_core::inference::{self, Answer, InferenceError, LoadedModel, Placement};
+use reflectance_core::inference::{self, Answer, InferenceError, LoadedModel};
 use reflectance_core::locate::GeometryError;
 use reflectance_core::model::registry;
 use std::path::PathBuf;
@@ -50,63 +49,28 @@ fn inference_error(e: InferenceError) -> PyErr {
     }
 }
 
-/// What a placement holds besides a circle: a mask, or an object's normals.
-enum Part {
-    Mask(MaskArg),
-    Normals(NormalsArg),
-}
-
-impl Part {
-    fn into_mask(self) -> PyResult<Array2<bool>> {
-        match self {
-            Part::Mask(mask) => mask.into_mask(),
-            Part::Normals(_) => Err(error("normals where a mask belongs")),
-        }
-    }
-}
-
 /// Where the sphere is: the circle, a mask, or found in the image; or an object's normals
 /// (with `mask`, the object's pixels).
-fn locate(
-    cx: Option<f64>,
-    cy: Option<f64>,
-    r: Option<f64>,
+fn placement(
+    (cx, cy, r): (Option<f64>, Option<f64>, Option<f64>),
     mask: Option<MaskArg>,
     normals: Option<NormalsArg>,
-) -> PyResult<Locate> {
-    let placement = Placement::new(cx, cy, r, mask.map(Part::Mask))
-        .and_then(|p| p.with_normals(normals.map(Part::Normals)))
-        .map_err(error)?;
-    Ok(match placement {
-        Placement::Circle(circle) => Locate::Circle(circle),
-        Placement::Mask(mask) => Locate::Mask(mask.into_mask()?),
-        Placement::Auto => Locate::Auto,
-        Placement::Normals {
-            normals: Part::Normals(normals),
-            mask,
-        } => Locate::Normals {
-            normals: normals.into_map()?,
-            mask: mask.map(Part::into_mask).transpose()?,
-        },
-        Placement::Normals { .. } => return Err(error("a mask where the normals belong")),
-    })
+) -> PyResult<Placement> {
+    Placement::new(cx, cy, r, mask)
+        .and_then(|p| p.with_normals(normals))
+        .map_err(error)?
+        .try_map(MaskArg::into_mask, NormalsArg::into_map)
 }
 
-fn white_input(white: Option<f64>) -> PyResult<WhiteInput> {
-    match white {
-        Some(value) => {
-            reflectance_core::white::given(value).map_err(error)?;
-            Ok(WhiteInput::Value(value))
-        }
-        None => Ok(WhiteInput::Missing),
-    }
+fn white(value: Option<f64>) -> PyResult<WhiteSpec> {
+    WhiteSpec::new(value, None, None, None).map_err(error)
 }
 
 /// A sphere's photograph as the arguments give it, checked before any decoding.
 struct Sphere {
     image: ImageArg,
-    how: Locate,
-    white: WhiteInput,
+    how: Placement,
+    white: WhiteSpec,
 }
 
 impl Sphere {
@@ -119,14 +83,12 @@ impl Sphere {
     ) -> PyResult<Sphere> {
         Ok(Sphere {
             image: ImageArg::from_python(image)?,
-            how: locate(
-                cx,
-                cy,
-                r,
+            how: placement(
+                (cx, cy, r),
                 mask.map(MaskArg::from_python).transpose()?,
                 normals.map(NormalsArg::from_python).transpose()?,
             )?,
-            white: white_input(white)?,
+            white: self::white(white)?,
         })
     }
 
@@ -134,7 +96,7 @@ impl Sphere {
     fn decoded<T: Send>(
         self,
         py: Python<'_>,
-        f: impl FnOnce(LinearImage, &Locate, &WhiteInput) -> PyResult<T> + Send,
+        f: impl FnOnce(LinearImage, &Placement, &WhiteSpec) -> PyResult<T> + Send,
     ) -> PyResult<T> {
         py.detach(move || f(self.image.decode()?, &self.how, &self.white))
     }

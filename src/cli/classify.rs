@@ -6,7 +6,7 @@ use super::{CliError, CliResult, LimitArgs, SphereArgs};
 use clap::Args;
 use reflectance_core::decode::Encoding;
 use reflectance_core::inference::{
-    self, Answer, ClassifyResponse, InferenceError, Input, LoadedModel, LocateSpec, WhiteSpec,
+    self, Answer, ClassifyResponse, InferenceError, Input, LoadedModel,
 };
 use reflectance_core::model::registry;
 use std::path::{Path, PathBuf};
@@ -59,49 +59,20 @@ pub struct ClassifyArgs {
     limits: LimitArgs,
 }
 
-fn read(path: &Path, what: &str) -> CliResult<bytes::Bytes> {
-    std::fs::read(path)
-        .map(bytes::Bytes::from)
-        .map_err(|e| CliError::Invalid(format!("{what} {}: {e}", path.display())))
-}
-
 fn load_model(path: &Path) -> CliResult<LoadedModel> {
     let file = registry::load_path(path)?;
     Ok(LoadedModel::new(file)?)
 }
 
 fn input(args: &ClassifyArgs) -> CliResult<Input> {
-    let sphere = &args.sphere;
-    let card = sphere.white_image.is_some() || sphere.white_rect.is_some();
-    let white = WhiteSpec::new(
-        sphere.white,
-        sphere
-            .white_image
-            .as_deref()
-            .map(|path| read(path, "white image"))
-            .transpose()?,
-        sphere.white_rect,
-        // The flag has a default; it is the card's only when there is a card.
-        card.then_some(sphere.white_reflectance),
-    )?;
-    let mask = sphere
-        .mask
-        .as_deref()
-        .map(|m| read(m, "mask"))
-        .transpose()?;
-    let normals = sphere
-        .normals
-        .as_deref()
-        .map(|n| read(n, "normals"))
-        .transpose()?;
-    let locate = LocateSpec::new(sphere.cx, sphere.cy, sphere.r, mask)?.with_normals(normals)?;
+    let (locate, white) = args.sphere.placement_and_white()?;
     let answer = Answer {
         include_features: args.all_features,
         include_explain: args.explain,
         include_images: false,
         coverage: args.coverage,
     };
-    let image = read(&args.image, "image")?;
+    let image = super::read(&args.image, "image")?;
     Ok(Input::new(image, white, locate, args.encoding, answer)?)
 }
 

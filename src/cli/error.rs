@@ -28,7 +28,7 @@ pub enum CliError {
     #[error(transparent)]
     White(#[from] WhiteError),
     #[error(transparent)]
-    Input(#[from] reflectance_core::inference::InputError),
+    Input(#[from] reflectance_core::analysis::InputError),
     #[error(transparent)]
     Learn(#[from] LearnError),
     #[error(transparent)]

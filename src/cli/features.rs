@@ -3,11 +3,10 @@
 
 use super::{CliError, CliResult, LimitArgs, SphereArgs};
 use clap::Args;
-use reflectance_core::analysis::{self, Locate, WhiteInput};
+use reflectance_core::analysis;
 use reflectance_core::dataset::{self, Manifest};
 use reflectance_core::decode::{self, DecodeOptions, Encoding};
 use reflectance_core::features::Extractor;
-use reflectance_core::locate::Circle;
 use reflectance_core::util::shard::Shard;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -98,34 +97,15 @@ fn single(args: &FeaturesArgs, extractor: &Extractor, options: &DecodeOptions) -
         decode::decode_file(p, options).map_err(|e| CliError::at(p.display(), e))
     };
     let image = decode(path, options)?;
-    let sphere = &args.sphere;
-    let read = |p: &Option<PathBuf>| {
-        p.as_ref()
-            .map(|p| std::fs::read(p).map_err(|e| CliError::at(p.display(), e)))
-            .transpose()
-    };
-    let (mask, normals) = (read(&sphere.mask)?, read(&sphere.normals)?);
-    let circle = match (sphere.cx, sphere.cy, sphere.r) {
-        (Some(cx), Some(cy), Some(r)) => Some(Circle { cx, cy, r }),
-        _ => None,
-    };
-    let locate = Locate::read(circle, mask.as_deref(), normals.as_deref(), options)
+    let (placement, white) = args.sphere.placement_and_white()?;
+    let placement = placement
+        .decode(options)
         .map_err(|e| CliError::at(path.display(), e))?;
-    let white = match (sphere.white, &sphere.white_image) {
-        (Some(v), _) => WhiteInput::Value(v),
-        (None, Some(card)) => WhiteInput::Card {
-            image: decode(card, options)?,
-            reflectance: sphere.white_reflectance,
-        },
-        (None, None) => match sphere.white_rect {
-            Some(rect) => WhiteInput::Rect {
-                rect,
-                reflectance: sphere.white_reflectance,
-            },
-            None => WhiteInput::Missing,
-        },
-    };
-    let result = analysis::analyze(extractor, &image, &locate, &white)
+    let card = args.sphere.white_image.as_ref().unwrap_or(path);
+    let white = white
+        .decode(options)
+        .map_err(|e| CliError::at(card.display(), e))?;
+    let result = analysis::analyze(extractor, &image, &placement, &white)
         .map_err(|e| CliError::Invalid(super::analysis_error(&e)))?;
     let output = Output {
         names: extractor.config().names(),

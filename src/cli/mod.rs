@@ -15,8 +15,11 @@ mod serve;
 
 pub use error::{CliError, CliResult};
 
+use bytes::Bytes;
 use clap::{Args, Parser, Subcommand};
+use reflectance_core::analysis::{Placement, WhiteSpec};
 use reflectance_core::white::Rect;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(Parser, Debug)]
@@ -152,6 +155,34 @@ pub struct SphereArgs {
     /// Reflectance of the white card in (0, 1] (white = card median / reflectance).
     #[arg(long, requires = "card", default_value_t = 1.0)]
     pub white_reflectance: f64,
+}
+
+impl SphereArgs {
+    /// Where the sphere is and how bright white is, as the flags give them: the mask's,
+    /// the normals' and the card's files read, the rules checked ([`Placement::new`],
+    /// [`WhiteSpec::new`]).
+    pub fn placement_and_white(&self) -> CliResult<(Placement<Bytes, Bytes>, WhiteSpec<Bytes>)> {
+        let file =
+            |path: &Option<PathBuf>, what| path.as_deref().map(|p| read(p, what)).transpose();
+        let card = self.white_image.is_some() || self.white_rect.is_some();
+        let white = WhiteSpec::new(
+            self.white,
+            file(&self.white_image, "white image")?,
+            self.white_rect,
+            // The flag has a default; it is the card's only when there is a card.
+            card.then_some(self.white_reflectance),
+        )?;
+        let placement = Placement::new(self.cx, self.cy, self.r, file(&self.mask, "mask")?)?
+            .with_normals(file(&self.normals, "normals")?)?;
+        Ok((placement, white))
+    }
+}
+
+/// A file the command reads whole; `what` names it in the error.
+fn read(path: &Path, what: &str) -> CliResult<Bytes> {
+    std::fs::read(path)
+        .map(Bytes::from)
+        .map_err(|e| CliError::Invalid(format!("{what} {}: {e}", path.display())))
 }
 
 /// An analysis failure in the command line's words: a sphere detection cannot find asks for

@@ -10,9 +10,10 @@ use crate::progress;
 use ndarray::Array2;
 use plotters::prelude::*;
 use rayon::prelude::*;
+use reflectance_core::analysis::{Placement, WhiteSpec};
 use reflectance_core::dataset::{self, Manifest};
 use reflectance_core::decode::{self, DecodeOptions};
-use reflectance_core::inference::{self, Answer, Input, LoadedModel, LocateSpec, WhiteSpec};
+use reflectance_core::inference::{self, Answer, Input, LoadedModel};
 use reflectance_core::locate::Circle;
 use reflectance_core::util::rng::Rng;
 use reflectance_render::capture::{
@@ -271,7 +272,7 @@ pub fn evaluate(
                     let input = Input::new(
                         shot.bytes.clone(),
                         WhiteSpec::Value(shot.white),
-                        LocateSpec::Circle(shot.circle),
+                        Placement::Circle(shot.circle),
                         shot.encoding,
                         Answer::default(),
                     );

@@ -452,9 +452,9 @@ impl From<GeometryError> for ApiError {
     }
 }
 
-impl From<reflectance_core::inference::InputError> for ApiError {
-    fn from(e: reflectance_core::inference::InputError) -> ApiError {
-        use reflectance_core::inference::InputError as E;
+impl From<reflectance_core::analysis::InputError> for ApiError {
+    fn from(e: reflectance_core::analysis::InputError) -> ApiError {
+        use reflectance_core::analysis::InputError as E;
         let kind = match e {
             E::Geometry(e) => return e.into(),
             E::White(e) => return e.into(),

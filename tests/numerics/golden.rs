@@ -1,7 +1,7 @@
 //! Golden tests against the independent numpy reference (`scripts/reference/`) and pyrtools.
 
 use ndarray::Array2;
-use reflectance_core::analysis::{self, Locate, WhiteInput};
+use reflectance_core::analysis::{self, Placement, WhiteSpec};
 use reflectance_core::decode::{self, DecodeOptions, Encoding};
 use reflectance_core::features::pyramid::{self, Edge};
 use reflectance_core::features::stats;
@@ -70,8 +70,9 @@ fn features_match_the_reference_implementation() {
             r: fixture["r"].as_f64().unwrap(),
         };
         let white_value = fixture["white"].as_f64().unwrap();
-        let white = WhiteInput::Value(white_value);
-        let values = match analysis::analyze(&extractor, &image, &Locate::Circle(circle), &white) {
+        let white = WhiteSpec::Value(white_value);
+        let values = match analysis::analyze(&extractor, &image, &Placement::Circle(circle), &white)
+        {
             Ok(result) => result.values,
             // The clamp fixture's annulus leaves the frame: the service refuses it, but the
             // extractor's edge clamping must still match the reference.

@@ -2,7 +2,7 @@
 //! paths relative to the manifest's folder) and feature tables
 //! (`path,class,illumination,<feature names>`).
 
-use crate::analysis::{self, AnalysisError, Locate, WhiteInput};
+use crate::analysis::{self, AnalysisError, Placement, WhiteSpec};
 use crate::decode::{self, DecodeOptions};
 use crate::features::Extractor;
 use crate::locate::Circle;
@@ -112,15 +112,22 @@ pub struct Beside {
 }
 
 impl Entry {
-    /// Where the row's object is ([`Locate::read`]).
-    pub fn locate(&self, options: &DecodeOptions) -> Result<Locate, AnalysisError> {
+    /// Where the row's object is, its files decoded ([`Placement::decode`]); the manifest
+    /// refuses a circle with normals or a mask.
+    pub fn placement(&self, options: &DecodeOptions) -> Result<Placement, AnalysisError> {
         let read = |b: &Option<Beside>| {
             b.as_ref()
                 .map(|b| std::fs::read(&b.file).map_err(decode::DecodeError::Io))
                 .transpose()
         };
         let (mask, normals) = (read(&self.mask)?, read(&self.normals)?);
-        Locate::read(self.circle, mask.as_deref(), normals.as_deref(), options)
+        let placement = match (self.circle, mask, normals) {
+            (_, mask, Some(normals)) => Placement::Normals { normals, mask },
+            (_, Some(mask), None) => Placement::Mask(mask),
+            (Some(circle), None, None) => Placement::Circle(circle),
+            (None, None, None) => Placement::Auto,
+        };
+        Ok(placement.decode(options)?)
     }
 }
 
@@ -343,8 +350,8 @@ pub struct FeatureTable {
     pub samples: Vec<Sample>,
 }
 
-/// Features of one manifest entry: decode, locate ([`Entry::locate`]), normalize
-/// (row white, or 1), extract.
+/// Features of one manifest entry: decode, locate ([`Entry::placement`]), normalize
+/// (row white, or none: 1), extract.
 pub fn extract_entry(
     extractor: &Extractor,
     entry: &Entry,
@@ -355,9 +362,9 @@ pub fn extract_entry(
         ..*options
     };
     let image = decode::decode_file(&entry.file, &options)?;
-    let locate = entry.locate(&options)?;
-    let white = WhiteInput::Value(entry.white.unwrap_or(1.0));
-    Ok(analysis::analyze(extractor, &image, &locate, &white)?.values)
+    let placement = entry.placement(&options)?;
+    let white = entry.white.map_or(WhiteSpec::Missing, WhiteSpec::Value);
+    Ok(analysis::analyze(extractor, &image, &placement, &white)?.values)
 }
 
 /// `work` on every entry, in parallel, results in manifest order, each finished entry

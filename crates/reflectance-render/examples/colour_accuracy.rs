@@ -10,8 +10,9 @@
 //!       PROBES.txt MODEL_DIR [--materials N] [--size N] [--seed S]
 
 use rayon::prelude::*;
+use reflectance_core::analysis::{Placement, WhiteSpec};
 use reflectance_core::image::colour::luminance;
-use reflectance_core::inference::{self, Answer, Input, LoadedModel, LocateSpec, WhiteSpec};
+use reflectance_core::inference::{self, Answer, Input, LoadedModel};
 use reflectance_core::material::CaptureRanges;
 use reflectance_core::model::registry;
 use reflectance_core::util::rng::Rng;
@@ -167,7 +168,7 @@ fn main() -> Result<(), String> {
                 let input = Input::new(
                     capture.bytes.into(),
                     white,
-                    LocateSpec::Circle(capture.circle),
+                    Placement::Circle(capture.circle),
                     Some(capture.quantization.encoding()),
                     Answer::default(),
                 )

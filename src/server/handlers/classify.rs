@@ -12,10 +12,9 @@ use axum::extract::rejection::QueryRejection;
 use axum::extract::{Path, Query, State};
 use axum::http::{HeaderMap, HeaderValue};
 use axum::response::{IntoResponse, Response};
+use reflectance_core::analysis::{Placement, WhiteSpec};
 use reflectance_core::decode::Encoding;
-use reflectance_core::inference::{
-    self, Answer, Classified, ClassifyResponse, Input, LocateSpec, WhiteSpec,
-};
+use reflectance_core::inference::{self, Answer, Classified, ClassifyResponse, Input};
 use reflectance_core::white::Rect;
 use serde::Deserialize;
 use std::time::Instant;
@@ -122,7 +121,7 @@ impl RawInput {
                 .transpose()?,
             white_number("white_reflectance", &self.white_reflectance)?,
         )?;
-        let locate = LocateSpec::new(
+        let locate = Placement::new(
             circle_number("cx", &self.cx)?,
             circle_number("cy", &self.cy)?,
             circle_number("r", &self.r)?,

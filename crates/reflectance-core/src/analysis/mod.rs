@@ -1,8 +1,12 @@
 //! The front half of the pipeline shared by the CLI, training and the server: a decoded
-//! image plus where the sphere is and how bright white is → features, with what was used
-//! and every warning.
+//! image plus where the sphere is and how bright white is ([`input`]) → features, with what
+//! was used and every warning.
 
-use crate::decode::{self, DecodeError, DecodeOptions, Encoding, LinearImage};
+pub mod input;
+
+pub use input::{InputError, PartError, Placement, WhiteSpec, decode_mask, mask_from_image};
+
+use crate::decode::{DecodeError, LinearImage};
 use crate::features::observed::ObservedError;
 use crate::features::polar::UnwrapConfig;
 use crate::features::{CaptureMeasurements, Extractor};
@@ -12,73 +16,6 @@ use crate::object::normals::{self, EquivalentSphere, NormalMap, NormalsError};
 use crate::white::{self, White, WhiteError};
 use ndarray::Array2;
 use serde::Serialize;
-
-/// Where the sphere is.
-#[derive(Clone, Debug)]
-pub enum Locate {
-    /// A circle in the image's pixels.
-    Circle(locate::Circle),
-    /// A separate mask image (same size as the image): alpha if it has one, else
-    /// linear luminance ≥ 0.5.
-    Mask(Array2<bool>),
-    /// The image's alpha channel if it has one, else automatic detection.
-    Auto,
-    /// An object of any shape: its camera-space normals per pixel (the image's size), and
-    /// which pixels are the object (`None`: every pixel with a normal). The features read
-    /// its equivalent sphere (docs/design.md §9).
-    Normals {
-        /// The object's normals.
-        normals: NormalMap,
-        /// The object's pixels, when given apart from the normals.
-        mask: Option<Array2<bool>>,
-    },
-}
-
-impl Locate {
-    /// Where the object is, from what a caller gives as files: its normal map (then the
-    /// mask, if any, is the object's pixels), a mask of the sphere, a circle, or nothing
-    /// (found). A circle with a mask or normals is the caller's to refuse.
-    pub fn read(
-        circle: Option<locate::Circle>,
-        mask: Option<&[u8]>,
-        normals: Option<&[u8]>,
-        options: &DecodeOptions,
-    ) -> Result<Locate, AnalysisError> {
-        let mask = mask.map(|m| decode_mask(m, options)).transpose()?;
-        Ok(match (normals, mask, circle) {
-            (Some(n), mask, _) => Locate::Normals {
-                normals: NormalMap::decode(n, &options.limits)?,
-                mask,
-            },
-            (None, Some(mask), _) => Locate::Mask(mask),
-            (None, None, Some(circle)) => Locate::Circle(circle),
-            (None, None, None) => Locate::Auto,
-        })
-    }
-}
-
-/// How bright white is.
-#[derive(Clone, Debug)]
-pub enum WhiteInput {
-    /// White's linear luminance, given (finite, > 0).
-    Value(f64),
-    /// A separate image of a white card.
-    Card {
-        /// The card's image, decoded.
-        image: LinearImage,
-        /// The card's reflectance, in (0, 1].
-        reflectance: f64,
-    },
-    /// A white card inside the image itself.
-    Rect {
-        /// The card's rectangle, in the image's pixels.
-        rect: white::Rect,
-        /// The card's reflectance, in (0, 1].
-        reflectance: f64,
-    },
-    /// No reference: white = 1 (the image taken as normalized).
-    Missing,
-}
 
 /// Why an image gives no features: it does not decode, the circle or white is unusable,
 /// or the image divided by white is out of f32's range.
@@ -114,6 +51,15 @@ pub enum AnalysisError {
     },
 }
 
+impl From<PartError> for AnalysisError {
+    fn from(e: PartError) -> AnalysisError {
+        match e {
+            PartError::Mask(e) | PartError::WhiteCard(e) => AnalysisError::Decode(e),
+            PartError::Normals(e) => AnalysisError::Normals(e),
+        }
+    }
+}
+
 /// Features of one sphere and what produced them.
 #[derive(Clone, Debug, Serialize)]
 pub struct Analysis {
@@ -141,26 +87,8 @@ pub struct Analysis {
     pub appearance: Option<Rgb>,
 }
 
-/// A mask file: it holds coverage, not light, so its samples are read as stored.
-pub fn decode_mask(bytes: &[u8], options: &DecodeOptions) -> Result<Array2<bool>, DecodeError> {
-    let as_stored = DecodeOptions {
-        encoding: Some(Encoding::Linear),
-        colour: false,
-        ..*options
-    };
-    Ok(mask_from_image(&decode::decode(bytes, &as_stored)?))
-}
-
-/// The mask of a decoded mask image.
-pub fn mask_from_image(mask: &LinearImage) -> Array2<bool> {
-    match &mask.alpha_mask {
-        Some(alpha) => alpha.clone(),
-        None => mask.luminance.mapv(|v| v >= 0.5),
-    }
-}
-
 /// Find the sphere and check it fits the image and the extractor's annulus.
-pub fn locate(image: &LinearImage, how: &Locate, extractor: &Extractor) -> Located {
+pub fn locate(image: &LinearImage, how: &Placement, extractor: &Extractor) -> Located {
     locate_for(image, how, &extractor.config().unwrap)
 }
 
@@ -172,7 +100,7 @@ pub type Located = Result<(Geometry, Vec<String>), GeometryError>;
 /// channel, which says where the sphere is).
 pub fn locate_ranked(image: &LinearImage, extractor: &Extractor) -> (Located, Vec<Geometry>) {
     if image.alpha_mask.is_some() {
-        return (locate(image, &Locate::Auto, extractor), Vec::new());
+        return (locate(image, &Placement::Auto, extractor), Vec::new());
     }
     let unwrap = &extractor.config().unwrap;
     let (width, height) = (image.width(), image.height());
@@ -184,13 +112,13 @@ pub fn locate_ranked(image: &LinearImage, extractor: &Extractor) -> (Located, Ve
 }
 
 /// Find the sphere and check it fits the image and the annulus `unwrap` samples.
-pub(crate) fn locate_for(image: &LinearImage, how: &Locate, unwrap: &UnwrapConfig) -> Located {
+pub(crate) fn locate_for(image: &LinearImage, how: &Placement, unwrap: &UnwrapConfig) -> Located {
     let (width, height) = (image.width(), image.height());
     let geometry = match how {
-        Locate::Circle(c) => {
+        Placement::Circle(c) => {
             locate::given(Some(c.cx), Some(c.cy), Some(c.r))?.ok_or(GeometryError::Incomplete)?
         }
-        Locate::Mask(mask) => {
+        Placement::Mask(mask) => {
             if mask.dim() != image.luminance.dim() {
                 return Err(GeometryError::MaskSizeMismatch {
                     mask_width: mask.ncols(),
@@ -201,8 +129,8 @@ pub(crate) fn locate_for(image: &LinearImage, how: &Locate, unwrap: &UnwrapConfi
             }
             locate::fit_mask(mask.view(), Method::Mask)?
         }
-        Locate::Normals { .. } => return Err(GeometryError::ObjectByNormals),
-        Locate::Auto => match &image.alpha_mask {
+        Placement::Normals { .. } => return Err(GeometryError::ObjectByNormals),
+        Placement::Auto => match &image.alpha_mask {
             Some(alpha) => locate::fit_mask(alpha.view(), Method::Alpha)?,
             None => locate::detect(image.luminance.view())?,
         },
@@ -213,18 +141,18 @@ pub(crate) fn locate_for(image: &LinearImage, how: &Locate, unwrap: &UnwrapConfi
 
 /// Resolve the white reference, with a warning when there is none.
 pub fn resolve_white(
-    input: &WhiteInput,
+    input: &WhiteSpec,
     image: &LinearImage,
 ) -> Result<(White, Option<String>), WhiteError> {
     match input {
-        WhiteInput::Value(v) => Ok((white::given(*v)?, None)),
-        WhiteInput::Card { image, reflectance } => {
+        WhiteSpec::Value(v) => Ok((white::given(*v)?, None)),
+        WhiteSpec::Card { image, reflectance } => {
             Ok((white::from_card(image, *reflectance)?, None))
         }
-        WhiteInput::Rect { rect, reflectance } => {
+        WhiteSpec::Rect { rect, reflectance } => {
             Ok((white::from_rect(image, rect, *reflectance)?, None))
         }
-        WhiteInput::Missing => Ok((white::missing(), Some(white::MISSING_WARNING.to_string()))),
+        WhiteSpec::Missing => Ok((white::missing(), Some(white::MISSING_WARNING.to_string()))),
     }
 }
 
@@ -263,8 +191,8 @@ fn peak_of(samples: &[f64]) -> f64 {
 pub fn analyze(
     extractor: &Extractor,
     image: &LinearImage,
-    how: &Locate,
-    white_input: &WhiteInput,
+    how: &Placement,
+    white_input: &WhiteSpec,
 ) -> Result<Analysis, AnalysisError> {
     analyze_subset(extractor, image, how, white_input, None, false)
 }
@@ -285,8 +213,8 @@ pub struct Placed {
 pub fn place(
     extractor: &Extractor,
     image: &LinearImage,
-    how: &Locate,
-    white_input: &WhiteInput,
+    how: &Placement,
+    white_input: &WhiteSpec,
 ) -> Result<Placed, AnalysisError> {
     let mut warnings = image.warnings.clone();
     let (white, white_warning) = resolve_white(white_input, image)?;
@@ -306,8 +234,8 @@ pub fn place(
 pub fn unwrapped(
     extractor: &Extractor,
     image: &LinearImage,
-    how: &Locate,
-    white_input: &WhiteInput,
+    how: &Placement,
+    white_input: &WhiteSpec,
 ) -> Result<Array2<f64>, AnalysisError> {
     let placed = place(extractor, image, how, white_input)?;
     Ok(extractor.unwrap(
@@ -323,12 +251,12 @@ pub fn unwrapped(
 pub fn analyze_subset(
     extractor: &Extractor,
     image: &LinearImage,
-    how: &Locate,
-    white_input: &WhiteInput,
+    how: &Placement,
+    white_input: &WhiteSpec,
     wanted: Option<&[usize]>,
     measure: bool,
 ) -> Result<Analysis, AnalysisError> {
-    if let Locate::Normals { normals, mask } = how {
+    if let Placement::Normals { normals, mask } = how {
         return analyze_object(extractor, image, normals, mask.as_ref(), white_input);
     }
     let Placed {
@@ -365,7 +293,7 @@ fn analyze_object(
     image: &LinearImage,
     normals: &NormalMap,
     mask: Option<&Array2<bool>>,
-    white_input: &WhiteInput,
+    white_input: &WhiteSpec,
 ) -> Result<Analysis, AnalysisError> {
     let mut warnings = image.warnings.clone();
     let (white, white_warning) = resolve_white(white_input, image)?;
@@ -458,9 +386,9 @@ mod tests {
     fn normals_agree_with_the_circle(size: usize, r: f64) {
         let extractor = extractor();
         let (image, normals, circle) = glossy_sphere(size, r);
-        let white = WhiteInput::Value(1.0);
-        let by_circle = analyze(&extractor, &image, &Locate::Circle(circle), &white).unwrap();
-        let how = Locate::Normals {
+        let white = WhiteSpec::Value(1.0);
+        let by_circle = analyze(&extractor, &image, &Placement::Circle(circle), &white).unwrap();
+        let how = Placement::Normals {
             normals,
             mask: None,
         };
@@ -510,11 +438,11 @@ mod tests {
         let (image, normals, _) = glossy_sphere(300, 130.0);
         // A thin vertical strip through the centre: normals of a narrow band of the sphere.
         let strip = Array2::from_shape_fn((300, 300), |(_, col)| (140..160).contains(&col));
-        let how = Locate::Normals {
+        let how = Placement::Normals {
             normals,
             mask: Some(strip),
         };
-        let e = analyze(&extractor, &image, &how, &WhiteInput::Value(1.0)).unwrap_err();
+        let e = analyze(&extractor, &image, &how, &WhiteSpec::Value(1.0)).unwrap_err();
         match e {
             AnalysisError::Observed(ObservedError::TooLittle { fraction, needed }) => {
                 assert!(fraction < MIN_OBSERVED && fraction > 0.0, "{fraction}");

@@ -4,7 +4,7 @@
 //! `reflectance dataset pack` both use it.
 
 use super::{DatasetError, Entry, Manifest, format_f64};
-use crate::analysis::{self, Locate};
+use crate::analysis::{self, Placement};
 use crate::decode::{self, DecodeError, DecodeOptions};
 use crate::features::polar::UnwrapConfig;
 use crate::locate::GeometryError;
@@ -102,7 +102,7 @@ fn check(entry: &Entry, options: &DecodeOptions) -> Result<(Entry, bool), RowErr
         ..*options
     };
     let image = decode::decode_file(&entry.file, &options)?;
-    let how = entry.circle.map_or(Locate::Auto, Locate::Circle);
+    let how = entry.circle.map_or(Placement::Auto, Placement::Circle);
     let (geometry, _) = analysis::locate_for(&image, &how, &UnwrapConfig::default())?;
     let located = entry.circle.is_none();
     let mut kept = entry.clone();

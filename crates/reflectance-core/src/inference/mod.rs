@@ -2,7 +2,7 @@
 //! classify, and the answer's JSON. No HTTP here: `POST /v1/classify`, the KServe endpoint
 //! and `reflectance classify` all call [`classify`] and give the same [`ClassifyResponse`].
 
-use crate::analysis::{self, AnalysisError, Locate, WhiteInput};
+use crate::analysis::{self, AnalysisError, InputError, PartError, Placement, WhiteSpec};
 use crate::classify::conformal;
 use crate::classify::domain::Verdict;
 use crate::decode::{self, DecodeError, DecodeOptions};
@@ -12,9 +12,8 @@ use crate::image::display;
 use crate::learn::LearnError;
 use crate::locate;
 use crate::model::{Head, ModelError, ModelFile, Request};
-use crate::object::normals::{NormalMap, NormalsError};
+use crate::object::normals::NormalsError;
 use crate::white::Method as WhiteMethod;
-use ndarray::Array2;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -23,7 +22,7 @@ mod response;
 
 use response::images_of;
 
-pub use input::{Input, InputError, LocateSpec, Placement, WhiteSpec};
+pub use input::Input;
 pub use response::{
     COLOUR_UNKNOWN, CandidateOut, ClassOut, ClassifyResponse, ColourOut, DomainCheckOut, DomainOut,
     FeaturesOut, GeometryOut, ImagesOut, LabelProbability, LocateResponse, MaterialOut,
@@ -283,12 +282,20 @@ fn decode_part(
     decode::decode(bytes, options).map_err(|source| InferenceError::Decode { part, source })
 }
 
-/// A mask file ([`analysis::decode_mask`]).
-fn decode_mask(bytes: &[u8], options: &DecodeOptions) -> Result<Array2<bool>, InferenceError> {
-    analysis::decode_mask(bytes, options).map_err(|source| InferenceError::Decode {
-        part: "mask: ",
-        source,
-    })
+impl From<PartError> for InferenceError {
+    fn from(e: PartError) -> InferenceError {
+        match e {
+            PartError::Mask(source) => InferenceError::Decode {
+                part: "mask: ",
+                source,
+            },
+            PartError::WhiteCard(source) => InferenceError::Decode {
+                part: "white_image: ",
+                source,
+            },
+            PartError::Normals(e) => InferenceError::Normals(e),
+        }
+    }
 }
 
 /// Decode, locate, extract and classify (blocking).
@@ -298,34 +305,17 @@ pub fn classify(
     limits: decode::Limits,
 ) -> Result<Classified, InferenceError> {
     let t = Instant::now();
-    // A colour is read only against a card's colour.
-    let colour = matches!(input.white, WhiteSpec::Card { .. } | WhiteSpec::Rect { .. });
     let options = DecodeOptions {
         encoding: input.encoding,
         limits,
-        colour,
+        // A colour is read only against a card's colour.
+        colour: input.white.is_card(),
     };
     let image = decode_part("", &input.image, &options)?;
     drop(input.image);
-    let white = match input.white {
-        WhiteSpec::Value(v) => WhiteInput::Value(v),
-        WhiteSpec::Card { bytes, reflectance } => WhiteInput::Card {
-            image: decode_part("white_image: ", &bytes, &options)?,
-            reflectance,
-        },
-        WhiteSpec::Rect { rect, reflectance } => WhiteInput::Rect { rect, reflectance },
-        WhiteSpec::Missing => WhiteInput::Missing,
-    };
-    let locate = match input.locate {
-        LocateSpec::Circle(c) => Locate::Circle(c),
-        LocateSpec::Mask(bytes) => Locate::Mask(decode_mask(&bytes, &options)?),
-        LocateSpec::Auto => Locate::Auto,
-        LocateSpec::Normals { normals, mask } => Locate::Normals {
-            normals: NormalMap::decode(&normals, &options.limits)?,
-            mask: mask.map(|m| decode_mask(&m, &options)).transpose()?,
-        },
-    };
-    classify_decoded(model, image, &locate, &white, &input.answer, ms(t))
+    let white = input.white.decode(&options)?;
+    let placement = input.locate.decode(&options)?;
+    classify_decoded(model, image, &placement, &white, &input.answer, ms(t))
 }
 
 /// What an answer includes beyond the class, and the prediction set's coverage.
@@ -417,8 +407,8 @@ pub const PARTIAL_COVERAGE: f64 = 0.999;
 pub fn classify_decoded(
     model: Arc<LoadedModel>,
     image: decode::LinearImage,
-    locate: &Locate,
-    white: &WhiteInput,
+    locate: &Placement,
+    white: &WhiteSpec,
     answer: &Answer,
     decode_ms: f64,
 ) -> Result<Classified, InferenceError> {
