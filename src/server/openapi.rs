@@ -4,7 +4,7 @@
 
 use super::error::Problem;
 use super::handlers::{
-    admin, classify, datasets, health, locate, material, models, preview, v2, web,
+    admin, classify, datasets, health, input, locate, material, models, preview, v2, web,
 };
 use super::jobs;
 use axum::http::{HeaderValue, header};
@@ -93,7 +93,7 @@ impl Modify for Extras {
     ),
     components(schemas(
         Problem,
-        classify::RawInput,
+        input::RawInput,
         reflectance_core::inference::ClassifyResponse,
         locate::LocateForm,
         datasets::DatasetForm,

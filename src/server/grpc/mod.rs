@@ -236,37 +236,23 @@ fn tensors(inputs: Vec<InferInputTensor>, raw: Vec<bytes::Bytes>) -> Result<Vec<
     let mut raw = raw.into_iter();
     let mut tensors = Vec::with_capacity(inputs.len());
     for input in inputs {
-        let name = input.name;
-        let datatype = Datatype::parse(&input.datatype).ok_or_else(|| {
-            invalid(format!(
-                "input {name:?} has no datatype {:?}",
-                input.datatype
-            ))
-        })?;
-        let elements = match (raw.next(), input.contents) {
+        let contents = match (raw.next(), input.contents) {
             (Some(_), Some(_)) => {
                 return Err(invalid(format!(
-                    "input {name:?} has contents, beside raw_input_contents"
+                    "input {:?} has contents, beside raw_input_contents",
+                    input.name
                 )));
             }
+            (raw, typed) => (raw, typed),
+        };
+        let elements = |datatype| match contents {
             (Some(bytes), None) => Elements::from_raw(datatype, &bytes),
             (None, Some(contents)) => typed_elements(datatype, contents),
-            (None, None) => Err(TensorError::Empty),
-        }
-        .map_err(|e| invalid(format!("input {name:?}: {e}")))?;
-        if tensor::Tensor::announced(&input.shape) != Some(elements.len()) {
-            return Err(invalid(format!(
-                "input {name:?} holds {} elements, but its shape is {:?}",
-                elements.len(),
-                input.shape
-            )));
-        }
-        tensors.push(Tensor {
-            name,
-            datatype,
-            shape: input.shape,
-            elements,
-        });
+            _ => Err(TensorError::Empty),
+        };
+        let tensor = Tensor::input(input.name, &input.datatype, input.shape, elements)
+            .map_err(|e| invalid(e.to_string()))?;
+        tensors.push(tensor);
     }
     Ok(tensors)
 }

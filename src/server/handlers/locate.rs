@@ -1,7 +1,8 @@
 //! `POST /v1/locate`: where the sphere of a photograph is, without classifying it. The page
 //! draws this circle for the user to check or correct before classifying.
 
-use super::classify::{self, MultipartProblems, RawInput};
+use super::classify::MultipartProblems;
+use super::input::{self, RawInput};
 use crate::server::error::{ApiError, ClassificationProblems, Kind, Problem};
 use crate::server::state::SharedState;
 use axum::Json;
@@ -69,9 +70,9 @@ pub async fn locate(
     multipart: Result<Multipart, MultipartRejection>,
 ) -> Result<Json<LocateResponse>, ApiError> {
     super::health::serving(&state)?;
-    let raw = classify::read_form(multipart?).await?;
+    let raw = input::read_form(multipart?).await?;
     refuse_classification_fields(&raw)?;
-    let [preview] = classify::includes(&raw.include, ["preview"])?;
+    let [preview] = input::includes(&raw.include, ["preview"])?;
     let image = raw
         .image
         .filter(|bytes| !bytes.is_empty())

@@ -4,6 +4,7 @@ pub(crate) mod admin;
 pub(crate) mod classify;
 pub(crate) mod datasets;
 pub(crate) mod health;
+pub(crate) mod input;
 pub(crate) mod locate;
 pub(crate) mod material;
 pub(crate) mod models;

@@ -115,7 +115,7 @@ pub struct FeatureSpec {
     pub selected: Vec<String>,
 }
 
-/// The part of a leave-one-illumination-out [`crate::classify::CvSummary`] a model file keeps
+/// The part of a leave-one-illumination-out cross-validation summary a model file keeps
 /// (and the service shows with the version).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]

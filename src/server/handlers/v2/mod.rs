@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 use std::io::Read;
 use std::sync::Arc;
-use tensor::{Datatype, Elements, Tensor};
+use tensor::{Datatype, Elements, Tensor, TensorError};
 use utoipa::ToSchema;
 
 /// The header that splits a body into its JSON and its binary tensor data.
@@ -397,14 +397,12 @@ fn flatten(value: Value, out: &mut Vec<Value>) {
 }
 
 /// JSON `data`, flat or nested, as elements of `datatype`.
-fn json_elements(name: &str, datatype: Datatype, data: Value) -> Result<Elements, ApiError> {
+fn json_elements(datatype: Datatype, data: Value) -> Result<Elements, TensorError> {
     let mut values = Vec::new();
     flatten(data, &mut values);
-    let wrong = |v: &Value| {
-        invalid(format!(
-            "input {name:?} is {}, but holds {v}",
-            datatype.name()
-        ))
+    let wrong = |v: &Value| TensorError::Holds {
+        datatype: datatype.name(),
+        value: v.to_string(),
     };
     Ok(match datatype {
         Datatype::Bytes => Elements::Text(
@@ -450,14 +448,12 @@ fn binary_size(parameters: &Option<Map<String, Value>>) -> Result<Option<usize>,
 fn tensors(inputs: Vec<InferInput>, binary: Bytes) -> Result<Vec<Tensor>, ApiError> {
     let mut at = 0;
     let mut tensors = Vec::with_capacity(inputs.len());
+    enum Contents {
+        Raw(Bytes),
+        Json(Value),
+    }
     for input in inputs {
-        let name = input.name;
-        let datatype = Datatype::parse(&input.datatype).ok_or_else(|| {
-            invalid(format!(
-                "input {name:?} has no datatype {:?}",
-                input.datatype
-            ))
-        })?;
+        let name = &input.name;
         let elements = match (binary_size(&input.parameters)?, input.data) {
             (Some(size), _) => {
                 let Some(raw) = binary.get(at..).filter(|rest| rest.len() >= size) else {
@@ -469,29 +465,26 @@ fn tensors(inputs: Vec<InferInput>, binary: Bytes) -> Result<Vec<Tensor>, ApiErr
                 };
                 let raw = binary.slice_ref(&raw[..size]);
                 at += size;
-                Elements::from_raw(datatype, &raw)
-                    .map_err(|e| invalid(format!("input {name:?}: {e}")))?
+                Contents::Raw(raw)
             }
-            (None, Some(data)) => json_elements(&name, datatype, data)?,
+            (None, Some(data)) => Contents::Json(data),
             (None, None) => {
                 return Err(invalid(format!(
                     "input {name:?} has neither data nor binary_data_size"
                 )));
             }
         };
-        if Tensor::announced(&input.shape) != Some(elements.len()) {
-            return Err(invalid(format!(
-                "input {name:?} holds {} elements, but its shape is {:?}",
-                elements.len(),
-                input.shape
-            )));
-        }
-        tensors.push(Tensor {
-            name,
-            datatype,
-            shape: input.shape,
-            elements,
-        });
+        let tensor =
+            Tensor::input(
+                input.name,
+                &input.datatype,
+                input.shape,
+                |datatype| match elements {
+                    Contents::Raw(raw) => Elements::from_raw(datatype, &raw),
+                    Contents::Json(data) => json_elements(datatype, data),
+                },
+            );
+        tensors.push(tensor.map_err(|e| invalid(e.to_string()))?);
     }
     if at != binary.len() {
         return Err(malformed(format!(

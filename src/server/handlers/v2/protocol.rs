@@ -4,7 +4,7 @@
 
 use super::tensor::{Datatype, Elements, Tensor};
 use crate::server::error::{ApiError, Kind};
-use crate::server::handlers::classify::RawInput;
+use crate::server::handlers::input::RawInput;
 use base64::Engine;
 use reflectance_core::estimate::Interval;
 use reflectance_core::image::colour;

@@ -150,6 +150,12 @@ pub enum TensorError {
     TypedFp16,
     #[error("no contents")]
     Empty,
+    /// JSON `data` with a value the datatype cannot hold.
+    #[error("is {datatype}, but holds {value}")]
+    Holds {
+        datatype: &'static str,
+        value: String,
+    },
 }
 
 fn bytes_elements(raw: &Bytes) -> Result<Vec<Bytes>, TensorError> {
@@ -290,6 +296,58 @@ impl Tensor {
             usize::try_from(d).ok().and_then(|d| n.checked_mul(d))
         })
     }
+
+    /// A request's input as a tensor, whatever carried it (JSON, binary data, gRPC): its
+    /// datatype named by the protocol, its elements read as that datatype, as many as its
+    /// shape announces.
+    pub fn input(
+        name: String,
+        datatype: &str,
+        shape: Vec<i64>,
+        elements: impl FnOnce(Datatype) -> Result<Elements, TensorError>,
+    ) -> Result<Tensor, InputError> {
+        let Some(datatype) = Datatype::parse(datatype) else {
+            let datatype = datatype.to_string();
+            return Err(InputError::Datatype { name, datatype });
+        };
+        let elements = match elements(datatype) {
+            Ok(elements) => elements,
+            Err(source) => return Err(InputError::Contents { name, source }),
+        };
+        if Tensor::announced(&shape) != Some(elements.len()) {
+            let count = elements.len();
+            return Err(InputError::Shape { name, count, shape });
+        }
+        Ok(Tensor {
+            name,
+            datatype,
+            shape,
+            elements,
+        })
+    }
+}
+
+/// A contents error as it reads after the input's name.
+fn after_name(e: &TensorError) -> String {
+    match e {
+        TensorError::Holds { .. } => format!(" {e}"),
+        _ => format!(": {e}"),
+    }
+}
+
+/// Why a request's input is not a tensor: the same words over HTTP and gRPC.
+#[derive(Debug, thiserror::Error)]
+pub enum InputError {
+    #[error("input {name:?} has no datatype {datatype:?}")]
+    Datatype { name: String, datatype: String },
+    #[error("input {name:?}{}", after_name(source))]
+    Contents { name: String, source: TensorError },
+    #[error("input {name:?} holds {count} elements, but its shape is {shape:?}")]
+    Shape {
+        name: String,
+        count: usize,
+        shape: Vec<i64>,
+    },
 }
 
 #[cfg(test)]
