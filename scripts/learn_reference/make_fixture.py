@@ -1,6 +1,6 @@
 """Generates tests/fixtures/learn/{table.csv, expected.json}: a synthetic feature table and
 what scikit-learn (libsvm) and an independent numpy/scipy implementation of docs/design.md §3
-"Automatic selection" compute on it. tests/numerics/learn_reference.rs checks the Rust `learn`
+"Automatic selection" compute on it. crates/reflectance-core/tests/numerics/learn_reference.rs checks the Rust `learn`
 module against them.
 
     pip install -r scripts/learn_reference/requirements.txt

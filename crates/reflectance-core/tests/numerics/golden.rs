@@ -8,11 +8,9 @@ use reflectance_core::features::stats;
 use reflectance_core::features::{Extractor, FeatureConfig, default_names};
 use reflectance_core::locate::{Circle, GeometryError};
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn fixtures() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures")
-}
+use crate::common::fixtures;
 
 fn load(path: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()

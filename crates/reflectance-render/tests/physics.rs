@@ -174,7 +174,7 @@ fn white_reference_of_a_uniform_map_is_one() {
 fn energy_never_exceeds_the_incident_light() {
     let lighting = uniform();
     let classes: serde_json::Value =
-        serde_json::from_str(include_str!("../fixtures/classes11.json")).unwrap();
+        serde_json::from_str(include_str!("../../../tests/fixtures/classes11.json")).unwrap();
     let classes: Vec<Material> = serde_json::from_value(classes["classes"].clone()).unwrap();
     for m in &classes {
         let img = render(

@@ -17,8 +17,7 @@ use reflectance_render::{Lighting, Quality, View, render};
 
 /// The shared ict_grace probe: texture, and a small bright source.
 fn lighting() -> Lighting {
-    let probe = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/probes/ict_grace.hdr");
+    let probe = crate::common::shared().join("data/probes/ict_grace.hdr");
     let map = EnvMap::load(&probe).unwrap_or_else(|e| panic!("{}: {e}", probe.display()));
     Lighting::new(map)
 }

@@ -13,7 +13,7 @@ use serde_json::Value;
 use std::path::PathBuf;
 
 fn fixture_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/learn")
+    crate::common::fixtures().join("learn")
 }
 
 fn load() -> (Dataset, Value) {

@@ -20,7 +20,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 fn dev_set() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/photos/dev")
+    crate::common::shared().join("data/photos/dev")
 }
 
 /// The fields of one CSV line (quoted fields may hold commas and doubled quotes).

@@ -24,7 +24,7 @@ use reflectance_render::{Lighting, Quality, View};
 use std::path::PathBuf;
 
 fn shared_probes() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data/probes")
+    crate::common::shared().join("data/probes")
 }
 
 fn probe(name: &str) -> EnvMap {
