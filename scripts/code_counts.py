@@ -22,7 +22,10 @@ FN = re.compile(r"^(\s*)(pub(\([a-z]+\))? )?(async )?(const )?(unsafe )?fn (\w+)
 def sources():
     names = subprocess.check_output(["git", "ls-files", "*.rs"], text=True).split()
     skipped = ("tests/", "benches/", "fuzz/")
-    return [n for n in names if not n.startswith(skipped) and "/examples/" not in n]
+    return [
+        n for n in names
+        if not n.startswith(skipped) and "/examples/" not in n and "/tests/" not in n
+    ]
 
 
 def code_lines(path):
