@@ -12,8 +12,8 @@
 use divan::Bencher;
 use ndarray::{Array2, Axis};
 use reflectance_core::classify::cross_validate;
-use reflectance_core::classify::pipeline::{ClassifierKind, TrainSpec, fit};
 use reflectance_core::classify::svm::{Gram, KernelValue, SolverParams, train_one_vs_all};
+use reflectance_core::classify::{ClassifierKind, TrainSpec, fit};
 use reflectance_core::dataset::{FeatureTable, Sample};
 use reflectance_core::features::{default_names, named_set};
 use reflectance_core::learn::scaler::Scaler;

@@ -4,10 +4,10 @@ use super::{CliError, CliResult, LimitArgs};
 use crate::progress;
 use crate::report::estimate::Protocol;
 use clap::Args;
-use reflectance_core::classify::{CvReport, DEFAULT_C, SpecText, TrainSpec};
+use reflectance_core::classify::{ClassifierOptions, CvReport};
 use reflectance_core::dataset::{self, FeatureTable, Manifest};
 use reflectance_core::estimate;
-use reflectance_core::features::{CaptureMeasurements, Extractor, FeatureConfig};
+use reflectance_core::features::{CaptureMeasurements, Extractor, FeatureConfig, FeatureOptions};
 use reflectance_core::inference;
 use reflectance_core::learn::{Dataset, FeatureSet};
 use reflectance_core::material::load_classes;
@@ -65,64 +65,16 @@ impl DataArgs {
     }
 }
 
-/// What to fit.
-#[derive(Args, Debug)]
-pub struct SpecArgs {
-    /// A named set (hand6, hand2, mean1, hand6+log, hand6+log+radial, hand6+log+radial+dep,
-    /// hand6+cap, hand6+log+cap, hand6+log+cap+ctr, estimator, scale_free), all, auto<N>,
-    /// pca<N>, or a comma-separated list of names.
-    /// `all`, `auto<N>` and `pca<N>` range over the table's columns.
-    #[arg(long)]
-    features: String,
-    /// With --manifest: extensions of the extracted features (implied by sets that name
-    /// them, such as hand6+log).
-    #[command(flatten)]
-    extensions: reflectance_core::features::FeatureOptions,
-    /// svm, nn (1-NN), knn5 or chance.
-    #[arg(long, default_value = "svm")]
-    classifier: String,
-    /// SVM C.
-    #[arg(long, default_value_t = DEFAULT_C)]
-    c: f64,
-    /// SVM γ (default 1 / number of classifier inputs).
-    #[arg(long)]
-    gamma: Option<f64>,
-    /// Choose C and γ by inner leave-one-illumination-out CV over a default grid.
-    #[arg(long)]
-    grid: bool,
-    /// Folds of illuminations whose held-out decision values calibrate the probabilities,
-    /// the prediction sets and the domain check (0: every illumination held out in turn).
-    #[arg(long, default_value_t = reflectance_core::classify::pipeline::CALIBRATION_FOLDS)]
-    calibration_folds: usize,
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-}
-
-impl SpecArgs {
-    /// The extraction configuration for manifests.
-    fn config(&self) -> CliResult<FeatureConfig> {
-        Ok(self.extensions.config(&self.features)?)
-    }
-
-    fn spec(&self, names: &[String]) -> CliResult<TrainSpec> {
-        let text = SpecText {
-            features: &self.features,
-            classifier: &self.classifier,
-            c: self.c,
-            gamma: self.gamma,
-            grid: self.grid,
-            calibration_folds: self.calibration_folds,
-        };
-        Ok(text.parse(names)?)
-    }
-}
-
 #[derive(Args, Debug)]
 pub struct CvArgs {
     #[command(flatten)]
     data: DataArgs,
     #[command(flatten)]
-    spec: SpecArgs,
+    options: ClassifierOptions,
+    /// With --manifest: extensions of the extracted features (implied by sets that name
+    /// them, such as hand6+log), and the preprocessing.
+    #[command(flatten)]
+    extraction: FeatureOptions,
     /// Print the full report as JSON.
     #[arg(long)]
     json: bool,
@@ -190,20 +142,20 @@ fn cv_estimate(args: &CvArgs, table: &FeatureTable, label: &str) -> CliResult {
         .as_ref()
         .ok_or("--estimate needs --ward-classes")?;
     let materials = load_classes(path)?;
-    let features = args.spec.spec(&table.names)?.features;
+    let features = args.options.spec(&table.names)?.features;
     let ds = Dataset::from_table(table)?;
     let spec = (args.estimate.ridge).regression_spec(
         &features,
         &ds.names,
-        args.spec.gamma,
-        args.spec.seed,
+        args.options.gamma,
+        args.options.seed,
     )?;
     let fit = progress::observed("estimate", |bar| {
         estimate::fit_observed(&ds, "", &materials, &features, &spec, bar)
     })?;
     let report = fit.report;
     if let Some(out) = &args.estimate.out {
-        let title = format!("{} on {label}", args.spec.features);
+        let title = format!("{} on {label}", args.options.features);
         crate::report::estimate::write(
             out,
             &title,
@@ -221,14 +173,15 @@ fn cv_estimate(args: &CvArgs, table: &FeatureTable, label: &str) -> CliResult {
 }
 
 pub fn cv(args: CvArgs) -> CliResult {
-    let (table, label) = args.data.load(&args.limits, args.spec.config()?)?;
+    let config = args.extraction.config(&args.options.features)?;
+    let (table, label) = args.data.load(&args.limits, config)?;
     if args.estimate.estimate {
         return cv_estimate(&args, &table, &label);
     }
-    let spec = args.spec.spec(&table.names)?;
+    let spec = args.options.spec(&table.names)?;
     let ds = Dataset::from_table(&table)?;
     let report = progress::observed("cv", |bar| {
-        reflectance_core::classify::cross_validate_with(&ds, &spec, args.spec.seed, bar)
+        reflectance_core::classify::cross_validate_with(&ds, &spec, args.options.seed, bar)
     })?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
@@ -313,7 +266,11 @@ pub struct TrainArgs {
     #[command(flatten)]
     data: DataArgs,
     #[command(flatten)]
-    spec: SpecArgs,
+    options: ClassifierOptions,
+    /// With --manifest: extensions of the extracted features (implied by sets that name
+    /// them, such as hand6+log), and the preprocessing the model records.
+    #[command(flatten)]
+    extraction: FeatureOptions,
     /// Model registry folder.
     #[arg(long)]
     models: PathBuf,
@@ -392,29 +349,26 @@ impl EstimatorArgs {
 }
 
 pub fn train(args: TrainArgs) -> CliResult {
-    if !registry::valid_name(&args.name) {
-        return Err(CliError::Invalid(format!(
-            "invalid model name {:?} (use 1–64 of a-z, 0-9, '_' and '-')",
-            args.name
-        )));
-    }
+    registry::check_name(&args.name)?;
     let classes = args.classes.as_deref().map(load_classes).transpose()?;
     // A model's domain check reads how well each circle follows a sphere's outline.
     let config = FeatureConfig {
         domain: true,
-        ..args.estimator.config(args.spec.config()?)
+        ..args
+            .estimator
+            .config(args.extraction.config(&args.options.features)?)
     };
     let (table, label, manifest) = args.data.load_with_manifest(&args.limits, config)?;
     let options = TrainOptions {
         name: args.name.clone(),
-        spec: args.spec.spec(&table.names)?,
-        seed: args.spec.seed,
+        spec: args.options.spec(&table.names)?,
+        seed: args.options.seed,
         cross_validate: !args.no_cv,
         classes,
-        preprocessing: args.spec.extensions.preprocessing(),
+        preprocessing: args.extraction.preprocessing(),
         images: manifest,
         decode: args.limits.decode_options(),
-        estimator: args.estimator.data(args.spec.gamma, &table.names)?,
+        estimator: args.estimator.data(args.options.gamma, &table.names)?,
     };
     let mut trained = progress::observed("train", |bar| {
         train::train_with(&table, &label, &options, bar)
@@ -484,7 +438,7 @@ pub struct TrainObjectsArgs {
     models: PathBuf,
     /// Folds of illuminations whose held-out decision values calibrate the classifier for
     /// objects (0: every illumination held out in turn).
-    #[arg(long, default_value_t = reflectance_core::classify::pipeline::CALIBRATION_FOLDS)]
+    #[arg(long, default_value_t = reflectance_core::classify::CALIBRATION_FOLDS)]
     calibration_folds: usize,
     #[arg(long, default_value_t = 1)]
     seed: u64,

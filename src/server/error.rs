@@ -24,6 +24,8 @@
 //! | dataset archive: over a size or member limit | 413 | `archive-too-large` |
 //! | dataset: no usable image, too few illuminations | 422 | `unusable-dataset` |
 //! | dataset: name taken / unknown / used by a job | 409 / 404 / 409 | `dataset-exists` / `dataset-not-found` / `dataset-in-use` |
+//! | job refused at submission: a path missing or outside the data directory | 422 | `invalid-path` |
+//! | job refused at submission: its parameters | 422 | `invalid-job` |
 //! | writing the server's files: disk full (ENOSPC, EFBIG, EDQUOT) | 507 | `insufficient-storage` |
 //! | writing the server's files: read-only or forbidden folder | 503 | `storage-unavailable` |
 
@@ -40,6 +42,9 @@ use reflectance_core::locate::GeometryError;
 use reflectance_core::model::ModelError;
 use reflectance_core::model::registry::RegistryError;
 use reflectance_core::white::WhiteError;
+
+use super::jobs::{JobError, ManagerError, PersistError};
+use super::store::StoreError;
 
 pub const PROBLEM_JSON: &str = "application/problem+json";
 const TYPE_PREFIX: &str = "urn:reflectance:problem:";
@@ -552,6 +557,62 @@ impl From<RegistryError> for ApiError {
             RegistryError::ActiveVersion { .. } => Kind::VersionActive,
             RegistryError::Model { .. } => Kind::InvalidModel,
             RegistryError::Io { source, .. } => return ApiError::storage(source, e.to_string()),
+        };
+        ApiError::new(kind, e.to_string())
+    }
+}
+
+impl From<StoreError> for ApiError {
+    fn from(e: StoreError) -> ApiError {
+        match e {
+            StoreError::Registry(e) => e.into(),
+            StoreError::Model(e) => e.into(),
+        }
+    }
+}
+
+impl From<ManagerError> for ApiError {
+    fn from(e: ManagerError) -> ApiError {
+        use ManagerError as E;
+        let kind = match e {
+            E::Refused(e) => return (*e).into(),
+            E::Persist(e) => return e.into(),
+            E::ShuttingDown => return ApiError::new(Kind::NotReady, e.to_string()).retry_after(5),
+            E::QueueFull => {
+                return ApiError::new(Kind::JobQueueFull, e.to_string()).retry_after(10);
+            }
+            E::UnknownJob(_) => Kind::JobNotFound,
+            E::Finished { .. } => Kind::JobFinished,
+        };
+        ApiError::new(kind, e.to_string())
+    }
+}
+
+impl From<PersistError> for ApiError {
+    fn from(e: PersistError) -> ApiError {
+        ApiError::storage(&e.source, e.to_string())
+    }
+}
+
+/// A job refused at submission, in the words of the layer that refused it: a path
+/// (`invalid-path`) or a parameter (`invalid-job`). A job that fails later states the error
+/// in its record instead; the job system's own failures (a panic, a job given to another
+/// runner, an activation) are internal here.
+impl From<JobError> for ApiError {
+    fn from(e: JobError) -> ApiError {
+        use JobError as E;
+        let kind = match &e {
+            E::Path(_) => Kind::InvalidPath,
+            E::Dataset(_)
+            | E::Learn(_)
+            | E::Render(_)
+            | E::RenderOptions(_)
+            | E::Train(_)
+            | E::Classes(_)
+            | E::Features(_)
+            | E::Name(_)
+            | E::Refused(_) => Kind::InvalidJob,
+            E::Activation { .. } | E::Panicked | E::WrongKind(_) => return ApiError::internal(e),
         };
         ApiError::new(kind, e.to_string())
     }

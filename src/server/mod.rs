@@ -49,7 +49,7 @@ pub enum StartError {
     #[error(transparent)]
     Registry(#[from] reflectance_core::model::registry::RegistryError),
     #[error("the model registry: {0}")]
-    Models(String),
+    Models(reflectance_core::model::registry::RegistryError),
     #[error(transparent)]
     Config(#[from] config::InvalidConfig),
     #[error("cannot start the runtime: {0}")]
@@ -114,10 +114,7 @@ pub fn build_state(config: Config) -> Result<SharedState, StartError> {
 /// Load every model's active version (blocking); the default model must load. Marks the
 /// state ready.
 pub fn load_models(state: &AppState) -> Result<(), StartError> {
-    let failed = state
-        .models
-        .load_all()
-        .map_err(|e| StartError::Models(e.detail))?;
+    let failed = state.models.load_all().map_err(StartError::Models)?;
     for (name, reason) in &failed {
         tracing::error!(model = %name, %reason, "model not served: its active version does not load");
     }

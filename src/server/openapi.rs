@@ -9,6 +9,8 @@ use super::handlers::{
 use super::jobs;
 use axum::http::{HeaderValue, header};
 use axum::response::{IntoResponse, Response};
+use utoipa::openapi::RefOr;
+use utoipa::openapi::schema::{Object, Schema};
 use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
 use utoipa::openapi::server::Server;
 use utoipa::{Modify, OpenApi};
@@ -35,7 +37,37 @@ impl Modify for Extras {
                 item.servers = Some(vec![Server::new("http://127.0.0.1:8081")]);
             }
         }
+        // A learning job's training options are keys of its own (`ClassifierOptions`,
+        // flattened and inlined).
+        if let Some(schema) = components.schemas.get_mut("LearnParams") {
+            own_properties(schema);
+        }
     }
+}
+
+/// utoipa writes each flattened field as an item of an `allOf`, an inlined one as an object
+/// of its own; serde reads its keys as the enclosing struct's. Merge the inlined objects
+/// into the struct's own object (the last item), after the references of the other
+/// flattened types: one object of the keys at that level, as a reader expects them.
+fn own_properties(schema: &mut RefOr<Schema>) {
+    let RefOr::T(Schema::AllOf(all_of)) = schema else {
+        return;
+    };
+    let (mut objects, mut items): (Vec<Object>, Vec<RefOr<Schema>>) = (Vec::new(), Vec::new());
+    for item in std::mem::take(&mut all_of.items) {
+        match item {
+            RefOr::T(Schema::Object(object)) => objects.push(object),
+            other => items.push(other),
+        }
+    }
+    if let Some(mut own) = objects.pop() {
+        for inlined in objects {
+            own.properties.extend(inlined.properties);
+            own.required.extend(inlined.required);
+        }
+        items.push(RefOr::T(Schema::Object(own)));
+    }
+    all_of.items = items;
 }
 
 #[derive(OpenApi)]

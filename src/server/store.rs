@@ -1,12 +1,23 @@
 //! The model store: the active version of every model, loaded from the registry, swapped
 //! atomically on activation, with a small cache of other versions.
 
-use super::error::{ApiError, Kind};
 use super::metrics;
 use reflectance_core::inference::LoadedModel;
+use reflectance_core::model::ModelError;
 use reflectance_core::model::registry::{Registry, RegistryError};
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex, RwLock};
+
+/// Why the store cannot give, activate or delete a version: the registry refuses (an
+/// unknown model or version, the active version, its files), or the version's file is
+/// refused (`server::error` maps it to HTTP).
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    #[error(transparent)]
+    Registry(#[from] RegistryError),
+    #[error(transparent)]
+    Model(#[from] ModelError),
+}
 
 /// Outcome of an activation.
 #[derive(Debug)]
@@ -46,7 +57,7 @@ impl ModelStore {
     }
 
     /// Load (and verify) a version from the registry. Blocking.
-    pub fn load_version(&self, name: &str, version: u32) -> Result<LoadedModel, ApiError> {
+    pub fn load_version(&self, name: &str, version: u32) -> Result<LoadedModel, StoreError> {
         let file = self.registry.load(name, version).inspect_err(|e| {
             if matches!(e, RegistryError::Model { .. } | RegistryError::Io { .. }) {
                 metrics::model_load_failure(name);
@@ -57,7 +68,7 @@ impl ModelStore {
         crate::heap::release_free();
         LoadedModel::new(file?)
             .inspect_err(|_| metrics::model_load_failure(name))
-            .map_err(ApiError::from)
+            .map_err(StoreError::from)
     }
 
     /// Load the active version of every model in the registry. Blocking. When the active
@@ -65,13 +76,13 @@ impl ModelStore {
     /// does is served instead — in memory only: the registry's record is left as it is —
     /// with an error in the log and `reflectance_model_fallbacks_total` counting it.
     /// Returns the models of which no version loads (name, reason); they are not served.
-    pub fn load_all(&self) -> Result<Vec<(String, String)>, ApiError> {
+    pub fn load_all(&self) -> Result<Vec<(String, String)>, RegistryError> {
         let mut failed = Vec::new();
         for name in self.registry.names()? {
             let wanted = match self.registry.active(&name) {
                 Ok(v) => v,
                 Err(e) => {
-                    failed.push((name, ApiError::from(e).detail));
+                    failed.push((name, e.to_string()));
                     continue;
                 }
             };
@@ -80,7 +91,7 @@ impl ModelStore {
                     self.install(Arc::new(model));
                     continue;
                 }
-                Err(e) => e.detail,
+                Err(e) => e.to_string(),
             };
             let mut others = self.registry.versions(&name).unwrap_or_default();
             others.retain(|&v| v != wanted);
@@ -129,7 +140,7 @@ impl ModelStore {
 
     /// The model to serve: the active version, or a specific one (loaded on first use and
     /// cached). Blocking when a version must be read from disk.
-    pub fn get(&self, name: &str, version: Option<u32>) -> Result<Arc<LoadedModel>, ApiError> {
+    pub fn get(&self, name: &str, version: Option<u32>) -> Result<Arc<LoadedModel>, StoreError> {
         let active = self.active(name);
         let Some(version) = version else {
             return match active {
@@ -164,12 +175,12 @@ impl ModelStore {
         Ok(model)
     }
 
-    fn missing(&self, name: &str) -> ApiError {
-        ApiError::new(Kind::ModelNotFound, format!("unknown model {name:?}"))
+    fn missing(&self, name: &str) -> StoreError {
+        RegistryError::UnknownModel(name.to_string()).into()
     }
 
     /// The active version of a served model; 404 (`model-not-found`) for any other name.
-    pub fn served(&self, name: &str) -> Result<Arc<LoadedModel>, ApiError> {
+    pub fn served(&self, name: &str) -> Result<Arc<LoadedModel>, StoreError> {
         self.active(name).ok_or_else(|| self.missing(name))
     }
 
@@ -182,12 +193,12 @@ impl ModelStore {
     /// self-test, then swap atomically and record it in the registry. A failure leaves the
     /// previous version serving (and is counted in `reflectance_model_load_failures_total`).
     /// Blocking.
-    pub fn activate(&self, name: &str, version: u32) -> Result<Activated, ApiError> {
+    pub fn activate(&self, name: &str, version: u32) -> Result<Activated, StoreError> {
         let _serial = self.activation.lock().unwrap_or_else(|e| e.into_inner());
         let model = Arc::new(self.load_version(name, version)?);
         model.file().self_test().map_err(|e| {
             metrics::model_load_failure(name);
-            ApiError::from(e)
+            StoreError::Model(e)
         })?;
         let previous = self.active(name).map(|m| m.version());
         self.install(model);
@@ -211,13 +222,11 @@ impl ModelStore {
 
     /// Delete an inactive version (the served active version is refused even if the
     /// registry's record differs). Blocking.
-    pub fn delete(&self, name: &str, version: u32) -> Result<(), ApiError> {
+    pub fn delete(&self, name: &str, version: u32) -> Result<(), StoreError> {
         let _serial = self.activation.lock().unwrap_or_else(|e| e.into_inner());
         if self.active(name).is_some_and(|m| m.version() == version) {
-            return Err(ApiError::new(
-                Kind::VersionActive,
-                format!("version {version} of {name:?} is active; activate another version first"),
-            ));
+            let name = name.to_string();
+            return Err(RegistryError::ActiveVersion { name, version }.into());
         }
         self.registry.delete(name, version)?;
         let mut cache = self.cache.lock().unwrap_or_else(|e| e.into_inner());

@@ -12,7 +12,7 @@ use crate::capture::{self, CaptureRanges, CaptureSettings, DrawSettings};
 use rayon::prelude::*;
 use reflectance_core::dataset::{SYNTHETIC_ILLUMINATION, format_f64};
 use reflectance_core::decode::pfm;
-use reflectance_core::material::ClassFileError;
+use reflectance_core::material::{ClassFileError, InvalidRanges};
 use reflectance_core::util::durable::write_atomic;
 use reflectance_core::util::progress;
 use reflectance_core::util::rng::Rng;
@@ -38,6 +38,8 @@ pub enum RenderError {
     MissingProbe { list: String, name: String },
     #[error("invalid rendering option: {0}")]
     Options(String),
+    #[error("invalid rendering option: {0}")]
+    Invalid(#[from] OptionsError),
     #[error(transparent)]
     Shape(#[from] ShapeError),
     #[error("cancelled")]
@@ -275,38 +277,68 @@ const MAX_SYNTHETIC: usize = 9999;
 /// Captures per image.
 pub const MAX_CAPTURES: usize = 64;
 
-fn validate(spec: &BatchSpec) -> Result<(), RenderError> {
-    super::check_size(spec.size).map_err(|e| RenderError::Options(e.to_string()))?;
-    let q = &spec.quality;
+/// Rendering options out of range: the one check of the command line's `render` and the
+/// service's render jobs ([`check_options`]).
+#[derive(Debug, PartialEq, thiserror::Error)]
+pub enum OptionsError {
+    #[error(transparent)]
+    Size(#[from] super::SizeError),
+    #[error("pixel and lobe sub-pixel samples per side must be 1…16, lobe points 1…1024")]
+    Quality,
+    #[error(transparent)]
+    CaptureRanges(#[from] InvalidRanges),
+    #[error("rotations must be at most 360")]
+    Rotations,
+    #[error("elevations must be within 5°…85°")]
+    Elevations,
+    #[error("contrasts must be within 0.1…4")]
+    Contrasts,
+    #[error("reductions must be within 2…16")]
+    Reductions,
+    #[error("synthetic illuminations must be at most {MAX_SYNTHETIC}")]
+    Synthetic,
+    #[error("captures must be at most {MAX_CAPTURES}")]
+    Captures,
+}
+
+/// Check a rendering's options before any work: the image size ([`super::check_size`]),
+/// the quality and the augmentation.
+pub fn check_options(
+    size: usize,
+    quality: &Quality,
+    augment: &Augment,
+) -> Result<(), OptionsError> {
+    super::check_size(size)?;
+    let q = quality;
     if !(1..=16).contains(&q.pixel_samples)
         || !(1..=16).contains(&q.lobe_pixel_samples)
         || !(1..=1024).contains(&q.lobe_points)
     {
-        return Err(RenderError::Options(
-            "pixel and lobe sub-pixel samples per side must be 1…16, lobe points 1…1024".into(),
-        ));
+        return Err(OptionsError::Quality);
     }
-    let a = &spec.augment;
-    let bad_elevation = a.elevations.iter().any(|e| !(5.0..=85.0).contains(e));
-    let bad_contrast = a.contrasts.iter().any(|c| !(0.1..=4.0).contains(c));
-    let bad_reduction = a.reductions.iter().any(|f| !(2..=16).contains(f));
-    a.capture_ranges
-        .validate()
-        .map_err(|e| RenderError::Options(e.to_string()))?;
-    if a.rotations > 360
-        || a.captures > MAX_CAPTURES
-        || bad_elevation
-        || bad_contrast
-        || bad_reduction
-        || a.synthetic > MAX_SYNTHETIC
-    {
-        return Err(RenderError::Options(format!(
-            "rotations must be ≤ 360, elevations within 5°…85°, contrasts within 0.1…4, \
-             reductions within 2…16, synthetic illuminations ≤ {MAX_SYNTHETIC} and captures \
-             ≤ {MAX_CAPTURES}"
-        )));
+    let a = augment;
+    a.capture_ranges.validate()?;
+    let refused = [
+        (a.rotations > 360, OptionsError::Rotations),
+        (
+            a.elevations.iter().any(|e| !(5.0..=85.0).contains(e)),
+            OptionsError::Elevations,
+        ),
+        (
+            a.contrasts.iter().any(|c| !(0.1..=4.0).contains(c)),
+            OptionsError::Contrasts,
+        ),
+        (
+            a.reductions.iter().any(|f| !(2..=16).contains(f)),
+            OptionsError::Reductions,
+        ),
+        (a.synthetic > MAX_SYNTHETIC, OptionsError::Synthetic),
+        (a.captures > MAX_CAPTURES, OptionsError::Captures),
+    ];
+    match refused.into_iter().find(|(bad, _)| *bad) {
+        Some((_, e)) => Err(e),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// Render every probe × variant × class into `spec.out`; images already complete are
@@ -346,7 +378,7 @@ pub fn render_dataset_with(
     spec: &BatchSpec,
     observer: &dyn progress::Observer,
 ) -> Result<BatchSummary, RenderError> {
-    validate(spec)?;
+    check_options(spec.size, &spec.quality, &spec.augment)?;
     std::fs::create_dir_all(&spec.out).map_err(io_error(&spec.out))?;
     let probes = probes_of(spec);
     let jobs = jobs_of(spec, &probes)?;

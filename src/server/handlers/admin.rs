@@ -8,6 +8,7 @@ use axum::extract::rejection::{JsonRejection, PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
 use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
+use reflectance_core::classify::ClassifierOptions;
 use reflectance_core::estimate::EstimatorOptions;
 use reflectance_core::features::FeatureOptions;
 use serde::{Deserialize, Serialize};
@@ -31,18 +32,8 @@ pub(super) async fn blocking<T: Send + 'static>(
 }
 
 const COMMON: &[&str] = &["type"];
-const LEARN: &[&str] = &[
-    "dataset",
-    "manifest",
-    "table",
-    "features",
-    "classifier",
-    "c",
-    "gamma",
-    "grid",
-    "seed",
-    "calibration_folds",
-];
+/// A learning job's data, before the training, extraction and estimator options' keys.
+const LEARN: &[&str] = &["dataset", "manifest", "table"];
 
 /// Refuse unknown keys (a typo must not silently fall back to a default).
 fn check_keys(body: &Value) -> Result<(), ApiError> {
@@ -79,7 +70,8 @@ fn check_keys(body: &Value) -> Result<(), ApiError> {
     };
     let learn = match kind {
         "render" => Vec::new(),
-        _ => (LEARN.iter().map(|k| k.to_string()))
+        _ => (LEARN.iter().chain(&ClassifierOptions::KEYS))
+            .map(|k| k.to_string())
             .chain(FeatureOptions::keys())
             .chain(EstimatorOptions::keys())
             .collect(),
@@ -129,7 +121,7 @@ pub async fn submit(
     let request: JobRequest =
         serde_json::from_value(body).map_err(|e| ApiError::new(Kind::InvalidJob, e.to_string()))?;
     let manager = jobs(&state)?;
-    let record = blocking(move || manager.submit(request)).await?;
+    let record = blocking(move || Ok(manager.submit(request)?)).await?;
     let location = format!("/admin/v1/jobs/{}", record.id);
     let mut response = (StatusCode::ACCEPTED, Json(record)).into_response();
     if let Ok(v) = HeaderValue::from_str(&location) {
@@ -193,7 +185,7 @@ pub async fn get(
     Path(id): Path<String>,
 ) -> Result<Json<JobRecord>, ApiError> {
     let manager = jobs(&state)?;
-    Ok(Json(blocking(move || manager.get(&id)).await?))
+    Ok(Json(blocking(move || Ok(manager.get(&id)?)).await?))
 }
 
 /// Cancel a job: a queued job at once, a running one between images or folds.
@@ -215,7 +207,7 @@ pub async fn cancel(
     Path(id): Path<String>,
 ) -> Result<Json<JobRecord>, ApiError> {
     let manager = jobs(&state)?;
-    Ok(Json(blocking(move || manager.cancel(&id)).await?))
+    Ok(Json(blocking(move || Ok(manager.cancel(&id)?)).await?))
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
@@ -368,7 +360,7 @@ pub async fn delete_version(
 ) -> Result<StatusCode, ApiError> {
     let Path((name, version)) = path?;
     let worker = state.clone();
-    blocking(move || worker.models.delete(&name, version)).await?;
+    blocking(move || Ok(worker.models.delete(&name, version)?)).await?;
     Ok(StatusCode::NO_CONTENT)
 }
 
@@ -382,7 +374,10 @@ mod tests {
         let data = LearnParams {
             dataset: Some("m.csv".into()),
             table: Some("t.csv".into()),
-            gamma: Some(0.1),
+            options: ClassifierOptions {
+                gamma: Some(0.1),
+                ..ClassifierOptions::default()
+            },
             extraction: FeatureOptions {
                 working_radius: Some(64.0),
                 saturation: Some(1.25),

@@ -12,216 +12,24 @@
 
 pub(crate) mod paths;
 mod run;
+mod types;
 
-use super::error::{ApiError, Kind};
 use super::metrics;
 use crate::server::store::ModelStore;
 use paths::DataDir;
 use reflectance_core::decode::Limits;
-use reflectance_core::estimate::EstimatorOptions;
-use reflectance_core::features::FeatureOptions;
 use reflectance_core::util::durable::write_atomic;
 use reflectance_core::util::progress::Observer;
-use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
-use utoipa::ToSchema;
 
-pub use run::JobResult;
+pub use run::{JobError, JobResult};
+pub use types::{JobProgress, JobRecord, JobRequest, JobState, LearnParams};
 
 pub use reflectance_core::model::publish::Activate;
-
-/// Where the labelled data of a `train` or `cross_validate` job come from: exactly one of
-/// `dataset` (a manifest; features are extracted first) or `table` (a feature table written
-/// by `reflectance features --out`), relative to the data directory.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct LearnParams {
-    /// Manifest CSV relative to the data directory (`manifest`, the CLI's name, is accepted
-    /// too).
-    #[serde(default, alias = "manifest", skip_serializing_if = "Option::is_none")]
-    pub dataset: Option<String>,
-    /// Feature table CSV relative to the data directory.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub table: Option<String>,
-    /// A named set (hand6, hand2, mean1, hand6+log, hand6+log+radial, hand6+log+radial+dep,
-    /// hand6+cap, hand6+log+cap, hand6+log+cap+ctr, estimator, scale_free), all, auto<N>,
-    /// pca<N>, or a comma-separated list of names.
-    #[serde(default = "default_features")]
-    #[schema(default = "hand6")]
-    pub features: String,
-    /// svm, nn, knn5 or chance.
-    #[serde(default = "default_classifier")]
-    #[schema(default = "svm")]
-    pub classifier: String,
-    /// SVM C.
-    #[serde(default = "default_c")]
-    #[schema(default = default_c)]
-    pub c: f64,
-    /// SVM γ (default 1 / number of classifier inputs).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub gamma: Option<f64>,
-    /// Choose C and γ by inner leave-one-illumination-out CV.
-    #[serde(default)]
-    pub grid: bool,
-    /// Folds of illuminations that calibrate the probabilities, the prediction sets and the
-    /// domain check (0: every illumination held out in turn).
-    #[serde(default = "default_calibration_folds")]
-    #[schema(default = 5)]
-    pub calibration_folds: usize,
-    #[serde(default = "default_seed")]
-    #[schema(default = 1)]
-    pub seed: u64,
-    /// With `dataset`: the extraction's options (extensions beyond those `features` names,
-    /// preprocessing), as the command line's flags of the same names.
-    #[serde(flatten)]
-    pub extraction: FeatureOptions,
-    /// With `estimator_table` (train) or `ward_classes` (cross_validate): the Ward-parameter
-    /// regression, as the command line's `--regressor` and `--ridge-*` options.
-    #[serde(flatten)]
-    pub estimator: EstimatorOptions,
-}
-
-impl LearnParams {
-    fn paths(&self) -> [Option<&str>; 2] {
-        [self.dataset.as_deref(), self.table.as_deref()]
-    }
-}
-
-fn default_features() -> String {
-    "hand6".into()
-}
-fn default_classifier() -> String {
-    "svm".into()
-}
-fn default_c() -> f64 {
-    reflectance_core::classify::DEFAULT_C
-}
-fn default_calibration_folds() -> usize {
-    reflectance_core::classify::pipeline::CALIBRATION_FOLDS
-}
-
-fn default_seed() -> u64 {
-    1
-}
-fn default_size() -> usize {
-    256
-}
-fn default_true() -> bool {
-    true
-}
-
-/// A job to run, as posted to `POST /admin/v1/jobs`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
-#[serde(tag = "type", rename_all = "snake_case")]
-pub enum JobRequest {
-    /// Train a model and publish it as a new version.
-    Train {
-        /// Model name (a-z, 0-9, '_', '-').
-        name: String,
-        #[serde(flatten)]
-        data: LearnParams,
-        #[serde(default)]
-        activate: Activate,
-        /// Class file with the classes' Ward parameters, relative to the data directory.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        classes: Option<String>,
-        /// Store a leave-one-illumination-out CV summary with the model (required by
-        /// `activate: if_better`).
-        #[serde(default = "default_true")]
-        #[schema(default = true)]
-        cross_validate: bool,
-        /// Also fit a Ward-parameter estimator on this feature table (relative to the data
-        /// directory; extracted with the model's feature flags), reading the model's
-        /// `features` (gradient-boosted trees, as `train --estimator-table` by default).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        estimator_table: Option<String>,
-        /// The class file of the estimator table's materials (their Ward parameters),
-        /// relative to the data directory; required with `estimator_table`.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        estimator_classes: Option<String>,
-        /// With `estimator_table`: the estimator's features (a named set or a list of names;
-        /// default: `features`); the extraction computes the families both sets name, as
-        /// `train --estimator-features` does.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        estimator_features: Option<String>,
-    },
-    /// Leave-one-illumination-out cross-validation.
-    CrossValidate {
-        #[serde(flatten)]
-        data: LearnParams,
-        /// Estimate the Ward parameters instead of classifying: the class file (relative to
-        /// the data directory) whose materials are the data's classes. The regression reads
-        /// `features` (gradient-boosted trees, as `cv --estimate` by default).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        ward_classes: Option<String>,
-    },
-    /// Render Ward spheres under light probes into a dataset with a manifest.
-    Render {
-        /// A folder of `.hdr` probes or a probe list file, relative to the data directory.
-        probes: String,
-        /// Class file (`{"classes": [{"name", "rho_d", "rho_s", "alpha"}]}`), relative to
-        /// the data directory.
-        classes: String,
-        /// Output folder relative to the data directory (created).
-        out: String,
-        /// Image size in pixels (71…4096: the sphere's radius, size / 2.2, must be ≥ 32 px).
-        #[serde(default = "default_size")]
-        #[schema(default = 256, minimum = 71, maximum = 4096)]
-        size: usize,
-        #[serde(default = "default_seed")]
-        #[schema(default = 1)]
-        seed: u64,
-        /// Photograph-like captures of every image (`@cap<k>` training views; see
-        /// `reflectance render --captures`).
-        #[serde(default)]
-        #[schema(default = 0, maximum = 64)]
-        captures: usize,
-    },
-}
-
-impl JobRequest {
-    pub fn kind(&self) -> &'static str {
-        match self {
-            JobRequest::Train { .. } => "train",
-            JobRequest::CrossValidate { .. } => "cross_validate",
-            JobRequest::Render { .. } => "render",
-        }
-    }
-
-    /// Every path of the data directory the job reads or writes.
-    fn paths(&self) -> Vec<&str> {
-        let found: Vec<Option<&str>> = match self {
-            JobRequest::Train {
-                data,
-                classes,
-                estimator_table,
-                estimator_classes,
-                ..
-            } => [
-                data.paths().as_slice(),
-                &[
-                    classes.as_deref(),
-                    estimator_table.as_deref(),
-                    estimator_classes.as_deref(),
-                ],
-            ]
-            .concat(),
-            JobRequest::CrossValidate { data, ward_classes } => {
-                [data.paths().as_slice(), &[ward_classes.as_deref()]].concat()
-            }
-            JobRequest::Render {
-                probes,
-                classes,
-                out,
-                ..
-            } => vec![Some(probes), Some(classes), Some(out)],
-        };
-        found.into_iter().flatten().collect()
-    }
-}
 
 /// Whether `rel`, a path relative to the data directory, is `folder` or inside it.
 fn is_under(rel: &str, folder: &Path) -> bool {
@@ -230,76 +38,6 @@ fn is_under(rel: &str, folder: &Path) -> bool {
         .filter(|c| *c != std::path::Component::CurDir)
         .collect();
     rel.starts_with(folder)
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum JobState {
-    Queued,
-    Running,
-    Succeeded,
-    Failed,
-    Cancelled,
-}
-
-impl JobState {
-    pub const ALL: [JobState; 5] = [
-        JobState::Queued,
-        JobState::Running,
-        JobState::Succeeded,
-        JobState::Failed,
-        JobState::Cancelled,
-    ];
-
-    pub fn is_terminal(self) -> bool {
-        matches!(
-            self,
-            JobState::Succeeded | JobState::Failed | JobState::Cancelled
-        )
-    }
-
-    pub fn as_str(self) -> &'static str {
-        match self {
-            JobState::Queued => "queued",
-            JobState::Running => "running",
-            JobState::Succeeded => "succeeded",
-            JobState::Failed => "failed",
-            JobState::Cancelled => "cancelled",
-        }
-    }
-}
-
-/// How far a job is: `done` of `total` units (images or folds) of its current stage
-/// (`queued`, `starting`, `features`, `fit`, `cross_validate`, `publish`, `activate`,
-/// `render`, `done`).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct JobProgress {
-    pub stage: String,
-    pub done: usize,
-    pub total: usize,
-}
-
-/// A job and what became of it.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct JobRecord {
-    pub id: String,
-    pub state: JobState,
-    /// The job as submitted (with defaults filled in).
-    pub request: JobRequest,
-    /// RFC 3339 times.
-    pub created: String,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub started: Option<String>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub finished: Option<String>,
-    pub progress: JobProgress,
-    /// Whether a cancellation was requested (a running job stops at its next check).
-    #[serde(default)]
-    pub cancel_requested: bool,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub result: Option<JobResult>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub error: Option<String>,
 }
 
 /// Everything about the jobs that changes, behind one lock ([`JobManager::state`]).
@@ -369,18 +107,38 @@ pub struct JobManager {
     workers: Mutex<Vec<std::thread::JoinHandle<()>>>,
 }
 
+/// Why the job system refuses a request (`server::error` maps it to HTTP).
+#[derive(Debug, thiserror::Error)]
+pub enum ManagerError {
+    /// The job itself: its parameters or paths.
+    #[error(transparent)]
+    Refused(Box<JobError>),
+    #[error("the job system is shutting down")]
+    ShuttingDown,
+    #[error("the job queue is full; retry when running jobs have finished")]
+    QueueFull,
+    /// Its record cannot be written.
+    #[error(transparent)]
+    Persist(#[from] PersistError),
+    #[error("unknown job {0:?}")]
+    UnknownJob(String),
+    /// Cancelling a job that has ended.
+    #[error("job {id} has already {}", state.as_str())]
+    Finished { id: String, state: JobState },
+}
+
+impl From<JobError> for ManagerError {
+    fn from(e: JobError) -> ManagerError {
+        ManagerError::Refused(Box::new(e))
+    }
+}
+
 /// A record file that could not be written.
 #[derive(Debug, thiserror::Error)]
 #[error("cannot write the job record {path}: {source}")]
 pub struct PersistError {
-    path: String,
-    source: std::io::Error,
-}
-
-impl From<PersistError> for ApiError {
-    fn from(e: PersistError) -> ApiError {
-        ApiError::storage(&e.source, e.to_string())
-    }
+    pub path: String,
+    pub source: std::io::Error,
 }
 
 impl JobManager {
@@ -487,18 +245,12 @@ impl JobManager {
     }
 
     /// Refuse a submission while shutting down or when the queue is full.
-    fn admission(&self, jobs: &Jobs) -> Result<(), ApiError> {
+    fn admission(&self, jobs: &Jobs) -> Result<(), ManagerError> {
         if !jobs.open {
-            return Err(
-                ApiError::new(Kind::NotReady, "the job system is shutting down").retry_after(5),
-            );
+            return Err(ManagerError::ShuttingDown);
         }
         if jobs.waiting.len() >= self.capacity {
-            return Err(ApiError::new(
-                Kind::JobQueueFull,
-                "the job queue is full; retry when running jobs have finished",
-            )
-            .retry_after(10));
+            return Err(ManagerError::QueueFull);
         }
         Ok(())
     }
@@ -506,7 +258,7 @@ impl JobManager {
     /// Validate and enqueue a job. Blocking: its record is on disk before it is queued, so
     /// an accepted job survives a crash (as `interrupted`), and a job whose record cannot
     /// be written (a full or read-only disk) is refused with that reason.
-    pub fn submit(&self, request: JobRequest) -> Result<JobRecord, ApiError> {
+    pub fn submit(&self, request: JobRequest) -> Result<JobRecord, ManagerError> {
         run::validate(&request, &self.data)?;
         self.admission(&self.lock())?;
         let id = new_id();
@@ -559,7 +311,7 @@ impl JobManager {
             .map(|r| r.id.clone())
     }
 
-    pub fn get(&self, id: &str) -> Result<JobRecord, ApiError> {
+    pub fn get(&self, id: &str) -> Result<JobRecord, ManagerError> {
         self.lock()
             .records
             .get(id)
@@ -582,15 +334,15 @@ impl JobManager {
 
     /// Request cancellation: a queued job is cancelled at once, a running one at its next
     /// check (between images or folds). Blocking (writes the record).
-    pub fn cancel(&self, id: &str) -> Result<JobRecord, ApiError> {
+    pub fn cancel(&self, id: &str) -> Result<JobRecord, ManagerError> {
         let (record, forgotten) = {
             let mut jobs = self.lock();
             let record = jobs.records.get_mut(id).ok_or_else(|| unknown_job(id))?;
             if record.state.is_terminal() {
-                return Err(ApiError::new(
-                    Kind::JobFinished,
-                    format!("job {id} has already {}", record.state.as_str()),
-                ));
+                return Err(ManagerError::Finished {
+                    id: id.to_string(),
+                    state: record.state,
+                });
             }
             record.cancel_requested = true;
             let queued = record.state == JobState::Queued;
@@ -779,7 +531,7 @@ impl JobManager {
         let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
             run::execute(&request, &self.data, &self.limits, &self.models, &observer)
         }))
-        .unwrap_or_else(|_| Err(run::JobError::Panicked.into()));
+        .unwrap_or_else(|_| Err(JobError::Panicked.into()));
         self.conclude(&id, outcome);
         self.publish_metrics();
     }
@@ -825,8 +577,8 @@ impl JobManager {
     }
 }
 
-fn unknown_job(id: &str) -> ApiError {
-    ApiError::new(Kind::JobNotFound, format!("unknown job {id:?}"))
+fn unknown_job(id: &str) -> ManagerError {
+    ManagerError::UnknownJob(id.to_string())
 }
 
 /// Record how a job ended.

@@ -3,9 +3,8 @@
 
 use super::paths::{DataDir, PathError};
 use super::{JobRequest, LearnParams};
-use crate::server::error::{ApiError, Kind};
-use crate::server::store::ModelStore;
-use reflectance_core::classify::{self, CvSummary, SpecText, TrainSpec};
+use crate::server::store::{ModelStore, StoreError};
+use reflectance_core::classify::{self, CvSummary, TrainSpec};
 use reflectance_core::dataset::{self, DatasetError, FeatureTable, Manifest};
 use reflectance_core::decode::{DecodeOptions, Limits};
 use reflectance_core::estimate::{self, EstimateReport};
@@ -13,11 +12,11 @@ use reflectance_core::features::{ConfigError, Extractor, FeatureConfig, Preproce
 use reflectance_core::learn::{Dataset, FeatureSet, LearnError};
 use reflectance_core::material::{ClassFileError, load_classes};
 use reflectance_core::model::publish::{Activate, Current, Published};
-use reflectance_core::model::registry;
+use reflectance_core::model::registry::{self, RegistryError};
 use reflectance_core::model::train::{self, TrainError, TrainOptions};
 use reflectance_core::util::progress::Observer;
 use reflectance_render::Quality;
-use reflectance_render::batch::{self, Augment, BatchSpec, RenderError};
+use reflectance_render::batch::{self, Augment, BatchSpec, OptionsError, RenderError};
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
@@ -73,8 +72,9 @@ pub enum Failure {
     Partial(Box<JobError>, Box<JobResult>),
 }
 
-/// Why a job failed: the error of the layer that failed, kept typed until the job's record
-/// states it.
+/// Why a job is refused at submission or fails when it runs: the error of the layer that
+/// refused or failed, kept typed. `server::error` maps a refused job to its problem; a
+/// failed job's record states the error.
 #[derive(Debug, thiserror::Error)]
 pub enum JobError {
     #[error(transparent)]
@@ -83,6 +83,9 @@ pub enum JobError {
     Learn(LearnError),
     #[error(transparent)]
     Render(RenderError),
+    /// A render job's options out of range (refused as the command line refuses them).
+    #[error(transparent)]
+    RenderOptions(#[from] OptionsError),
     #[error(transparent)]
     Train(TrainError),
     #[error(transparent)]
@@ -91,15 +94,31 @@ pub enum JobError {
     Classes(#[from] ClassFileError),
     #[error(transparent)]
     Features(#[from] ConfigError),
-    /// A request the submission's checks let through but execution refuses.
-    #[error("{}", .0.detail)]
-    Request(ApiError),
-    #[error("version {version} was published but its activation failed: {}", .cause.detail)]
-    Activation { version: u32, cause: ApiError },
+    /// A model name outside the registry's alphabet.
+    #[error(transparent)]
+    Name(RegistryError),
+    /// Parameters that go against each other.
+    #[error(transparent)]
+    Refused(#[from] Refusal),
+    #[error("version {version} was published but its activation failed: {cause}")]
+    Activation { version: u32, cause: StoreError },
     #[error("the job panicked")]
     Panicked,
     #[error("a {0} job was given to another job's runner")]
     WrongKind(&'static str),
+}
+
+/// A job's parameters that go against each other.
+#[derive(Debug, thiserror::Error)]
+pub enum Refusal {
+    #[error("activate: if_better compares cross-validated accuracy; it needs cross_validate: true")]
+    IfBetterWithoutCv,
+    #[error("give exactly one of dataset (a manifest) or table")]
+    Data,
+    #[error("estimator_features needs estimator_table")]
+    EstimatorFeatures,
+    #[error("estimator_table and estimator_classes go together: give both or neither")]
+    EstimatorHalf,
 }
 
 impl From<TrainError> for JobError {
@@ -172,100 +191,77 @@ fails_a_job!(
     ConfigError
 );
 
-fn invalid(detail: impl Into<String>) -> ApiError {
-    ApiError::new(Kind::InvalidJob, detail)
-}
-
-fn path_error(e: PathError) -> ApiError {
-    ApiError::new(Kind::InvalidPath, e.to_string())
-}
-
 /// The extraction configuration of a learning job (as `reflectance train` chooses it).
-fn config_of(p: &LearnParams) -> Result<FeatureConfig, ApiError> {
-    p.extraction
-        .config(&p.features)
-        .map_err(|e| invalid(e.to_string()))
+fn config_of(p: &LearnParams) -> Result<FeatureConfig, ConfigError> {
+    p.extraction.config(&p.options.features)
 }
 
 /// The training specification of learning parameters (feature names are those of the
 /// job's extraction configuration).
-fn spec_of(p: &LearnParams) -> Result<TrainSpec, ApiError> {
+fn spec_of(p: &LearnParams) -> Result<TrainSpec, JobError> {
     let names = config_of(p)?.names();
-    let text = SpecText {
-        features: &p.features,
-        classifier: &p.classifier,
-        c: p.c,
-        gamma: p.gamma,
-        grid: p.grid,
-        calibration_folds: p.calibration_folds,
-    };
-    text.parse(&names).map_err(|e| invalid(e.to_string()))
+    Ok(p.options.spec(&names)?)
 }
 
-fn check_data(p: &LearnParams, data: &DataDir) -> Result<(), ApiError> {
+fn check_data(p: &LearnParams, data: &DataDir) -> Result<(), JobError> {
     match (&p.dataset, &p.table) {
-        (Some(m), None) => data.existing("dataset", m).map(|_| ()).map_err(path_error),
-        (None, Some(t)) => data.existing("table", t).map(|_| ()).map_err(path_error),
-        _ => Err(invalid("give exactly one of dataset (a manifest) or table")),
-    }
+        (Some(m), None) => data.existing("dataset", m)?,
+        (None, Some(t)) => data.existing("table", t)?,
+        _ => return Err(Refusal::Data.into()),
+    };
+    Ok(())
 }
 
 /// An estimator's options, and its features among the columns the job extracts.
-fn check_estimator(p: &LearnParams, features: Option<&str>) -> Result<(), ApiError> {
-    p.estimator.check().map_err(|e| invalid(e.to_string()))?;
+fn check_estimator(p: &LearnParams, features: Option<&str>) -> Result<(), JobError> {
+    p.estimator.check()?;
     if let Some(spec) = features {
         let names = train_config(p, features)?.names();
-        FeatureSet::parse_with(spec, &names).map_err(|e| invalid(e.to_string()))?;
+        FeatureSet::parse_with(spec, &names)?;
     }
     Ok(())
 }
 
-/// Checks at submission: parameters, and that every path exists inside the data directory.
-pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
-    match request {
-        JobRequest::Train {
-            name,
-            data: p,
-            activate,
-            classes,
-            cross_validate,
-            estimator_table,
-            estimator_classes,
-            estimator_features,
-        } => {
-            if !registry::valid_name(name) {
-                return Err(invalid(format!(
-                    "invalid model name {name:?} (use 1–64 of a-z, 0-9, '_' and '-')"
-                )));
-            }
-            if *activate == Activate::IfBetter && !cross_validate {
-                return Err(invalid(
-                    "activate: if_better compares cross-validated accuracy; it needs cross_validate: true",
-                ));
-            }
-            spec_of(p)?;
-            check_data(p, data)?;
-            if let Some(c) = classes {
-                data.existing("classes", c).map_err(path_error)?;
-            }
-            match (estimator_table, estimator_classes) {
-                (Some(t), Some(c)) => {
-                    data.existing("estimator_table", t).map_err(path_error)?;
-                    data.existing("estimator_classes", c).map_err(path_error)?;
-                    check_estimator(p, estimator_features.as_deref())?;
-                }
-                (None, None) if estimator_features.is_some() => {
-                    return Err(invalid("estimator_features needs estimator_table"));
-                }
-                (None, None) => {}
-                _ => {
-                    return Err(invalid(
-                        "estimator_table and estimator_classes go together: give both or neither",
-                    ));
-                }
-            }
-            Ok(())
+/// The checks of a `train` job at submission, beyond its learning parameters'.
+fn check_train(request: &JobRequest, data: &DataDir) -> Result<(), JobError> {
+    let JobRequest::Train {
+        name,
+        data: p,
+        activate,
+        classes,
+        cross_validate,
+        estimator_table,
+        estimator_classes,
+        estimator_features,
+    } = request
+    else {
+        return Err(JobError::WrongKind("train"));
+    };
+    registry::check_name(name).map_err(JobError::Name)?;
+    if *activate == Activate::IfBetter && !cross_validate {
+        return Err(Refusal::IfBetterWithoutCv.into());
+    }
+    spec_of(p)?;
+    check_data(p, data)?;
+    if let Some(c) = classes {
+        data.existing("classes", c)?;
+    }
+    match (estimator_table, estimator_classes) {
+        (Some(t), Some(c)) => {
+            data.existing("estimator_table", t)?;
+            data.existing("estimator_classes", c)?;
+            check_estimator(p, estimator_features.as_deref())
         }
+        (None, None) if estimator_features.is_some() => Err(Refusal::EstimatorFeatures.into()),
+        (None, None) => Ok(()),
+        _ => Err(Refusal::EstimatorHalf.into()),
+    }
+}
+
+/// Checks at submission: parameters, and that every path exists inside the data directory.
+pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), JobError> {
+    match request {
+        JobRequest::Train { .. } => check_train(request, data),
         JobRequest::CrossValidate {
             data: p,
             ward_classes,
@@ -273,7 +269,7 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
             spec_of(p)?;
             check_data(p, data)?;
             if let Some(c) = ward_classes {
-                data.existing("ward_classes", c).map_err(path_error)?;
+                data.existing("ward_classes", c)?;
                 check_estimator(p, None)?;
             }
             Ok(())
@@ -286,19 +282,23 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
             captures,
             ..
         } => {
-            reflectance_render::check_size(*size).map_err(|e| invalid(e.to_string()))?;
-            if *captures > batch::MAX_CAPTURES {
-                return Err(invalid(format!(
-                    "captures must be at most {}",
-                    batch::MAX_CAPTURES
-                )));
-            }
-            data.existing("probes", probes).map_err(path_error)?;
-            data.existing("classes", classes).map_err(path_error)?;
+            let (quality, augment) = render_options(*captures);
+            batch::check_options(*size, &quality, &augment)?;
+            data.existing("probes", probes)?;
+            data.existing("classes", classes)?;
             // The output folder is created when the job runs.
-            data.check_output("out", out).map_err(path_error)
+            Ok(data.check_output("out", out)?)
         }
     }
+}
+
+/// The quality and augmentation of a render job: the defaults, with its captures.
+fn render_options(captures: usize) -> (Quality, Augment) {
+    let augment = Augment {
+        captures,
+        ..Augment::default()
+    };
+    (Quality::default(), augment)
 }
 
 /// What a `train` job extracts (as `reflectance train`): the families its features and its
@@ -306,7 +306,7 @@ pub fn validate(request: &JobRequest, data: &DataDir) -> Result<(), ApiError> {
 fn train_config(
     p: &LearnParams,
     estimator_features: Option<&str>,
-) -> Result<FeatureConfig, ApiError> {
+) -> Result<FeatureConfig, ConfigError> {
     let config = config_of(p)?;
     let config = match estimator_features {
         Some(features) => config.with_families_of(features),
@@ -341,7 +341,7 @@ fn estimator_data(
         materials: load_classes(&classes_path)?,
         features,
         regression: p.estimator,
-        gamma: p.gamma,
+        gamma: p.options.gamma,
     }))
 }
 
@@ -422,10 +422,6 @@ pub fn execute(
     }
 }
 
-fn detail(e: ApiError) -> Failure {
-    JobError::Request(e).into()
-}
-
 impl Context<'_> {
     /// Fit, publish and activate by policy.
     fn train(&self, request: &JobRequest) -> Result<JobResult, Failure> {
@@ -443,17 +439,17 @@ impl Context<'_> {
             return Err(JobError::WrongKind("train").into());
         };
         let (data, observer) = (self.data, self.observer);
-        let spec = spec_of(p).map_err(detail)?;
+        let spec = spec_of(p)?;
         let classes = match classes {
             Some(c) => Some(load_classes(&data.existing("classes", c)?)?),
             None => None,
         };
-        let config = train_config(p, estimator_features.as_deref()).map_err(detail)?;
+        let config = train_config(p, estimator_features.as_deref())?;
         let (table, label, manifest) = load_table(p, config, data, self.limits, observer)?;
         let options = TrainOptions {
             name: name.clone(),
             spec,
-            seed: p.seed,
+            seed: p.options.seed,
             cross_validate: *cross_validate,
             classes,
             // Recorded only when this job extracted the features itself.
@@ -538,7 +534,7 @@ impl Context<'_> {
                 Ok(result)
             }
             Err(cause) => {
-                result.activation = Some(cause.detail.clone());
+                result.activation = Some(cause.to_string());
                 let e = JobError::Activation {
                     version: published.version,
                     cause,
@@ -554,14 +550,14 @@ impl Context<'_> {
         p: &LearnParams,
         classes: &str,
     ) -> Result<JobResult, Failure> {
-        let spec = spec_of(p).map_err(detail)?;
+        let spec = spec_of(p)?;
         let materials = load_classes(&self.data.existing("ward_classes", classes)?)?;
-        let config = config_of(p).map_err(detail)?;
+        let config = config_of(p)?;
         let (table, label, _) = load_table(p, config, self.data, self.limits, self.observer)?;
         let ds = Dataset::from_table(&table)?;
         self.observer.stage("cross_validate");
-        let regression =
-            (p.estimator).regression_spec(&spec.features, &ds.names, p.gamma, p.seed)?;
+        let (gamma, seed) = (p.options.gamma, p.options.seed);
+        let regression = (p.estimator).regression_spec(&spec.features, &ds.names, gamma, seed)?;
         let fit = estimate::fit_observed(
             &ds,
             &label,
@@ -579,12 +575,13 @@ impl Context<'_> {
 
     /// The classifier, leave-one-illumination-out.
     fn cross_validate(&self, p: &LearnParams) -> Result<JobResult, Failure> {
-        let spec = spec_of(p).map_err(detail)?;
-        let config = config_of(p).map_err(detail)?;
+        let spec = spec_of(p)?;
+        let config = config_of(p)?;
         let (table, _, _) = load_table(p, config, self.data, self.limits, self.observer)?;
         let ds = Dataset::from_table(&table)?;
         self.observer.stage("cross_validate");
-        let report = classify::cross_validate_with(&ds, &spec, p.seed, self.observer)?;
+        let seed = p.options.seed;
+        let report = classify::cross_validate_with(&ds, &spec, seed, self.observer)?;
         Ok(JobResult {
             cv: Some(report.summary),
             images: Some(table.samples.len()),
@@ -608,17 +605,15 @@ impl Context<'_> {
         for probe in &probe_files {
             data.check_resolved("probe", probe)?;
         }
+        let (quality, augment) = render_options(captures);
         let spec = BatchSpec {
             probes: probe_files,
             classes: load_classes(&classes_path)?,
             out: out_path,
             size,
             seed,
-            quality: Quality::default(),
-            augment: Augment {
-                captures,
-                ..Augment::default()
-            },
+            quality,
+            augment,
             shard: None,
         };
         self.observer.stage("render");

@@ -8,7 +8,8 @@
 //! and results are assembled in a fixed order, so the report does not depend on the number
 //! of threads.
 
-use super::pipeline::{Classifier, TrainSpec, fit_rows};
+use super::options::TrainSpec;
+use super::pipeline::{Classifier, fit_rows};
 use super::svm::squared_distance;
 use crate::learn::error::LearnError;
 use crate::learn::matrix::Dataset;
@@ -327,7 +328,7 @@ pub fn cross_validate_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::classify::pipeline::ClassifierKind;
+    use crate::classify::ClassifierKind;
     use crate::dataset::FeatureTable;
     use crate::learn::feature_set::FeatureSet;
     use crate::learn::testutil::table;

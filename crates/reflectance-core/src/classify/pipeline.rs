@@ -5,184 +5,19 @@
 //! model file can embed it; after deserializing, call [`Classifier::validate`] before use.
 
 use super::calibration::{self, Calibration, Sigmoid, stratified_folds};
+use super::grid::{self, GridSearch};
 use super::knn::{ChanceModel, KnnModel};
+use super::options::{CALIBRATION_FOLDS, CalibrationKind, ClassifierKind, TrainSpec};
 use super::pca::Pca;
-use super::select;
+use super::prepare::{apply_transform, check_svm_params, count_classes, prepare};
 use super::svm::{self, Gram, SolverParams, SvmModel};
 use crate::learn::error::LearnError;
-use crate::learn::feature_set::FeatureSet;
 use crate::learn::matrix::Dataset;
 use crate::learn::scaler::Scaler;
 use crate::util::rng::Rng;
-use ndarray::{Array2, ArrayView2, Axis};
+use ndarray::{Array2, ArrayView2};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::fmt;
-use std::str::FromStr;
-
-/// Folds of the internal cross-validation that produces the calibration decision values,
-/// unless the specification names another number.
-pub const CALIBRATION_FOLDS: usize = 5;
-
-/// How an SVM's probabilities are made from its decision values (docs/design.md §3
-/// "Classifiers").
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum CalibrationKind {
-    /// One temperature for a softmax of the decision values, fitted on the decision values
-    /// of illuminations held out in turn (the most probable class is the largest decision
-    /// value).
-    #[default]
-    Softmax,
-    /// libsvm's per-class Platt sigmoids on a stratified internal cross-validation (as
-    /// scikit-learn's `SVC(probability=True)`; kept for comparisons with it).
-    Platt,
-}
-
-/// Which classifier to train (docs/design.md §3 "Classifiers"); spelled `svm`, `nn`, `knn5`,
-/// `chance`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ClassifierKind {
-    /// An RBF-kernel support vector machine (the paper's classifier).
-    Svm,
-    /// Nearest neighbour (1-NN) in standardized input space.
-    Nn,
-    /// 5 nearest neighbours, by vote.
-    Knn5,
-    /// The training class frequencies, whatever the input: the baseline every classifier must beat.
-    Chance,
-}
-
-impl FromStr for ClassifierKind {
-    type Err = LearnError;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s.trim() {
-            "svm" => Ok(ClassifierKind::Svm),
-            "nn" => Ok(ClassifierKind::Nn),
-            "knn5" => Ok(ClassifierKind::Knn5),
-            "chance" => Ok(ClassifierKind::Chance),
-            other => Err(LearnError::InvalidParameter(format!(
-                "unknown classifier {other:?} (expected svm, nn, knn5 or chance)"
-            ))),
-        }
-    }
-}
-
-impl fmt::Display for ClassifierKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            ClassifierKind::Svm => "svm",
-            ClassifierKind::Nn => "nn",
-            ClassifierKind::Knn5 => "knn5",
-            ClassifierKind::Chance => "chance",
-        })
-    }
-}
-
-/// Hyper-parameter grid of the SVM: C values × γ multipliers (γ = multiplier / number of
-/// classifier inputs).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Grid {
-    /// SVM C values (> 0).
-    pub c: Vec<f64>,
-    /// γ multipliers (> 0): γ = multiplier / number of classifier inputs.
-    pub gamma_multipliers: Vec<f64>,
-}
-
-impl Default for Grid {
-    fn default() -> Self {
-        Grid {
-            c: vec![1.0, 10.0, 100.0, 1000.0],
-            gamma_multipliers: vec![0.25, 0.5, 1.0, 2.0, 4.0],
-        }
-    }
-}
-
-/// The SVM's default C (docs/design.md §3 "Classifiers").
-pub const DEFAULT_C: f64 = 100.0;
-
-/// What to train: the features, the classifier, its hyper-parameters and its calibration.
-#[derive(Clone, Debug, PartialEq)]
-pub struct TrainSpec {
-    /// The classifier's inputs.
-    pub features: FeatureSet,
-    /// The classifier.
-    pub classifier: ClassifierKind,
-    /// SVM C (default [`DEFAULT_C`]).
-    pub c: f64,
-    /// SVM γ; `None` = 1 / number of classifier inputs.
-    pub gamma: Option<f64>,
-    /// Choose (C, γ) by inner leave-one-illumination-out CV on the training data.
-    pub grid: Option<Grid>,
-    /// How decision values become probabilities.
-    pub calibration: CalibrationKind,
-    /// Folds of the calibration (illuminations dealt to this many; 0: one fold per
-    /// illumination, each held out in turn).
-    pub calibration_folds: usize,
-}
-
-impl TrainSpec {
-    /// A specification with the defaults: C = [`DEFAULT_C`], γ = 1 / inputs, no grid, the
-    /// default calibration and its folds.
-    pub fn new(features: FeatureSet, classifier: ClassifierKind) -> Self {
-        TrainSpec {
-            features,
-            classifier,
-            c: DEFAULT_C,
-            gamma: None,
-            grid: None,
-            calibration: CalibrationKind::default(),
-            calibration_folds: CALIBRATION_FOLDS,
-        }
-    }
-}
-
-/// A training specification as people write it (the CLI's flags, an admin job's fields):
-/// parsed into a [`TrainSpec`] in this one place, so that both accept and refuse the same.
-#[derive(Clone, Copy, Debug)]
-pub struct SpecText<'a> {
-    /// A named set, `all`, `auto<N>`, `pca<N>` or a comma-separated list of names.
-    pub features: &'a str,
-    /// `svm`, `nn`, `knn5` or `chance`.
-    pub classifier: &'a str,
-    /// SVM C (finite, > 0).
-    pub c: f64,
-    /// SVM γ (finite, > 0); `None`: 1 / number of classifier inputs.
-    pub gamma: Option<f64>,
-    /// Choose C and γ by inner cross-validation over the default grid.
-    pub grid: bool,
-    /// Calibration folds (0: one per illumination; else at least 2).
-    pub calibration_folds: usize,
-}
-
-impl SpecText<'_> {
-    /// The specification over a table whose columns are `names`.
-    pub fn parse(&self, names: &[String]) -> Result<TrainSpec, LearnError> {
-        let features = FeatureSet::parse_with(self.features, names)?;
-        let classifier: ClassifierKind = self.classifier.parse()?;
-        let positive = |v: f64| v.is_finite() && v > 0.0;
-        if !positive(self.c) || self.gamma.is_some_and(|g| !positive(g)) {
-            return Err(LearnError::InvalidParameter(
-                "C (c) and γ (gamma) must be finite and positive".into(),
-            ));
-        }
-        if self.calibration_folds == 1 {
-            return Err(LearnError::InvalidParameter(
-                "calibration folds must be at least 2 (0: one per illumination)".into(),
-            ));
-        }
-        Ok(TrainSpec {
-            features,
-            classifier,
-            c: self.c,
-            gamma: self.gamma,
-            grid: self.grid.then(Grid::default),
-            calibration: CalibrationKind::default(),
-            calibration_folds: self.calibration_folds,
-        })
-    }
-}
 
 /// A fitted model of one of the [`ClassifierKind`]s (k-NN serves `nn` and `knn5`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -194,29 +29,6 @@ pub enum Model {
     Knn(KnnModel),
     /// The training class frequencies.
     Chance(ChanceModel),
-}
-
-/// One grid point's inner-CV score.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct GridPoint {
-    /// SVM C of the point.
-    pub c: f64,
-    /// SVM γ of the point.
-    pub gamma: f64,
-    /// Held-out rows classified correctly.
-    pub correct: usize,
-    /// Held-out rows.
-    pub n: usize,
-}
-
-/// The inner cross-validation's search over the [`Grid`].
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct GridSearch {
-    /// Every point's score, in grid order (C major, then γ).
-    pub points: Vec<GridPoint>,
-    /// Index of the chosen point: the most correct, the first in grid order (C major, then
-    /// γ) on ties.
-    pub chosen: usize,
 }
 
 /// Output of one classification.
@@ -257,102 +69,6 @@ pub struct Classifier {
     pub(crate) calibration: Option<Calibration>,
     pub(crate) grid_search: Option<GridSearch>,
     pub(crate) n_train: usize,
-}
-
-/// The input transformation fitted on training rows.
-struct Prepared {
-    selected: Vec<String>,
-    selected_indices: Vec<usize>,
-    selection_errors: Option<Vec<f64>>,
-    pca: Option<Pca>,
-    scaler: Scaler,
-    /// Standardized classifier inputs of the training rows (in the order given).
-    z: Array2<f64>,
-}
-
-fn prepare(ds: &Dataset, rows: &[usize], features: &FeatureSet) -> Result<Prepared, LearnError> {
-    let x = ds.x.select(Axis(0), rows);
-    let labels: Vec<usize> = rows.iter().map(|&r| ds.labels[r]).collect();
-    let mut selection_errors = None;
-    let mut pca = None;
-    let (selected, selected_indices, inputs) = match features.resolve(&ds.names)? {
-        Some(idx) => {
-            let names = idx.iter().map(|&i| ds.names[i].clone()).collect();
-            let inputs = x.select(Axis(1), &idx);
-            (names, idx, inputs)
-        }
-        None => match features {
-            FeatureSet::Auto(n) => {
-                let sel = select::select(x.view(), &labels, ds.n_classes(), *n)?;
-                let idx = sel.columns.clone();
-                selection_errors = Some(sel.errors);
-                let names = idx.iter().map(|&i| ds.names[i].clone()).collect();
-                let inputs = x.select(Axis(1), &idx);
-                (names, idx, inputs)
-            }
-            FeatureSet::Pca(n) => {
-                let p = Pca::fit(x.view(), *n)?;
-                let mut inputs = Array2::zeros((rows.len(), *n));
-                for (i, row) in x.rows().into_iter().enumerate() {
-                    let scores = p.transform_row(&row.to_vec());
-                    inputs
-                        .row_mut(i)
-                        .assign(&ndarray::ArrayView1::from(&scores));
-                }
-                pca = Some(p);
-                let names = (1..=*n).map(|k| format!("pc{k}")).collect();
-                (names, (0..ds.names.len()).collect(), inputs)
-            }
-            _ => {
-                return Err(LearnError::InvalidParameter(format!(
-                    "feature set {features} did not resolve"
-                )));
-            }
-        },
-    };
-    if selected_indices.is_empty() {
-        return Err(LearnError::InvalidParameter("empty feature set".into()));
-    }
-    let scaler = Scaler::fit(inputs.view());
-    let z = scaler.transform(inputs.view());
-    Ok(Prepared {
-        selected,
-        selected_indices,
-        selection_errors,
-        pca,
-        scaler,
-        z,
-    })
-}
-
-/// Standardized classifier inputs of a full row (no checks: rows come from the dataset).
-fn apply_transform(
-    selected_indices: &[usize],
-    pca: Option<&Pca>,
-    scaler: &Scaler,
-    row: &[f64],
-) -> Vec<f64> {
-    let picked: Vec<f64> = selected_indices.iter().map(|&i| row[i]).collect();
-    let mut v = match pca {
-        Some(p) => p.transform_row(&picked),
-        None => picked,
-    };
-    scaler.apply(&mut v);
-    v
-}
-
-fn check_svm_params(c: f64, gamma: f64) -> Result<(), LearnError> {
-    if !(c.is_finite() && c > 0.0) {
-        return Err(LearnError::InvalidParameter(format!(
-            "C must be > 0, not {c}"
-        )));
-    }
-    if !(gamma.is_finite() && gamma > 0.0) {
-        return Err(LearnError::InvalidParameter(format!(
-            "gamma must be > 0, not {gamma}"
-        )));
-    }
-    Ok(())
 }
 
 /// The decision values of rows held out by the calibration folds of a fit.
@@ -510,126 +226,6 @@ fn calibrate(
     (calibration, held_out)
 }
 
-fn count_classes(labels: &[usize], n_classes: usize) -> usize {
-    let mut seen = vec![false; n_classes];
-    for &l in labels {
-        seen[l] = true;
-    }
-    seen.iter().filter(|&&s| s).count()
-}
-
-/// Inner leave-one-illumination-out CV over the grid, on the training rows only.
-fn grid_search(
-    ds: &Dataset,
-    rows: &[usize],
-    spec: &TrainSpec,
-    grid: &Grid,
-) -> Result<GridSearch, LearnError> {
-    if grid.c.is_empty() || grid.gamma_multipliers.is_empty() {
-        return Err(LearnError::InvalidParameter(
-            "empty hyper-parameter grid".into(),
-        ));
-    }
-    let mut groups: Vec<usize> = rows
-        .iter()
-        .filter(|&&r| !ds.augmented[r])
-        .map(|&r| ds.groups[r])
-        .collect();
-    groups.sort_unstable();
-    groups.dedup();
-    if groups.len() < 2 {
-        return Err(LearnError::InvalidParameter(format!(
-            "grid search needs at least 2 training illuminations, found {}",
-            groups.len()
-        )));
-    }
-    let k = ds.n_classes();
-    let n_points = grid.c.len() * grid.gamma_multipliers.len();
-    let per_group: Vec<Vec<usize>> = groups
-        .par_iter()
-        .map(|&g| -> Result<Vec<usize>, LearnError> {
-            let (train, test) = ds.split_group(rows, g);
-            let train_labels: Vec<usize> = train.iter().map(|&r| ds.labels[r]).collect();
-            if test.is_empty() || count_classes(&train_labels, k) < 2 {
-                return Ok(vec![0; n_points]);
-            }
-            let prep = prepare(ds, &train, &spec.features)?;
-            let d = prep.z.ncols();
-            let mut all = prep.z.clone();
-            for &r in &test {
-                let z = apply_transform(
-                    &prep.selected_indices,
-                    prep.pca.as_ref(),
-                    &prep.scaler,
-                    &ds.x.row(r).to_vec(),
-                );
-                all.push_row(ndarray::ArrayView1::from(&z))
-                    .map_err(|e| LearnError::Numerical(e.to_string()))?;
-            }
-            let local_train: Vec<usize> = (0..train.len()).collect();
-            let mut correct = vec![0; n_points];
-            for (gi, m) in grid.gamma_multipliers.iter().enumerate() {
-                let gamma = m / d as f64;
-                let gram = Gram::<f64>::rbf(all.view(), gamma);
-                for (ci, &c) in grid.c.iter().enumerate() {
-                    check_svm_params(c, gamma)?;
-                    let params = SolverParams {
-                        c,
-                        ..SolverParams::default()
-                    };
-                    let sols =
-                        svm::train_one_vs_all(&gram, &local_train, &train_labels, k, &params);
-                    let point = ci * grid.gamma_multipliers.len() + gi;
-                    for (t, &r) in test.iter().enumerate() {
-                        let dec: Vec<f64> = sols
-                            .iter()
-                            .map(|s| match s {
-                                Some(s) => s.decision_at(&gram, &local_train, train.len() + t),
-                                None => f64::NEG_INFINITY,
-                            })
-                            .collect();
-                        if svm::argmax(&dec) == ds.labels[r] {
-                            correct[point] += 1;
-                        }
-                    }
-                }
-            }
-            Ok(correct)
-        })
-        .collect::<Result<_, _>>()?;
-    let n_eval: usize = groups
-        .iter()
-        .map(|&g| ds.split_group(rows, g).1.len())
-        .sum();
-    let d_final = match &spec.features {
-        FeatureSet::Auto(n) | FeatureSet::Pca(n) => *n,
-        fixed => fixed.resolve(&ds.names)?.map_or(1, |v| v.len()),
-    };
-    let mut points = Vec::with_capacity(n_points);
-    for &c in &grid.c {
-        for &m in &grid.gamma_multipliers {
-            points.push(GridPoint {
-                c,
-                gamma: m / d_final as f64,
-                correct: 0,
-                n: n_eval,
-            });
-        }
-    }
-    for correct in &per_group {
-        for (p, &c) in points.iter_mut().zip(correct) {
-            p.correct += c;
-        }
-    }
-    let mut chosen = 0;
-    for (i, p) in points.iter().enumerate() {
-        if p.correct > points[chosen].correct {
-            chosen = i;
-        }
-    }
-    Ok(GridSearch { points, chosen })
-}
-
 /// Fits the pipeline on every row of `ds`.
 pub fn fit(ds: &Dataset, spec: &TrainSpec, seed: u64) -> Result<Classifier, LearnError> {
     let rows: Vec<usize> = (0..ds.n_rows()).collect();
@@ -679,7 +275,7 @@ pub fn fit_rows_held_out(
         ClassifierKind::Svm => {
             let (c, gamma) = match &spec.grid {
                 Some(grid) => {
-                    let gs = grid_search(ds, rows, spec, grid)?;
+                    let gs = grid::search(ds, rows, spec, grid)?;
                     let p = &gs.points[gs.chosen];
                     let cg = (p.c, p.gamma);
                     grid_result = Some(gs);
@@ -976,6 +572,7 @@ fn to_matrix<'a>(rows: impl ExactSizeIterator<Item = &'a Vec<f64>>, k: usize) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::learn::FeatureSet;
     use crate::learn::testutil::table;
 
     fn dataset(noise: f64) -> Dataset {
@@ -1119,7 +716,7 @@ mod tests {
     fn grid_search_is_inner_and_deterministic() {
         let ds = dataset(1.2);
         let mut s = spec("all", ClassifierKind::Svm);
-        s.grid = Some(Grid {
+        s.grid = Some(crate::classify::Grid {
             c: vec![0.1, 10.0],
             gamma_multipliers: vec![0.5, 2.0],
         });

@@ -88,6 +88,14 @@ pub fn valid_name(name: &str) -> bool {
             .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'_' || b == b'-')
 }
 
+/// [`valid_name`], as the registry refuses a name outside it.
+pub fn check_name(name: &str) -> Result<(), RegistryError> {
+    match valid_name(name) {
+        true => Ok(()),
+        false => Err(RegistryError::BadName(name.to_string())),
+    }
+}
+
 /// A folder of model versions, `ROOT/NAME/VERSION/model.json`, with each name's active
 /// version in `ROOT/NAME/ACTIVE` (docs/design.md §4).
 #[derive(Clone, Debug)]
@@ -107,9 +115,7 @@ impl Registry {
     }
 
     fn model_dir(&self, name: &str) -> Result<PathBuf, RegistryError> {
-        if !valid_name(name) {
-            return Err(RegistryError::BadName(name.to_string()));
-        }
+        check_name(name)?;
         Ok(self.root.join(name))
     }
 

@@ -524,16 +524,16 @@ pub fn add_objects(
         classify::pipeline::Model::Svm(svm) => (svm.c, Some(svm.gamma)),
         _ => (classify::DEFAULT_C, None),
     };
-    let classifier = base.classifier.kind().to_string();
-    let text = classify::SpecText {
-        features: &base.features.set,
-        classifier: &classifier,
+    let options = classify::ClassifierOptions {
+        features: base.features.set.clone(),
+        classifier: base.classifier.kind(),
         c,
         gamma,
         grid: false,
         calibration_folds,
+        seed,
     };
-    let spec = text.parse(&table.names)?;
+    let spec = options.spec(&table.names)?;
     let ds = Dataset::from_table(table)?;
     if ds.classes != base.classifier.classes {
         return Err(TrainError::ObjectsClasses {

@@ -4,8 +4,8 @@
 //! `scripts/learn_reference/make_fixture.py`.
 
 use reflectance_core::classify::calibration::Sigmoid;
-use reflectance_core::classify::pipeline::{CalibrationKind, ClassifierKind, TrainSpec};
 use reflectance_core::classify::svm::argmax;
+use reflectance_core::classify::{CalibrationKind, ClassifierKind, TrainSpec};
 use reflectance_core::classify::{cross_validate, select};
 use reflectance_core::dataset::FeatureTable;
 use reflectance_core::learn::{Dataset, FeatureSet};

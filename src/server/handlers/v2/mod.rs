@@ -212,12 +212,13 @@ pub async fn model(
 ) -> Result<Arc<LoadedModel>, ApiError> {
     state.models.served(name)?;
     let Some(version) = version.map(|v| parse_version(name, v)).transpose()? else {
-        return state.models.get(name, None);
+        return Ok(state.models.get(name, None)?);
     };
     let (state, name) = (state.clone(), name.to_string());
-    tokio::task::spawn_blocking(move || state.models.get(&name, Some(version)))
+    let model = tokio::task::spawn_blocking(move || state.models.get(&name, Some(version)))
         .await
-        .map_err(ApiError::internal)?
+        .map_err(ApiError::internal)?;
+    Ok(model?)
 }
 
 /// Every version the registry holds of a served model, as the protocol lists them.
