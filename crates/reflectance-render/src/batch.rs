@@ -289,11 +289,11 @@ pub enum OptionsError {
     CaptureRanges(#[from] InvalidRanges),
     #[error("rotations must be at most 360")]
     Rotations,
-    #[error("elevations must be within 5°…85°")]
+    #[error("give elevations within 5°…85°")]
     Elevations,
-    #[error("contrasts must be within 0.1…4")]
+    #[error("give contrasts within 0.1…4")]
     Contrasts,
-    #[error("reductions must be within 2…16")]
+    #[error("give reductions within 2…16")]
     Reductions,
     #[error("synthetic illuminations must be at most {MAX_SYNTHETIC}")]
     Synthetic,
@@ -733,6 +733,50 @@ fn capture_row(path: &str, s: &CaptureSettings) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn each_option_out_of_range_is_refused_in_its_own_words() {
+        let quality = Quality::default();
+        let check = |size, augment: Augment| check_options(size, &quality, &augment);
+        assert_eq!(check(256, Augment::default()), Ok(()));
+        let cases = [
+            (check(8, Augment::default()), "size 8 must be between 71"),
+            (
+                check(
+                    256,
+                    Augment {
+                        captures: MAX_CAPTURES + 1,
+                        ..Augment::default()
+                    },
+                ),
+                "captures must be at most 64",
+            ),
+            (
+                check(
+                    256,
+                    Augment {
+                        reductions: vec![1],
+                        ..Augment::default()
+                    },
+                ),
+                "give reductions within 2…16",
+            ),
+            (
+                check(
+                    256,
+                    Augment {
+                        rotations: 361,
+                        ..Augment::default()
+                    },
+                ),
+                "rotations must be at most 360",
+            ),
+        ];
+        for (refused, words) in cases {
+            let message = refused.unwrap_err().to_string();
+            assert!(message.starts_with(words), "{message}");
+        }
+    }
 
     #[test]
     fn the_view_count_does_not_need_the_map() {

@@ -423,5 +423,18 @@ mod tests {
             refused.contains("\"manifests\"") && refused.contains("dataset, manifest, table"),
             "{refused}"
         );
+        let listed = "dataset, manifest, table, features, classifier, c, gamma, grid, seed, \
+                      calibration_folds, capture_features";
+        assert!(refused.contains(listed), "{refused}");
+    }
+
+    #[test]
+    fn an_unknown_classifier_is_refused_in_the_classifier_s_words() {
+        let job = serde_json::json!({"type": "train", "name": "x", "dataset": "m.csv", "classifier": "tree"});
+        let refused = serde_json::from_value::<JobRequest>(job).unwrap_err();
+        assert_eq!(
+            refused.to_string(),
+            "unknown classifier \"tree\" (expected svm, nn, knn5 or chance)"
+        );
     }
 }
