@@ -5,9 +5,10 @@ use divan::Bencher;
 use ndarray::Array2;
 use reflectance_core::analysis::{self, Placement, WhiteSpec};
 use reflectance_core::decode::{self, DecodeOptions, LinearImage};
+use reflectance_core::features::families::{CENTRE, DOMAIN};
 use reflectance_core::features::pyramid::{self, Edge};
 use reflectance_core::features::spectrum::SpectrumPlan;
-use reflectance_core::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
+use reflectance_core::features::{Extractor, Families, FeatureConfig, Preprocessing};
 use reflectance_core::locate::Circle;
 
 fn main() {
@@ -93,7 +94,7 @@ fn features_with_log_domain(bencher: Bencher) {
 fn features_with_every_extension(bencher: Bencher) {
     bench_extraction(
         bencher,
-        FeatureConfig::extended(Extensions::ALL, Preprocessing::default()),
+        FeatureConfig::extended(Families::ALL, Preprocessing::default()),
     );
 }
 
@@ -131,10 +132,7 @@ fn features_of_the_shipped_model(bencher: Bencher) {
 /// (`dom.outline`: 48 rays of up to 96 samples): the difference is its cost.
 #[divan::bench(args = [false, true])]
 fn features_with_outline(bencher: Bencher, outline: bool) {
-    let config = FeatureConfig {
-        domain: true,
-        ..FeatureConfig::default()
-    };
+    let config = FeatureConfig::default().with(&DOMAIN);
     let extractor = Extractor::new(config).expect("config");
     let image = decoded();
     let wanted = match outline {
@@ -228,10 +226,10 @@ fn stage_statistics(bencher: Bencher) {
 /// the shipped working radius, without and with `ctr.*`.
 #[divan::bench(args = [false, true])]
 fn features_with_centre(bencher: Bencher, centre: bool) {
-    let extensions = Extensions {
-        centre,
-        ..Extensions::default()
+    let families = match centre {
+        true => Families::NONE.with(&CENTRE),
+        false => Families::NONE,
     };
-    let config = FeatureConfig::extended(extensions, Preprocessing::at_radius(116.36));
+    let config = FeatureConfig::extended(families, Preprocessing::at_radius(116.36));
     bench_extraction(bencher, config);
 }

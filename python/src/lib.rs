@@ -12,7 +12,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use reflectance_core::analysis::{self, AnalysisError, Placement, WhiteSpec};
 use reflectance_core::decode::LinearImage;
-use reflectance_core::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
+use reflectance_core::features::families;
+use reflectance_core::features::{Extractor, Families, FeatureConfig, Preprocessing};
 use reflectance_core::inference::{self, Answer, InferenceError, LoadedModel};
 use reflectance_core::locate::GeometryError;
 use reflectance_core::model::registry;
@@ -108,11 +109,11 @@ fn extractor(log: bool) -> &'static Extractor {
     static LOG: OnceLock<Extractor> = OnceLock::new();
     let cell = if log { &LOG } else { &PLAIN };
     cell.get_or_init(|| {
-        let extensions = Extensions {
-            log_domain: log,
-            ..Extensions::default()
+        let families = match log {
+            true => Families::NONE.with(&families::LOG),
+            false => Families::NONE,
         };
-        let config = FeatureConfig::for_spec(extensions, "", Preprocessing::default())
+        let config = FeatureConfig::for_spec(families, "", Preprocessing::default())
             .expect("the command line's default configuration");
         Extractor::new(config).expect("the command line's default configuration")
     })

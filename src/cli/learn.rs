@@ -7,6 +7,7 @@ use clap::Args;
 use reflectance_core::classify::{ClassifierOptions, CvReport};
 use reflectance_core::dataset::{self, FeatureTable, Manifest};
 use reflectance_core::estimate;
+use reflectance_core::features::families::DOMAIN;
 use reflectance_core::features::{CaptureMeasurements, Extractor, FeatureConfig, FeatureOptions};
 use reflectance_core::inference;
 use reflectance_core::learn::{Dataset, FeatureSet};
@@ -352,12 +353,9 @@ pub fn train(args: TrainArgs) -> CliResult {
     registry::check_name(&args.name)?;
     let classes = args.classes.as_deref().map(load_classes).transpose()?;
     // A model's domain check reads how well each circle follows a sphere's outline.
-    let config = FeatureConfig {
-        domain: true,
-        ..args
-            .estimator
-            .config(args.extraction.config(&args.options.features)?)
-    };
+    let config = (args.estimator)
+        .config(args.extraction.config(&args.options.features)?)
+        .with(&DOMAIN);
     let (table, label, manifest) = args.data.load_with_manifest(&args.limits, config)?;
     let options = TrainOptions {
         name: args.name.clone(),
@@ -365,7 +363,7 @@ pub fn train(args: TrainArgs) -> CliResult {
         seed: args.options.seed,
         cross_validate: !args.no_cv,
         classes,
-        preprocessing: args.extraction.preprocessing(),
+        preprocessing: args.extraction.preprocessing,
         images: manifest,
         decode: args.limits.decode_options(),
         estimator: args.estimator.data(args.options.gamma, &table.names)?,

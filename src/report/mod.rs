@@ -24,7 +24,7 @@ use reflectance_core::classify::{self, ClassifierKind, CvReport, TrainSpec};
 use reflectance_core::dataset::{self, FeatureTable};
 use reflectance_core::decode::DecodeOptions;
 use reflectance_core::estimate::{self as ward, EstimateReport};
-use reflectance_core::features::{Extensions, Extractor, FeatureConfig, Preprocessing};
+use reflectance_core::features::{Extractor, Families, FeatureConfig, Preprocessing};
 use reflectance_core::learn::{self, Dataset, FeatureSet};
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -136,7 +136,7 @@ fn features_of(dir: &Path, options: &DecodeOptions) -> Result<FeatureTable, Repo
     if !manifest.is_file() {
         return Err(ReportError::Missing(dir.display().to_string()));
     }
-    let config = FeatureConfig::extended(Extensions::ALL, Preprocessing::default());
+    let config = FeatureConfig::extended(Families::ALL, Preprocessing::default());
     let cache = dir.join("features.csv");
     let modified = |p: &Path| std::fs::metadata(p).and_then(|m| m.modified()).ok();
     if modified(&cache).is_some_and(|c| modified(&manifest).is_some_and(|m| c >= m)) {

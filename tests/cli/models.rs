@@ -5,6 +5,7 @@ use crate::common;
 
 use reflectance_core::classify::{ClassifierKind, TrainSpec};
 use reflectance_core::dataset::FeatureTable;
+use reflectance_core::features::families::{LOG, RADIAL};
 use reflectance_core::learn::FeatureSet;
 use reflectance_core::model::registry::{Registry, RegistryError};
 use reflectance_core::model::train::{TrainOptions, train};
@@ -367,8 +368,8 @@ fn predict_rendered_spheres_with_a_trained_model() {
         &[],
     );
     let radial = Registry::new(&models).load("tiny-radial", 1).unwrap();
-    let extensions = radial.features.config.extensions();
-    assert!(extensions.radial && extensions.log_domain);
+    let families = radial.features.config.families;
+    assert!(families.contains(&RADIAL) && families.contains(&LOG));
     let predicted = predict("tiny-radial", &dir.join("radial.csv"));
     assert!(
         predicted.starts_with("accuracy 100.0 % (9/9)"),

@@ -368,6 +368,7 @@ pub async fn delete_version(
 mod tests {
     use super::*;
     use crate::server::jobs::{Activate, LearnParams};
+    use reflectance_core::features::Preprocessing;
 
     #[test]
     fn every_field_of_every_job_type_is_accepted() {
@@ -379,8 +380,10 @@ mod tests {
                 ..ClassifierOptions::default()
             },
             extraction: FeatureOptions {
-                working_radius: Some(64.0),
-                saturation: Some(1.25),
+                preprocessing: Preprocessing {
+                    working_radius: Some(64.0),
+                    saturation: Some(1.25),
+                },
                 ..FeatureOptions::default()
             },
             ..LearnParams::default()

@@ -8,6 +8,7 @@ use reflectance_core::classify::{self, CvSummary, TrainSpec};
 use reflectance_core::dataset::{self, DatasetError, FeatureTable, Manifest};
 use reflectance_core::decode::{DecodeOptions, Limits};
 use reflectance_core::estimate::{self, EstimateReport};
+use reflectance_core::features::families::DOMAIN;
 use reflectance_core::features::{ConfigError, Extractor, FeatureConfig, Preprocessing};
 use reflectance_core::learn::{Dataset, FeatureSet, LearnError};
 use reflectance_core::material::{ClassFileError, load_classes};
@@ -312,10 +313,7 @@ fn train_config(
         Some(features) => config.with_families_of(features),
         None => config,
     };
-    Ok(FeatureConfig {
-        domain: true,
-        ..config
-    })
+    Ok(config.with(&DOMAIN))
 }
 
 /// What a `train` job fits its Ward-parameter estimator on, when it asks for one, for a
@@ -454,7 +452,7 @@ impl Context<'_> {
             classes,
             // Recorded only when this job extracted the features itself.
             preprocessing: match p.dataset {
-                Some(_) => p.extraction.preprocessing(),
+                Some(_) => p.extraction.preprocessing,
                 None => Preprocessing::default(),
             },
             images: manifest,

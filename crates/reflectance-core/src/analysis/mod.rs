@@ -9,7 +9,7 @@ pub use input::{InputError, PartError, Placement, WhiteSpec, decode_mask, mask_f
 use crate::decode::{DecodeError, LinearImage};
 use crate::features::observed::ObservedError;
 use crate::features::polar::UnwrapConfig;
-use crate::features::{CaptureMeasurements, Extractor};
+use crate::features::{CaptureMeasurements, Extracted, Extractor, Sphere};
 use crate::image::colour::{self, Rgb};
 use crate::locate::{self, Geometry, GeometryError, Method};
 use crate::object::normals::{self, EquivalentSphere, NormalMap, NormalsError};
@@ -267,8 +267,13 @@ pub fn analyze_subset(
     let (luminance, circle) = (image.luminance.view(), geometry.circle());
     // Integer samples clip at 1 once decoded; floating-point ones do not clip.
     let full_scale = (!image.is_float).then_some(1.0);
-    let (values, measured) =
-        extractor.extract_measured(luminance, &circle, white.value, full_scale, wanted, measure);
+    let sphere = Sphere::Photographed {
+        luminance,
+        circle: &circle,
+    };
+    let Extracted {
+        values, measured, ..
+    } = extractor.extract_sphere(sphere, white.value, full_scale, wanted, measure)?;
     let appearance = image
         .colour
         .as_ref()
@@ -302,7 +307,15 @@ fn analyze_object(
     let radius = config.working_radius.unwrap_or(config.unwrap.r0);
     let sphere = normals::equivalent_sphere(&image.luminance, normals, mask, radius)?;
     let full_scale = (!image.is_float).then_some(1.0);
-    let (values, observed) = extractor.extract_equivalent(&sphere, white.value, full_scale)?;
+    let Extracted {
+        values, observed, ..
+    } = extractor.extract_sphere(
+        Sphere::Equivalent(&sphere),
+        white.value,
+        full_scale,
+        None,
+        false,
+    )?;
     if normals.back_facing() > 0 {
         warnings.push(format!(
             "{} normals face away from the camera (z < 0) and were left out",
@@ -323,7 +336,7 @@ fn analyze_object(
         white,
         warnings,
         measured: None,
-        observed: Some(observed.fraction),
+        observed: observed.map(|o| o.fraction),
         equivalent: Some(sphere),
         appearance: None,
     })

@@ -41,7 +41,7 @@ pub const DEFAULT_RIDGE_LAMBDA: f64 = 1e-2;
 /// The feature set of the shipped estimators and of `report`'s estimate.
 pub const SHIPPED_FEATURES: &str = "estimator";
 /// The input the total reflectance is predicted relative to, when present: the centre's
-/// cosine-weighted mean over white, log10 (features::centre).
+/// cosine-weighted mean over white, log10 (features::families::centre).
 pub const TOTAL_ANCHOR: &str = "ctr.cos";
 /// The smallest total reflectance the anchored output takes the logarithm of.
 const TOTAL_FLOOR: f64 = 1e-4;

@@ -1,13 +1,12 @@
 //! Where each feature sits in the vector. This is the one description of the canonical
 //! order (docs/design.md §3 "The 117 features"): the names, the full extraction and the
-//! subset extraction all index through it, so a new family is added here once.
+//! subset extraction all index through it. The optional families sit in [`FAMILIES`] order,
+//! each laid out within its place by its own module.
 
+use super::BAND_NAMES;
+use super::families::{FAMILIES, Families, Family, ImageOf, InBlock, Kind, OfSphere};
 use super::spectrum::ORIENTATIONS;
 use super::stats::STAT_NAMES;
-use super::{
-    BAND_NAMES, CAPTURE_NAMES, CENTRE_NAMES, DEPENDENCY_PREFIX, DOMAIN_NAMES, LOG_PREFIX,
-    ORIENTATION_PAIRS, RADIAL_PREFIX, RADIAL_RINGS,
-};
 use std::ops::Range;
 
 /// Statistics per image or subband: mean, var, skew, kurt, p10, p50, p90.
@@ -19,16 +18,14 @@ const BAND_POWERS: usize = RADIAL_BANDS * ORIENTATIONS.len() + 1;
 
 /// The features of one image (the unwrapped annulus, or its log10), in order: the pixels'
 /// statistics, each subband's statistics (level by level, h, v, d), the variance ratios
-/// (band by band, finer over coarser), the band powers, then the optional radial changes
-/// (ring pair by ring pair) and orientation dependencies (level by level).
+/// (band by band, finer over coarser), the band powers, then the families inside blocks
+/// (the radial changes, ring pair by ring pair; the orientation dependencies, level by level).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BlockLayout {
     /// Pyramid levels (subbands: 3 per level).
     pub levels: usize,
-    /// With the radial changes between rings (`radial.*`).
-    pub radial: bool,
-    /// With the orientation dependencies of each level.
-    pub dependencies: bool,
+    /// The families (those inside blocks count here).
+    pub families: Families,
 }
 
 impl BlockLayout {
@@ -55,47 +52,53 @@ impl BlockLayout {
         start..start + BAND_POWERS
     }
 
-    /// Radial changes between two neighbouring rings: the pixels' mean and variance, and
-    /// the variance of every subband.
-    fn radial_per_pair(&self) -> usize {
-        2 + 3 * self.levels
+    /// The families inside blocks, each with where its features sit in the block (empty
+    /// without it), in [`FAMILIES`] order.
+    fn inside(
+        &self,
+    ) -> impl Iterator<Item = (&'static Family, &'static dyn InBlock, Range<usize>)> {
+        let mut start = self.band_powers().end;
+        FAMILIES.into_iter().filter_map(move |family| {
+            let Kind::InBlock(inside) = family.kind else {
+                return None;
+            };
+            let count = match self.families.contains(family) {
+                true => inside.count(self.levels),
+                false => 0,
+            };
+            start += count;
+            Some((family, inside, start - count..start))
+        })
     }
 
-    fn radial_len(&self) -> usize {
-        match self.radial {
-            true => (RADIAL_RINGS - 1) * self.radial_per_pair(),
-            false => 0,
-        }
+    /// The families inside blocks this block has, each with where its features sit.
+    pub(crate) fn families_inside(
+        &self,
+    ) -> impl Iterator<Item = (&'static dyn InBlock, Range<usize>)> {
+        self.inside()
+            .filter(|(_, _, at)| !at.is_empty())
+            .map(|(_, inside, at)| (inside, at))
     }
 
-    /// The radial change `slot` between ring `pair` + 1 and the one inside it: slot 0 the
-    /// pixels' mean, 1 their variance, then [`BlockLayout::radial_band_slot`].
-    pub fn radial(&self, pair: usize, slot: usize) -> usize {
-        self.band_powers().end + pair * self.radial_per_pair() + slot
-    }
-
-    /// The slot of subband (`level`, `band`) within a ring pair's radial changes.
-    pub fn radial_band_slot(level: usize, band: usize) -> usize {
-        2 + 3 * level + band
-    }
-
-    /// The correlation of orientation pair `pair` ([`ORIENTATION_PAIRS`]) at `level`.
-    pub fn dependency(&self, level: usize, pair: usize) -> usize {
-        self.band_powers().end + self.radial_len() + ORIENTATION_PAIRS.len() * level + pair
+    /// Where the features of `family`, a family inside blocks, sit in the block (empty
+    /// without it).
+    pub fn family(&self, family: &Family) -> Range<usize> {
+        let end = self.band_powers().end;
+        self.inside()
+            .find(|(f, ..)| f.key == family.key)
+            .map_or(end..end, |(.., at)| at)
     }
 
     /// Number of features of the block.
     pub fn count(&self) -> usize {
-        let dependencies = match self.dependencies {
-            true => ORIENTATION_PAIRS.len() * self.levels,
-            false => 0,
-        };
-        self.band_powers().end + self.radial_len() + dependencies
+        self.inside()
+            .last()
+            .map_or(self.band_powers().end, |(.., at)| at.end)
     }
 
     /// The names, each written at its index.
     pub fn names(&self) -> Vec<String> {
-        let mut names = vec![String::new(); self.count()];
+        let mut names = vec![String::new(); self.band_powers().end];
         for (s, stat) in STAT_NAMES.iter().enumerate() {
             names[Self::PIXELS + s] = format!("pix.{stat}");
         }
@@ -119,158 +122,156 @@ impl BlockLayout {
             }
         }
         names[powers.end - 1] = "fft.lo.pow".into();
-        if self.radial {
-            self.name_radial(&mut names);
-        }
-        if self.dependencies {
-            for level in 0..self.levels {
-                for (pair, (a, b)) in ORIENTATION_PAIRS.into_iter().enumerate() {
-                    names[self.dependency(level, pair)] = format!(
-                        "{DEPENDENCY_PREFIX}s{}.{}{}",
-                        level + 1,
-                        BAND_NAMES[a],
-                        BAND_NAMES[b]
-                    );
-                }
-            }
+        for (inside, _) in self.families_inside() {
+            names.extend(inside.names(self.levels));
         }
         names
     }
-
-    /// `radial.r{t}_r{t+1}.pix.{mean,var}` and `radial.r{t}_r{t+1}.wav.s{k}.{h,v,d}.var`.
-    fn name_radial(&self, names: &mut [String]) {
-        for pair in 0..RADIAL_RINGS - 1 {
-            let prefix = format!("{RADIAL_PREFIX}r{}_r{}.", pair + 1, pair + 2);
-            names[self.radial(pair, 0)] = format!("{prefix}pix.mean");
-            names[self.radial(pair, 1)] = format!("{prefix}pix.var");
-            for level in 0..self.levels {
-                for (b, band) in BAND_NAMES.iter().enumerate() {
-                    names[self.radial(pair, Self::radial_band_slot(level, b))] =
-                        format!("{prefix}wav.s{}.{band}.var", level + 1);
-                }
-            }
-        }
-    }
 }
 
-/// The whole vector: the block of the unwrapped image, the block of its log10 (with the
-/// log-domain extension, names prefixed `log.`), then the capture measurements, the
-/// centre features and the domain measurements.
+/// The whole vector: the block of the unwrapped image, the block again for each family of
+/// blocks (the log10 image's, names prefixed `log.`), then the families of the sphere (the
+/// capture measurements, the centre features, the domain measurements).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Layout {
     /// The block of one image.
     pub block: BlockLayout,
-    /// With the log10 block (`log.*`, the log-domain extension).
-    pub log_domain: bool,
-    /// With the capture measurements (`cap.*`).
-    pub capture: bool,
-    /// With the centre features (`ctr.*`).
-    pub centre: bool,
-    /// Whether the centre family ends with `ctr.cos` (see `FeatureConfig::centre_cos`).
-    pub centre_cos: bool,
-    /// With the domain measurements (`dom.*`).
-    pub domain: bool,
+    /// The families.
+    pub families: Families,
 }
 
 impl Layout {
-    /// The blocks' features: one image's, or two with the log-domain extension.
+    /// The layout of `levels` pyramid levels and the `families`.
+    pub fn new(levels: usize, families: Families) -> Layout {
+        Layout {
+            block: BlockLayout { levels, families },
+            families,
+        }
+    }
+
+    /// The blocks' features: one image's, and one more per family of blocks.
     pub fn blocks(&self) -> Range<usize> {
-        let blocks = if self.log_domain { 2 } else { 1 };
-        0..blocks * self.block.count()
+        let repeats = self.blocks_again().count();
+        0..(1 + repeats) * self.block.count()
     }
 
-    /// The capture measurements (empty without the extension).
-    pub fn capture(&self) -> Range<usize> {
-        let start = self.blocks().end;
-        match self.capture {
-            true => start..start + CAPTURE_NAMES.len(),
-            false => start..start,
-        }
+    /// The families of blocks this layout has, each with the image its block reads and
+    /// where the block sits.
+    pub(crate) fn blocks_again(&self) -> impl Iterator<Item = (ImageOf, Range<usize>)> {
+        let n = self.block.count();
+        self.families
+            .iter()
+            .filter_map(|family| match family.kind {
+                Kind::Block(image) => Some(image),
+                Kind::InBlock(_) | Kind::OfSphere(_) => None,
+            })
+            .enumerate()
+            .map(move |(k, image)| (image, (k + 1) * n..(k + 2) * n))
     }
 
-    /// The centre features (empty without the extension).
-    pub fn centre(&self) -> Range<usize> {
-        let start = self.capture().end;
-        match self.centre {
-            true => start..start + CENTRE_NAMES.len() - usize::from(!self.centre_cos),
-            false => start..start,
-        }
+    /// The families of the sphere, each with where its features sit (empty without it), in
+    /// [`FAMILIES`] order.
+    fn of_sphere(
+        &self,
+    ) -> impl Iterator<Item = (&'static Family, &'static dyn OfSphere, Range<usize>)> {
+        let mut start = self.blocks().end;
+        FAMILIES.into_iter().filter_map(move |family| {
+            let Kind::OfSphere(of) = family.kind else {
+                return None;
+            };
+            let count = match (self.families.contains(family), &family.addition) {
+                (false, _) => 0,
+                (true, Some(a)) if !self.families.has_addition(family) => a.before,
+                (true, _) => of.names().len(),
+            };
+            start += count;
+            Some((family, of, start - count..start))
+        })
     }
 
-    /// The domain measurements (empty without the extension).
-    pub fn domain(&self) -> Range<usize> {
-        let start = self.centre().end;
-        match self.domain {
-            true => start..start + DOMAIN_NAMES.len(),
-            false => start..start,
+    /// The families of the sphere this layout has, each with where its features sit.
+    pub(crate) fn families_of_sphere(
+        &self,
+    ) -> impl Iterator<Item = (&'static dyn OfSphere, Range<usize>)> {
+        self.of_sphere()
+            .filter(|(_, _, at)| !at.is_empty())
+            .map(|(_, of, at)| (of, at))
+    }
+
+    /// Where the features of `family` sit: a family of the sphere's (empty without it, where
+    /// they would sit), the block of a family of blocks, or a family inside blocks' in the
+    /// first block.
+    pub fn family(&self, family: &Family) -> Range<usize> {
+        let end = self.blocks().end;
+        match family.kind {
+            Kind::InBlock(_) => self.block.family(family),
+            Kind::Block(_) => {
+                let mut blocks = self
+                    .families
+                    .iter()
+                    .filter(|f| matches!(f.kind, Kind::Block(_)));
+                match blocks.position(|f| f.key == family.key) {
+                    Some(k) => {
+                        let n = self.block.count();
+                        (k + 1) * n..(k + 2) * n
+                    }
+                    None => end..end,
+                }
+            }
+            Kind::OfSphere(_) => self
+                .of_sphere()
+                .find(|(f, ..)| f.key == family.key)
+                .map_or(end..end, |(.., at)| at),
         }
     }
 
     /// Number of features (117 with the default configuration).
     pub fn count(&self) -> usize {
-        self.domain().end
+        self.of_sphere()
+            .last()
+            .map_or(self.blocks().end, |(.., at)| at.end)
     }
 
     /// The feature names, in canonical order (see [`super::FeatureConfig::names`]).
     pub fn names(&self) -> Vec<String> {
         let block = self.block.names();
-        let log = block
-            .iter()
-            .filter(|_| self.log_domain)
-            .map(|n| format!("{LOG_PREFIX}{n}"))
-            .collect::<Vec<_>>();
-        let capture = CAPTURE_NAMES
-            .iter()
-            .filter(|_| self.capture)
-            .map(|n| n.to_string());
-        let centre = CENTRE_NAMES
-            .iter()
-            .take(self.centre().len())
-            .map(|n| n.to_string());
-        let domain = DOMAIN_NAMES
-            .iter()
-            .filter(|_| self.domain)
-            .map(|n| n.to_string());
-        block
-            .into_iter()
-            .chain(log)
-            .chain(capture)
-            .chain(centre)
-            .chain(domain)
-            .collect()
+        let mut names = block.clone();
+        for family in self.families.iter() {
+            if let Kind::Block(_) = family.kind {
+                names.extend(block.iter().map(|n| format!("{}{n}", family.prefix)));
+            }
+        }
+        for (of, at) in self.families_of_sphere() {
+            names.extend(of.names()[..at.len()].iter().map(|n| n.to_string()));
+        }
+        names
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use crate::features::{Extensions, FeatureConfig};
+    use crate::features::FeatureConfig;
+    use crate::features::families::{FAMILIES, Families};
     use std::collections::HashSet;
 
     #[test]
     fn every_index_has_exactly_one_name_in_every_configuration() {
-        for bits in 0..64u8 {
-            let extensions = Extensions {
-                log_domain: bits & 1 != 0,
-                radial: bits & 2 != 0,
-                dependencies: bits & 4 != 0,
-                capture: bits & 8 != 0,
-                centre: bits & 16 != 0,
-                domain: bits & 32 != 0,
-            };
+        for bits in 0..1u32 << FAMILIES.len() {
+            let families: Families = (FAMILIES.into_iter().enumerate())
+                .filter(|(i, _)| bits & 1 << i != 0)
+                .map(|(_, family)| family)
+                .collect();
             for levels in [2, 4, 5] {
                 let config = FeatureConfig {
                     levels,
-                    ..FeatureConfig::extended(extensions, Default::default())
+                    ..FeatureConfig::extended(families, Default::default())
                 };
                 let layout = config.layout();
                 let names = layout.names();
                 assert_eq!(names.len(), layout.count());
-                assert!(
-                    names.iter().all(|n| !n.is_empty()),
-                    "{extensions:?}: a hole"
-                );
+                assert!(names.iter().all(|n| !n.is_empty()), "{families:?}: a hole");
                 let unique: HashSet<_> = names.iter().collect();
-                assert_eq!(unique.len(), names.len(), "{extensions:?}: a name twice");
+                assert_eq!(unique.len(), names.len(), "{families:?}: a name twice");
             }
         }
     }

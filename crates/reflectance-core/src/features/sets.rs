@@ -1,10 +1,19 @@
 //! The named feature sets: the paper's hand-picked ones and hand6 with our extensions.
 
+use super::families::{CAPTURE_NAMES, CENTRE_NAMES, DEPENDENCIES, Families, LOG_PREFIX, RADIAL};
 use super::layout::BlockLayout;
 use super::stats::STAT_NAMES;
-use super::{
-    BAND_NAMES, CAPTURE_NAMES, CENTRE_NAMES, DEPENDENCY_PREFIX, LEVELS, LOG_PREFIX, RADIAL_PREFIX,
-};
+use super::{BAND_NAMES, LEVELS};
+
+/// The families whose features a feature-set specification names (a named set or a list of
+/// names).
+pub(crate) fn families_of(spec: &str) -> Families {
+    let spec = spec.trim();
+    match named_set(spec) {
+        Some(names) => Families::of_names(names.iter().map(String::as_str)),
+        None => Families::of_names(spec.split(',').map(str::trim)),
+    }
+}
 
 /// The named feature sets: the paper's hand-picked ones, the trivial one, and hand6 with
 /// our extensions ([`named_set`] lists their features).
@@ -92,15 +101,20 @@ pub fn named_set(name: &str) -> Option<Vec<String>> {
                     .iter()
                     .map(move |b| format!("{LOG_PREFIX}wav.s{k}.{b}.var"))
             });
+            let inside = [(&RADIAL, "+radial"), (&DEPENDENCIES, "+dep")];
             let extended = BlockLayout {
                 levels,
-                radial: name.contains("+radial"),
-                dependencies: name.ends_with("+dep"),
+                families: (inside.into_iter())
+                    .filter(|(_, part)| name.contains(part))
+                    .map(|(family, _)| family)
+                    .collect(),
             };
-            let families = extended
-                .names()
-                .into_iter()
-                .filter(|n| n.starts_with(RADIAL_PREFIX) || n.starts_with(DEPENDENCY_PREFIX))
+            let base = BlockLayout {
+                families: Families::NONE,
+                ..extended
+            };
+            let families = (extended.names().into_iter())
+                .skip(base.count())
                 .map(|n| format!("{LOG_PREFIX}{n}"));
             Some(
                 strings(&HAND6)

@@ -1,5 +1,13 @@
 //! Population moments (two passes, f64) and numpy-style linear-interpolation percentiles.
 
+/// Floor of a variance, kurtosis or power before its log10.
+const LOG_FLOOR: f64 = 1e-30;
+
+/// log10 of a variance, kurtosis or power, floored at 1e-30: as the features take it.
+pub(crate) fn log10_floor(v: f64) -> f64 {
+    v.max(LOG_FLOOR).log10()
+}
+
 /// The seven statistics of one set of values, in canonical feature order.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Summary {

@@ -115,12 +115,12 @@ impl FeatureSet {
 impl FromStr for FeatureSet {
     type Err = LearnError;
 
-    /// Parses against the default configuration's names with every extension.
+    /// Parses against the default configuration's names with every family.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        use crate::features::{Extensions, FeatureConfig, Preprocessing};
+        use crate::features::{Families, FeatureConfig, Preprocessing};
         FeatureSet::parse_with(
             s,
-            &FeatureConfig::extended(Extensions::ALL, Preprocessing::default()).names(),
+            &FeatureConfig::extended(Families::ALL, Preprocessing::default()).names(),
         )
     }
 }
@@ -226,7 +226,7 @@ mod tests {
                 .is_err()
         );
         let every = crate::features::FeatureConfig::extended(
-            crate::features::Extensions::ALL,
+            crate::features::Families::ALL,
             crate::features::Preprocessing::default(),
         )
         .names();

@@ -8,8 +8,9 @@ use crate::classify::{self, Classifier, CvReport, TrainSpec};
 use crate::dataset::{Entry, FeatureTable, Manifest, Sample};
 use crate::decode::{self, DecodeOptions};
 use crate::estimate::{self, EstimateReport, WardRegressor};
+use crate::features::families::LOG;
 use crate::features::stats;
-use crate::features::{CAPTURE_NAMES, Extensions, FeatureConfig, Preprocessing};
+use crate::features::{CAPTURE_NAMES, Families, FeatureConfig, Preprocessing};
 use crate::image::display;
 use crate::learn::{Dataset, FeatureSet, LearnError};
 use crate::material::Material;
@@ -211,9 +212,9 @@ pub fn train_with(
     options: &TrainOptions,
     observer: &dyn Observer,
 ) -> Result<Trained, TrainError> {
-    // The table decides: 117 columns, more with extensions.
-    let extensions = Extensions::of_names(table.names.iter().map(String::as_str));
-    let config = FeatureConfig::extended(extensions, options.preprocessing);
+    // The table decides: 117 columns, more with the optional families.
+    let families = Families::of_names(table.names.iter().map(String::as_str));
+    let config = FeatureConfig::extended(families, options.preprocessing);
     if table.names != config.names() {
         return Err(TrainError::Columns);
     }
@@ -221,7 +222,7 @@ pub fn train_with(
     let column = |name: &str| table.names.iter().position(|n| n == name);
     let (classifier, prediction_sets, domain) =
         fit_classifier(&ds, &options.spec, options.seed, &column, observer)?;
-    let no_white = match (&options.images, config.log_domain) {
+    let no_white = match (&options.images, config.families.contains(&LOG)) {
         (Some(manifest), true) => {
             let table = without_white(manifest, config, &options.decode, observer)?;
             observer.stage("fit");

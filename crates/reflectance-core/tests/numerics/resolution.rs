@@ -8,7 +8,7 @@
 
 use ndarray::Array2;
 use reflectance_core::features::{
-    Extensions, Extractor, FeatureConfig, Preprocessing, default_names, named_set,
+    Extractor, Families, FeatureConfig, Preprocessing, default_names, named_set,
 };
 use reflectance_core::util::rng::Rng;
 use reflectance_render::envmap::EnvMap;
@@ -41,7 +41,7 @@ fn sizes_agree_within_the_measured_tolerances() {
     let white = lighting.white(&View::default());
     let plain = Extractor::new(FeatureConfig::default()).unwrap();
     let reduced = Extractor::new(FeatureConfig::extended(
-        Extensions::default(),
+        Families::NONE,
         Preprocessing::at_radius(100.0),
     ))
     .unwrap();

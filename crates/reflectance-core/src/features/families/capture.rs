@@ -1,4 +1,5 @@
-//! What the camera added, measured on the sphere itself: sensor noise and clipping.
+//! What the camera added, measured on the sphere itself: sensor noise, clipping and lens blur
+//! (the capture family, `cap.*`, docs/design.md §8).
 //!
 //! **Noise.** Over the annulus the features read (0.2 r to 0.9 r), each 2 × 2 block gives a
 //! mean m and a diagonal difference d = (a − b − c + e)/2. White noise of standard deviation
@@ -19,10 +20,128 @@
 //! edges, gives σ = √(FWHM²/8 ln 2 − baseline): the baseline is what a sharp capture
 //! shows (pixel area and the one-pixel slope).
 
+use super::{Family, Kind, OfSphere, Seen};
+use crate::features::layout::Layout;
+use crate::features::observed::kept;
 use crate::image::circle::Circle;
 use crate::locate::detect::{RIM_STEP, RimSlopes, rim_slopes};
+use crate::object::normals::EquivalentSphere;
 use ndarray::ArrayView2;
 use std::ops::Range;
+
+/// Prefix of the capture measurements' names.
+pub const CAPTURE_PREFIX: &str = "cap.";
+/// The capture measurements: log10 of the noise at white (a fraction of white, floored at
+/// 1e-4), the clipped fraction of the annulus, and log10 of the lens blur at the rim as a
+/// fraction of the radius (floored at 1e-4): the blur a gloss would have to match, since a
+/// lobe's blur grows with the sphere and the lens's does not.
+pub const CAPTURE_NAMES: [&str; 3] = ["cap.noise", "cap.clipped", "cap.blur"];
+/// Floor of the noise at white and of the rim blur before their log10 (and their value when
+/// they cannot be told).
+const NOISE_FLOOR: f64 = 1e-4;
+
+/// The capture family, after the blocks.
+pub const CAPTURE: Family = Family {
+    option: "capture_features",
+    help: "Also compute the capture measurements (`cap.noise`: the noise at white estimated on\n\
+           the sphere, `cap.clipped`: its clipped fraction, `cap.blur`: the blur of its rim).",
+    key: "capture",
+    recorded_when_off: false,
+    prefix: CAPTURE_PREFIX,
+    addition: None,
+    kind: Kind::OfSphere(&Capture),
+};
+
+struct Capture;
+
+impl OfSphere for Capture {
+    fn names(&self) -> &'static [&'static str] {
+        &CAPTURE_NAMES
+    }
+
+    fn extract(&self, sphere: &Seen<'_>, wanted: &dyn Fn(usize) -> bool) -> Vec<f64> {
+        match sphere.equivalent {
+            None => of_photograph(sphere, wanted),
+            Some(object) => of_object(sphere, object),
+        }
+    }
+}
+
+/// A photographed sphere's measurements; the rim's blur, the dearest, only when wanted.
+fn of_photograph(sphere: &Seen<'_>, wanted: &dyn Fn(usize) -> bool) -> Vec<f64> {
+    let mut capture = vec![f64::NAN; CAPTURE_NAMES.len()];
+    if wanted(0) || wanted(1) {
+        let m = measurements(sphere);
+        capture[0] = m.noise.unwrap_or(0.0).max(NOISE_FLOOR).log10();
+        capture[1] = m.clipped;
+    }
+    if wanted(2) {
+        let sigma = rim_blur(sphere.given.view(), &sphere.circle).unwrap_or(0.0) / sphere.circle.r;
+        capture[2] = sigma.max(NOISE_FLOOR).log10();
+    }
+    capture
+}
+
+/// An object's equivalent sphere's measurements, as far as they can be told: the noise of its
+/// observed cells, which is what its fine bands carry; the clipped share of the annulus's
+/// observed cells; the rim blur at its floor, since the sphere has no rim.
+fn of_object(sphere: &Seen<'_>, object: &EquivalentSphere) -> Vec<f64> {
+    let white = sphere.white;
+    let ceiling = sphere
+        .full_scale
+        .map_or(f64::INFINITY, |f| CLIPPED * f / white);
+    let kept = kept(&sphere.annulus, sphere.observed.as_ref().map(|o| &o.mask));
+    let clipped = kept.iter().filter(|&&v| v >= ceiling).count();
+    let c = &object.circle;
+    let seen = |row: usize, col: usize| object.observed[(row, col)];
+    let noise = noise_at_white_where(object.luminance.view(), c, white, f64::INFINITY, seen);
+    let floor = NOISE_FLOOR.log10();
+    let noise = noise.map_or(floor, |n| n.max(NOISE_FLOOR).log10());
+    vec![noise, clipped as f64 / kept.len().max(1) as f64, floor]
+}
+
+/// What the capture measurements found on one sphere.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CaptureMeasurements {
+    /// Noise at white as a fraction of white (`None`: no block of the annulus to read it).
+    pub noise: Option<f64>,
+    /// Fraction of the annulus's pixels at full scale (0 for floating-point images).
+    pub clipped: f64,
+}
+
+impl CaptureMeasurements {
+    /// The measurements as a feature row of `layout` holds them (`cap.noise`, `cap.clipped`),
+    /// when it has the capture family: the noise back from its floored log10 (`None` at the
+    /// floor).
+    pub fn of_row(layout: &Layout, row: &[f64]) -> Option<CaptureMeasurements> {
+        let capture = layout.family(&CAPTURE);
+        let (noise, clipped) = (row.get(capture.start)?, row.get(capture.start + 1)?);
+        Some(CaptureMeasurements {
+            noise: (*noise > NOISE_FLOOR.log10()).then(|| 10f64.powf(*noise)),
+            clipped: *clipped,
+        })
+    }
+}
+
+/// A photographed sphere's measurements, measured once: the noise at white as the features
+/// see the sphere (at the working radius), the clipped fraction of the image as given.
+pub(crate) fn measurements(sphere: &Seen<'_>) -> CaptureMeasurements {
+    *sphere.capture.get_or_init(|| {
+        let (seen, circle) = sphere.seen();
+        let full_scale = sphere.full_scale;
+        CaptureMeasurements {
+            noise: noise_at_white(
+                seen,
+                circle,
+                sphere.white,
+                full_scale.unwrap_or(f64::INFINITY),
+            ),
+            clipped: full_scale.map_or(0.0, |f| {
+                clipped_fraction(sphere.given.view(), &sphere.circle, f)
+            }),
+        }
+    })
+}
 
 /// The annulus measured, as fractions of the radius (the features' default annulus).
 const INNER: f64 = 0.2;

@@ -1,4 +1,5 @@
-//! The sphere's centre, which the annulus leaves out, measured against white (`ctr.*`).
+//! The sphere's centre, which the annulus leaves out, measured against white (the centre
+//! family, `ctr.*`).
 //!
 //! White is the brightness of a white Lambertian sphere at its centre, E(v)/π: the
 //! cosine-weighted mean radiance of the hemisphere facing the camera. The centre of the
@@ -26,10 +27,53 @@
 //! the estimate's total reflectance error grows from 0.080 to 0.091 with it). What a camera
 //! clipped is measured by `cap.clipped`.
 
-use super::LOG_PIXEL_FLOOR;
-use super::stats;
+use super::{Addition, Family, Kind, OfSphere, Seen};
+use crate::features::LOG_PIXEL_FLOOR;
+use crate::features::stats;
 use crate::image::circle::Circle;
 use ndarray::ArrayView2;
+
+/// Prefix of the centre features' names.
+pub const CENTRE_PREFIX: &str = "ctr.";
+/// The centre features: log10 of the disc inside r/√2 against white, its mean, its inner
+/// half's mean, its 10th, 50th and 90th percentiles and its cosine-weighted mean.
+pub const CENTRE_NAMES: [&str; 6] = [
+    "ctr.mean", "ctr.core", "ctr.p10", "ctr.p50", "ctr.p90", "ctr.cos",
+];
+
+/// The centre family, after the blocks and the capture measurements.
+pub const CENTRE: Family = Family {
+    option: "centre_features",
+    help: "Also measure the sphere's centre against white (`ctr.*`: log10 of the disc inside\n\
+           r/√2 over white, its mean, its inner half's mean and three percentiles), a cue to the\n\
+           total reflectance that the annulus lacks.",
+    key: "centre",
+    recorded_when_off: false,
+    prefix: CENTRE_PREFIX,
+    // Model files from before `ctr.cos` extract the first five values.
+    addition: Some(Addition {
+        key: "centre_cos",
+        before: 5,
+    }),
+    kind: Kind::OfSphere(&Centre),
+};
+
+struct Centre;
+
+impl OfSphere for Centre {
+    fn names(&self) -> &'static [&'static str] {
+        &CENTRE_NAMES
+    }
+
+    /// On the image as the features see it (at the working radius).
+    fn extract(&self, sphere: &Seen<'_>, wanted: &dyn Fn(usize) -> bool) -> Vec<f64> {
+        if !(0..CENTRE_NAMES.len()).any(wanted) {
+            return vec![f64::NAN; CENTRE_NAMES.len()];
+        }
+        let (image, circle) = sphere.seen();
+        centre_features(image, circle, sphere.white).to_vec()
+    }
+}
 
 /// The disc, as a fraction of the radius: the mirror's reflected rays cover the
 /// camera-facing hemisphere inside it.

@@ -1,6 +1,6 @@
-//! Whether the circle follows a sphere's outline (`dom.outline`, docs/design.md §8): the
-//! evidence the domain check weighs against "this circle is on something else", or "it
-//! misses the sphere".
+//! Whether the circle follows a sphere's outline (the domain family, `dom.outline`,
+//! docs/design.md §8): the evidence the domain check weighs against "this circle is on
+//! something else", or "it misses the sphere".
 //!
 //! A sphere's silhouette is a luminance step at the same radius all around the circle,
 //! while the edges inside a reflection or a photograph of anything else lie at every radius.
@@ -11,10 +11,45 @@
 //! (beyond twice that): about 1 for a clean silhouette on a plain background, near 0 when no
 //! edge follows the circle.
 
-use super::stats;
+use super::{Family, Kind, OfSphere, Seen};
+use crate::features::stats;
 use crate::image::circle::Circle;
 use ndarray::ArrayView2;
 use std::borrow::Cow;
+
+/// Prefix of the domain measurements' names.
+pub const DOMAIN_PREFIX: &str = "dom.";
+/// The domain measurements: how well the circle follows a sphere's outline.
+pub const DOMAIN_NAMES: [&str; 1] = ["dom.outline"];
+
+/// The domain family, last.
+pub const DOMAIN: Family = Family {
+    option: "domain_features",
+    help: "Also measure how well the circle follows a sphere's outline (`dom.outline`), which a\n\
+           model's domain check reads (training always measures it).",
+    key: "domain",
+    recorded_when_off: false,
+    prefix: DOMAIN_PREFIX,
+    addition: None,
+    kind: Kind::OfSphere(&Domain),
+};
+
+struct Domain;
+
+impl OfSphere for Domain {
+    fn names(&self) -> &'static [&'static str] {
+        &DOMAIN_NAMES
+    }
+
+    /// On the image as given: the reduction to the working radius crops the rim's
+    /// surroundings away.
+    fn extract(&self, sphere: &Seen<'_>, wanted: &dyn Fn(usize) -> bool) -> Vec<f64> {
+        vec![match wanted(0) {
+            true => outline(sphere.given.view(), &sphere.circle),
+            false => f64::NAN,
+        }]
+    }
+}
 
 /// An image's pixels in row-major order, for fast bilinear samples (the same arithmetic
 /// as `image::detect`'s).
