@@ -5,7 +5,7 @@
 use divan::Bencher;
 use reflectance_core::util::rng::Rng;
 use reflectance_render::envmap::EnvMap;
-use reflectance_render::ward::Material;
+use reflectance_render::ward::Ward;
 use reflectance_render::{Lighting, Quality, View, render};
 use std::sync::OnceLock;
 
@@ -31,9 +31,8 @@ fn lighting() -> &'static Lighting {
     })
 }
 
-fn class(name: &str, rho_d: f64, rho_s: f64, alpha: f64) -> Material {
-    Material {
-        name: name.into(),
+fn ward(rho_d: f64, rho_s: f64, alpha: f64) -> Ward {
+    Ward {
         rho_d,
         rho_s,
         alpha,
@@ -41,7 +40,7 @@ fn class(name: &str, rho_d: f64, rho_s: f64, alpha: f64) -> Material {
 }
 
 /// One 256×256 image of `material`.
-fn bench_class(bencher: Bencher, material: Material) {
+fn bench_class(bencher: Bencher, material: Ward) {
     bencher.bench(|| {
         render(
             lighting(),
@@ -56,17 +55,17 @@ fn bench_class(bencher: Bencher, material: Material) {
 
 #[divan::bench(sample_count = 10)]
 fn matte(bencher: Bencher) {
-    bench_class(bencher, class("white_matte", 0.9, 0.0, 0.0));
+    bench_class(bencher, ward(0.9, 0.0, 0.0));
 }
 
 #[divan::bench(sample_count = 10)]
 fn mirror(bencher: Bencher) {
-    bench_class(bencher, class("chrome", 0.0, 0.75, 0.0));
+    bench_class(bencher, ward(0.0, 0.75, 0.0));
 }
 
 #[divan::bench(sample_count = 10)]
 fn shiny(bencher: Bencher) {
-    bench_class(bencher, class("white_shiny", 0.7, 0.25, 0.01));
+    bench_class(bencher, ward(0.7, 0.25, 0.01));
 }
 
 /// Per-probe precomputation (irradiance grid, bright sources), shared by all classes.

@@ -124,9 +124,7 @@ fn write_gltf(path: &Path, answer: &ClassifyResponse, which: GltfMaterial) -> Cl
     };
     let material = reflectance_core::material::Material {
         name: chosen.name.clone(),
-        rho_d: chosen.ward.rho_d,
-        rho_s: chosen.ward.rho_s,
-        alpha: chosen.ward.alpha,
+        ward: chosen.ward,
     };
     let about = serde_json::json!({"source": format!("the {} of reflectance classify", chosen.source),
                                    "material": chosen, "model": answer.model, "label": answer.label,

@@ -5,7 +5,7 @@
 use super::{CliError, CliResult};
 use clap::{Args, ValueEnum};
 use reflectance_core::material::gltf::{Container, Rgb, parse_colour, sphere};
-use reflectance_core::material::{Material, load_classes};
+use reflectance_core::material::{Material, Ward, load_classes};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 
@@ -90,9 +90,11 @@ pub fn run(args: GltfArgs) -> CliResult {
             }
             let material = Material {
                 name,
-                rho_d,
-                rho_s,
-                alpha,
+                ward: Ward {
+                    rho_d,
+                    rho_s,
+                    alpha,
+                },
             };
             write(
                 &args.out,

@@ -490,6 +490,12 @@ impl From<WhiteError> for ApiError {
     }
 }
 
+impl From<reflectance_core::material::InvalidWard> for ApiError {
+    fn from(e: reflectance_core::material::InvalidWard) -> ApiError {
+        ApiError::new(Kind::InvalidField, e.to_string())
+    }
+}
+
 impl From<reflectance_render::preview::PreviewError> for ApiError {
     fn from(e: reflectance_render::preview::PreviewError) -> ApiError {
         ApiError::new(Kind::InvalidField, e.to_string())

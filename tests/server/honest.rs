@@ -17,7 +17,7 @@ use reflectance_core::model::registry::Registry;
 use reflectance_core::util::rng::Rng;
 use reflectance_render::capture::{self, CaptureSettings, Quantization};
 use reflectance_render::envmap::EnvMap;
-use reflectance_render::ward::Material;
+use reflectance_render::ward::Ward;
 use reflectance_render::{self as renderer, Lighting, Quality, View};
 use serde_json::{Value, json};
 use std::path::Path;
@@ -40,9 +40,8 @@ fn shot(map: &EnvMap, class: &str, radius: f64) -> Shot {
         ("white_matte", 0.9, 0.0, 0.0),
         ("white_shiny", 0.7, 0.25, 0.01),
     ];
-    let &(name, rho_d, rho_s, alpha) = classes.iter().find(|c| c.0 == class).unwrap();
-    let material = Material {
-        name: name.into(),
+    let &(_, rho_d, rho_s, alpha) = classes.iter().find(|c| c.0 == class).unwrap();
+    let material = Ward {
         rho_d,
         rho_s,
         alpha,

@@ -19,7 +19,7 @@ use reflectance_core::util::rng::Rng;
 use reflectance_core::white::Rect;
 use reflectance_render::capture::{Card, DrawSettings, capture_rgb};
 use reflectance_render::envmap::EnvMap;
-use reflectance_render::ward::Material;
+use reflectance_render::ward::Ward;
 use reflectance_render::{Lighting, Quality, View, circle, render};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -30,9 +30,8 @@ struct Coloured {
     name: String,
     /// Luminance-1 colour of the diffuse albedo (a metal's F0).
     colour: [f64; 3],
-    rho_d: f64,
-    rho_s: f64,
-    alpha: f64,
+    /// Its grey Ward parameters (ρd of luminance 1; each channel's is ρd times its colour).
+    ward: Ward,
 }
 
 /// Colours of every hue at moderate to strong saturation, lightness by the albedo.
@@ -54,9 +53,11 @@ fn materials(n: usize, seed: u64) -> Vec<Coloured> {
             Coloured {
                 name: format!("c{i:02}"),
                 colour,
-                rho_d,
-                rho_s,
-                alpha,
+                ward: Ward {
+                    rho_d,
+                    rho_s,
+                    alpha,
+                },
             }
         })
         .collect()
@@ -116,11 +117,9 @@ fn main() -> Result<(), String> {
             .map(|(m, mat)| {
                 let channels: Vec<_> = (0..3)
                     .map(|c| {
-                        let ward = Material {
-                            name: mat.name.clone(),
-                            rho_d: mat.rho_d * mat.colour[c],
-                            rho_s: mat.rho_s,
-                            alpha: mat.alpha,
+                        let ward = Ward {
+                            rho_d: mat.ward.rho_d * mat.colour[c],
+                            ..mat.ward
                         };
                         let mut rng = Rng::fork(seed, (p * 1000 + m) as u64);
                         let r = render(
@@ -212,9 +211,9 @@ fn main() -> Result<(), String> {
         println!(
             "| {} | {r:.3}, {g:.3} | {:.2} | {:.2} | {:.2} | {:.4} | {:.4} | {} |",
             mat.name,
-            mat.rho_d,
-            mat.rho_s,
-            mat.alpha,
+            mat.ward.rho_d,
+            mat.ward.rho_s,
+            mat.ward.alpha,
             q(0.5),
             q(0.9),
             e.len() - ok.len()

@@ -13,18 +13,18 @@
 
 use rayon::prelude::*;
 use reflectance_core::material::gltf::{Pbr, pbr_of};
-use reflectance_core::material::{Material, load_classes};
+use reflectance_core::material::{Ward, load_classes};
 use reflectance_render::View;
 use reflectance_render::envmap::EnvMap;
 use reflectance_render::pbr::{Brdf, Drawing, Gltf, Reading, draw};
 use std::path::PathBuf;
 
 /// The mapping a user writes by hand: no extension, glTF's default F0 of 0.04.
-fn by_hand(m: &Material) -> Pbr {
+fn by_hand(w: &Ward) -> Pbr {
     Pbr {
-        base_color: m.rho_d,
+        base_color: w.rho_d,
         metallic: 0.0,
-        roughness: m.alpha.sqrt(),
+        roughness: w.alpha.sqrt(),
         ior: 1.5,
         specular: 1.0,
     }
@@ -132,10 +132,10 @@ fn main() -> Result<(), String> {
             let drawing = Drawing {
                 size: args.size,
                 samples: args.samples,
-                lobe_alpha: m.alpha.max(0.005),
+                lobe_alpha: m.ward.alpha.max(0.005),
                 seed: 7,
             };
-            let pbr = pbr_of(m.rho_d, m.rho_s, m.alpha);
+            let pbr = pbr_of(&m.ward);
             let exports = [
                 Gltf {
                     pbr,
@@ -146,7 +146,7 @@ fn main() -> Result<(), String> {
                     reading: Reading::Cycles,
                 },
                 Gltf {
-                    pbr: by_hand(m),
+                    pbr: by_hand(&m.ward),
                     reading: Reading::Viewer,
                 },
             ];
@@ -154,7 +154,7 @@ fn main() -> Result<(), String> {
                 .par_iter()
                 .map(|(map, reduced)| {
                     let white = reflectance_render::white(reduced, &view);
-                    let ward = draw(map, reduced, m as &dyn Brdf, &view, &drawing);
+                    let ward = draw(map, reduced, &m.ward as &dyn Brdf, &view, &drawing);
                     let mut row = [0.0; 9];
                     for (k, export) in exports.iter().enumerate() {
                         let drawn = draw(map, reduced, export, &view, &drawing);
@@ -181,9 +181,9 @@ fn main() -> Result<(), String> {
                 println!(
                     "| {} | {} | {} | {} | {} |",
                     m.name,
-                    m.rho_d,
-                    m.rho_s,
-                    m.alpha,
+                    m.ward.rho_d,
+                    m.ward.rho_s,
+                    m.ward.alpha,
                     cells.join(" | ")
                 );
             }

@@ -493,7 +493,7 @@ fn render_job(
         let lighting =
             probe.lightings[k].get_or_init(|| Lighting::new(spec.augment.lighting(map, k)));
         let mut rng = Rng::fork(spec.seed, stable_hash(&job.name));
-        let (material, view) = (&spec.classes[job.class], &job.variant.view);
+        let (material, view) = (&spec.classes[job.class].ward, &job.variant.view);
         let image = match object {
             None => render(lighting, material, spec.size, view, &spec.quality, &mut rng),
             Some(object) => {

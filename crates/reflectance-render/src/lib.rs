@@ -33,7 +33,7 @@ use reflectance_core::locate::Circle;
 use reflectance_core::util::rng::Rng;
 use std::f64::consts::PI;
 use std::ops::{Add, Mul, Sub};
-use ward::{Frame, LocalHalf, Material, WardBrdf, lobe_sample, local_half};
+use ward::{Frame, LocalHalf, Ward, WardBrdf, lobe_sample, local_half};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Vec3 {
@@ -250,7 +250,7 @@ const LOBE_REACH: f64 = 4.55;
 /// Render one sphere of `material` under `lighting`, N×N pixels, deterministic for `rng`.
 pub fn render(
     lighting: &Lighting,
-    material: &Material,
+    material: &Ward,
     size: usize,
     view: &View,
     quality: &Quality,
@@ -268,7 +268,7 @@ pub fn render(
 /// coverage. Deterministic for `rng`; the circle is the frame's ([`circle`]).
 pub fn render_normals(
     lighting: &Lighting,
-    material: &Material,
+    material: &Ward,
     view: &View,
     normals: &shapes::Normals,
     quality: &Quality,
@@ -289,7 +289,7 @@ pub fn render_normals(
 /// Shade every pixel `surface` covers: the one shading path of spheres and shapes.
 fn shade_image(
     lighting: &Lighting,
-    material: &Material,
+    material: &Ward,
     view: &View,
     quality: &Quality,
     size: usize,
@@ -407,7 +407,7 @@ impl Surface for SphereSurface {
 struct Shader<'a, S> {
     lighting: &'a Lighting,
     surface: &'a S,
-    material: &'a Material,
+    material: &'a Ward,
     camera: Camera,
     /// Sub-pixel samples per side.
     k: usize,
@@ -423,7 +423,7 @@ struct Shader<'a, S> {
 impl<'a, S: Surface> Shader<'a, S> {
     fn new(
         lighting: &'a Lighting,
-        material: &'a Material,
+        material: &'a Ward,
         view: &View,
         quality: &Quality,
         size: usize,

@@ -5,7 +5,7 @@
 //! supersampling and no bright-source treatment, but both BRDFs see exactly the same light.
 
 use crate::envmap::EnvMap;
-use crate::ward::{Material, WardBrdf};
+use crate::ward::{Ward, WardBrdf};
 use crate::{Camera, Vec3, View};
 use reflectance_core::material::gltf::{Pbr, fresnel_dielectric};
 use reflectance_core::util::rng::Rng;
@@ -22,7 +22,7 @@ pub trait Brdf: Sync {
     fn mirror(&self, cos: f64) -> Option<f64>;
 }
 
-impl Brdf for Material {
+impl Brdf for Ward {
     fn diffuse(&self, _: Vec3, _: Vec3, _: Vec3) -> f64 {
         self.rho_d / PI
     }
@@ -244,8 +244,7 @@ mod tests {
     fn a_white_furnace_gives_back_the_albedos() {
         let map = uniform();
         let view = View::default();
-        let matte = Material {
-            name: "m".into(),
+        let matte = Ward {
             rho_d: 0.5,
             rho_s: 0.0,
             alpha: 0.0,
@@ -255,8 +254,7 @@ mod tests {
             pixels.iter().flatten().all(|p| (p - 0.5).abs() < 0.01),
             "{pixels:?}"
         );
-        let glossy = Material {
-            name: "g".into(),
+        let glossy = Ward {
             rho_d: 0.0,
             rho_s: 0.5,
             alpha: 0.05,
@@ -275,8 +273,7 @@ mod tests {
             size: 200,
             ..DRAWING
         };
-        let ward = Material {
-            name: "chrome".into(),
+        let ward = Ward {
             rho_d: 0.0,
             rho_s: 0.75,
             alpha: 0.0,
@@ -285,7 +282,7 @@ mod tests {
         assert!((w - 0.75).abs() < 1e-9, "ward {w}");
         for reading in [Reading::Viewer, Reading::Cycles] {
             let gltf = Gltf {
-                pbr: pbr_of(0.0, 0.75, 0.0),
+                pbr: pbr_of(&ward),
                 reading,
             };
             let g = mean(&draw(&map, &map, &gltf, &view, &drawing));

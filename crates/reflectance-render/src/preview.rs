@@ -6,10 +6,11 @@
 //! outside the repository and the image, so none is bundled.
 
 use super::envmap::EnvMap;
-use super::ward::Material;
+use super::ward::Ward;
 use super::{Lighting, Quality, Vec3, View, render};
 use ndarray::Array2;
 use reflectance_core::image::display;
+use reflectance_core::material::InvalidWard;
 use reflectance_core::util::rng::Rng;
 use std::f64::consts::PI;
 use std::sync::OnceLock;
@@ -38,11 +39,8 @@ pub enum PreviewError {
     Size(usize),
     #[error("alpha {0} must be at most {MAX_ALPHA} for a preview")]
     Alpha(f64),
-    #[error(
-        "need rho_d ≥ 0, rho_s ≥ 0, rho_d + rho_s ≤ 1 and 0 ≤ alpha, not rho_d {rho_d}, rho_s \
-         {rho_s}, alpha {alpha}"
-    )]
-    Parameters { rho_d: f64, rho_s: f64, alpha: f64 },
+    #[error(transparent)]
+    Parameters(#[from] InvalidWard),
 }
 
 /// How a scene looks: its sun (elevation, azimuth in degrees; no sun when overcast), the
@@ -152,14 +150,10 @@ fn lighting(probe: &str) -> Result<&'static Lighting, PreviewError> {
 }
 
 /// Check a request before any rendering.
-pub fn check(material: &Material, probe: &str, size: usize) -> Result<(), PreviewError> {
-    material.validate().map_err(|_| PreviewError::Parameters {
-        rho_d: material.rho_d,
-        rho_s: material.rho_s,
-        alpha: material.alpha,
-    })?;
-    if material.alpha > MAX_ALPHA {
-        return Err(PreviewError::Alpha(material.alpha));
+pub fn check(ward: &Ward, probe: &str, size: usize) -> Result<(), PreviewError> {
+    ward.validate()?;
+    if ward.alpha > MAX_ALPHA {
+        return Err(PreviewError::Alpha(ward.alpha));
     }
     if !SIZES.contains(&size) {
         return Err(PreviewError::Size(size));
@@ -181,14 +175,14 @@ fn backdrop(map: &EnvMap, x: f64, y: f64) -> f64 {
     map.lookup(Vec3::new(fx / norm, fy / norm, fz / norm))
 }
 
-/// The PNG of `material` under `probe`, `size` × `size` pixels (deterministic).
-pub fn png(material: &Material, probe: &str, size: usize) -> Result<Vec<u8>, PreviewError> {
-    check(material, probe, size)?;
+/// The PNG of `ward` under `probe`, `size` × `size` pixels (deterministic).
+pub fn png(ward: &Ward, probe: &str, size: usize) -> Result<Vec<u8>, PreviewError> {
+    check(ward, probe, size)?;
     let lighting = lighting(probe)?;
     let view = View::default();
     let image = render(
         lighting,
-        material,
+        ward,
         size,
         &view,
         &Quality::default(),
@@ -214,9 +208,8 @@ pub fn png(material: &Material, probe: &str, size: usize) -> Result<Vec<u8>, Pre
 mod tests {
     use super::*;
 
-    fn material(rho_d: f64, rho_s: f64, alpha: f64) -> Material {
-        Material {
-            name: "preview".into(),
+    fn material(rho_d: f64, rho_s: f64, alpha: f64) -> Ward {
+        Ward {
             rho_d,
             rho_s,
             alpha,
@@ -225,7 +218,7 @@ mod tests {
 
     #[test]
     fn a_white_matte_sphere_is_bright_and_a_black_one_dark() {
-        let mean = |m: &Material| {
+        let mean = |m: &Ward| {
             let png = png(m, "sky-1", 72).unwrap();
             let picture = image::load_from_memory(&png).unwrap().to_luma8();
             assert_eq!(picture.dimensions(), (72, 72));
@@ -262,7 +255,7 @@ mod tests {
         );
         assert!(matches!(
             png(&material(0.8, 0.5, 0.0), "sky-1", 72),
-            Err(PreviewError::Parameters { .. })
+            Err(PreviewError::Parameters(_))
         ));
     }
 }

@@ -4,10 +4,10 @@
 //! reflectance ρs.
 
 use super::Vec3;
-pub use reflectance_core::material::{Material, MaterialError};
+pub use reflectance_core::material::{Material, Ward};
 use std::f64::consts::PI;
 
-/// The Ward BRDF of a [`Material`].
+/// The Ward BRDF of [`Ward`] parameters.
 pub trait WardBrdf {
     /// The specular BRDF value for incident `wi` and view `v` at normal `n` (all unit).
     fn specular_brdf(&self, n: Vec3, v: Vec3, wi: Vec3) -> f64;
@@ -16,7 +16,7 @@ pub trait WardBrdf {
     fn specular_brdf_within(&self, n: Vec3, v: Vec3, wi: Vec3, max_tan2: f64) -> Option<f64>;
 }
 
-impl WardBrdf for Material {
+impl WardBrdf for Ward {
     fn specular_brdf(&self, n: Vec3, v: Vec3, wi: Vec3) -> f64 {
         self.specular_brdf_within(n, v, wi, f64::INFINITY)
             .unwrap_or(0.0)
@@ -145,7 +145,7 @@ mod tests {
 
     /// Directional albedo ∫ f_s cos θi dω by deterministic quadrature over the hemisphere
     /// (independent of the sampling code).
-    fn albedo_quadrature(m: &Material, view_angle: f64) -> f64 {
+    fn albedo_quadrature(m: &Ward, view_angle: f64) -> f64 {
         let n = Vec3::new(0.0, 0.0, 1.0);
         let v = Vec3::new(view_angle.sin(), 0.0, view_angle.cos());
         // Fine grid around the mirror direction where the lobe lives.
@@ -169,7 +169,7 @@ mod tests {
         total
     }
 
-    fn sampled_albedo(m: &Material, view_angle: f64, count: usize) -> f64 {
+    fn sampled_albedo(m: &Ward, view_angle: f64, count: usize) -> f64 {
         let n = Vec3::new(0.0, 0.0, 1.0);
         let v = Vec3::new(view_angle.sin(), 0.0, view_angle.cos());
         let frame = Frame::new(n);
@@ -202,8 +202,7 @@ mod tests {
 
     #[test]
     fn albedo_is_about_rho_s_and_never_exceeds_it() {
-        let m = Material {
-            name: "shiny".into(),
+        let m = Ward {
             rho_d: 0.0,
             rho_s: 0.25,
             alpha: 0.02,
@@ -222,8 +221,7 @@ mod tests {
 
     #[test]
     fn narrow_lobes_approach_the_mirror() {
-        let m = Material {
-            name: "m".into(),
+        let m = Ward {
             rho_d: 0.0,
             rho_s: 0.75,
             alpha: 1e-4,
@@ -234,41 +232,5 @@ mod tests {
         let mirror = Vec3::new(-v.x, 0.0, v.z);
         assert!(s.wi.dot(mirror) > 1.0 - 1e-6);
         assert!((s.weight - m.rho_s).abs() < 1e-3);
-    }
-
-    #[test]
-    fn class_validation() {
-        let ok = Material {
-            name: "a".into(),
-            rho_d: 0.7,
-            rho_s: 0.25,
-            alpha: 0.01,
-        };
-        assert!(ok.validate().is_ok());
-        assert!(
-            Material {
-                rho_d: 0.9,
-                rho_s: 0.2,
-                ..ok.clone()
-            }
-            .validate()
-            .is_err()
-        );
-        assert!(
-            Material {
-                alpha: -0.1,
-                ..ok.clone()
-            }
-            .validate()
-            .is_err()
-        );
-        assert!(
-            Material {
-                name: String::new(),
-                ..ok
-            }
-            .validate()
-            .is_err()
-        );
     }
 }

@@ -3,16 +3,18 @@
 
 use reflectance_core::util::rng::Rng;
 use reflectance_render::envmap::EnvMap;
-use reflectance_render::ward::{Material, WardBrdf};
+use reflectance_render::ward::{Material, Ward, WardBrdf};
 use reflectance_render::{Lighting, Quality, Rendering, View, circle, render, white};
 use std::f64::consts::PI;
 
 fn material(name: &str, rho_d: f64, rho_s: f64, alpha: f64) -> Material {
     Material {
         name: name.into(),
-        rho_d,
-        rho_s,
-        alpha,
+        ward: Ward {
+            rho_d,
+            rho_s,
+            alpha,
+        },
     }
 }
 
@@ -42,7 +44,7 @@ fn interior(img: &Rendering) -> Vec<(usize, f64, f64)> {
 fn lambertian_sphere_in_uniform_light_is_rho_d() {
     let img = render(
         &uniform(),
-        &material("m", 0.63, 0.0, 0.0),
+        &material("m", 0.63, 0.0, 0.0).ward,
         64,
         &View::default(),
         &Quality::default(),
@@ -59,7 +61,7 @@ fn lambertian_sphere_in_uniform_light_is_rho_d() {
 
 /// Directional albedo of the Ward lobe by quadrature over the hemisphere (independent of
 /// the renderer's sampling): ∫ f_s cos θi dω for view angle `theta_v`.
-fn albedo(m: &Material, theta_v: f64) -> f64 {
+fn albedo(m: &Ward, theta_v: f64) -> f64 {
     use reflectance_render::Vec3;
     let n = Vec3::new(0.0, 0.0, 1.0);
     let v = Vec3::new(theta_v.sin(), 0.0, theta_v.cos());
@@ -87,7 +89,7 @@ fn ward_sphere_in_uniform_light_is_rho_s_times_albedo() {
     ] {
         let img = render(
             &uniform(),
-            &m,
+            &m.ward,
             48,
             &View::default(),
             &Quality::default(),
@@ -101,7 +103,7 @@ fn ward_sphere_in_uniform_light_is_rho_s_times_albedo() {
         for &(i, x, y) in pixels.iter().step_by(29) {
             // The view angle at this pixel is the angle between its normal and v.
             let theta_v = (x * x + y * y).sqrt().asin();
-            let expected = m.rho_d + albedo(&m, theta_v);
+            let expected = m.ward.rho_d + albedo(&m.ward, theta_v);
             let got = f64::from(img.luminance[i]);
             assert!(
                 (got - expected).abs() < tolerance * expected,
@@ -125,7 +127,7 @@ fn mirror_sphere_reflects_the_map() {
     };
     let img = render(
         &lighting,
-        &material("chrome", 0.0, 0.75, 0.0),
+        &material("chrome", 0.0, 0.75, 0.0).ward,
         40,
         &View::default(),
         &quality,
@@ -179,7 +181,7 @@ fn energy_never_exceeds_the_incident_light() {
     for m in &classes {
         let img = render(
             &lighting,
-            m,
+            &m.ward,
             40,
             &View::default(),
             &Quality::default(),
@@ -188,7 +190,7 @@ fn energy_never_exceeds_the_incident_light() {
         // Exact albedo ≤ ρs; the lobe quadrature may over-estimate by its error bound, which
         // grows towards the rim (≤ 1.5 % at 83° for α = 0.02); the map's pixel quadrature of
         // the cosine integral is within 1e-4 of π.
-        let bound = m.rho_d * (1.0 + 1e-4) + m.rho_s * (1.0 + 1.5e-2);
+        let bound = m.ward.rho_d * (1.0 + 1e-4) + m.ward.rho_s * (1.0 + 1.5e-2);
         let max = img.luminance.iter().fold(0.0f32, |a, &b| a.max(b));
         assert!(f64::from(max) <= bound, "{}: {max} > {bound}", m.name);
         assert!(img.luminance.iter().all(|v| *v >= 0.0));
@@ -222,7 +224,7 @@ fn turning_the_view_equals_rolling_the_map() {
     ] {
         let a = render(
             &rolled,
-            &m,
+            &m.ward,
             48,
             &View::default(),
             &Quality::default(),
@@ -230,7 +232,7 @@ fn turning_the_view_equals_rolling_the_map() {
         );
         let b = render(
             &original,
-            &m,
+            &m.ward,
             48,
             &turned,
             &Quality::default(),
@@ -252,7 +254,7 @@ fn deterministic_for_a_seed() {
     let m = material("shiny", 0.25, 0.1, 0.02);
     let a = render(
         &lighting,
-        &m,
+        &m.ward,
         40,
         &View::default(),
         &Quality::default(),
@@ -260,7 +262,7 @@ fn deterministic_for_a_seed() {
     );
     let b = render(
         &lighting,
-        &m,
+        &m.ward,
         40,
         &View::default(),
         &Quality::default(),
@@ -269,7 +271,7 @@ fn deterministic_for_a_seed() {
     assert_eq!(a.luminance, b.luminance);
     let c = render(
         &lighting,
-        &m,
+        &m.ward,
         40,
         &View::default(),
         &Quality::default(),

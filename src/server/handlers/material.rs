@@ -6,8 +6,8 @@ use axum::extract::Query;
 use axum::extract::rejection::QueryRejection;
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
-use reflectance_core::material::Material;
 use reflectance_core::material::gltf::{Container, parse_colour, sphere};
+use reflectance_core::material::{Material, Ward};
 use serde::Deserialize;
 use serde_json::json;
 use utoipa::IntoParams;
@@ -84,19 +84,8 @@ pub async fn gltf(
         .transpose()?;
     let material = Material {
         name,
-        rho_d: q.rho_d,
-        rho_s: q.rho_s,
-        alpha: q.alpha,
+        ward: Ward::new(q.rho_d, q.rho_s, q.alpha)?,
     };
-    material.validate().map_err(|_| {
-        ApiError::new(
-            Kind::InvalidField,
-            format!(
-                "need 0 ≤ rho_d, 0 ≤ rho_s, rho_d + rho_s ≤ 1 and 0 ≤ alpha ≤ 1, not rho_d {}, rho_s {}, alpha {}",
-                q.rho_d, q.rho_s, q.alpha
-            ),
-        )
-    })?;
     let container = match q.format {
         Some(Format::Glb) => Container::Glb,
         Some(Format::Gltf) | None => Container::Gltf,

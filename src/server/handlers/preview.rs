@@ -10,7 +10,7 @@ use axum::extract::{Query, State};
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
 use reflectance_render::preview;
-use reflectance_render::ward::Material;
+use reflectance_render::ward::Ward;
 use serde::Deserialize;
 use std::collections::VecDeque;
 use std::sync::Mutex;
@@ -85,19 +85,18 @@ pub async fn preview(
     query: Result<Query<PreviewQuery>, QueryRejection>,
 ) -> Result<Response, ApiError> {
     let Query(q) = query?;
-    let material = Material {
-        name: "preview".into(),
+    let ward = Ward {
         rho_d: q.rho_d,
         rho_s: q.rho_s,
         alpha: q.alpha,
     };
     let probe = q.probe.unwrap_or_else(|| preview::PROBES[0].to_string());
     let size = q.size.unwrap_or(DEFAULT_SIZE);
-    preview::check(&material, &probe, size)?;
+    preview::check(&ward, &probe, size)?;
     let key = (
-        q.rho_d.to_bits(),
-        q.rho_s.to_bits(),
-        q.alpha.to_bits(),
+        ward.rho_d.to_bits(),
+        ward.rho_s.to_bits(),
+        ward.alpha.to_bits(),
         probe.clone(),
         size,
     );
@@ -107,7 +106,7 @@ pub async fn preview(
             let permit = state.cpu.admit()?;
             let png = state
                 .cpu
-                .run(permit, move || Ok(preview::png(&material, &probe, size)?))
+                .run(permit, move || Ok(preview::png(&ward, &probe, size)?))
                 .await?;
             let png = Bytes::from(png);
             remember(key, png.clone());

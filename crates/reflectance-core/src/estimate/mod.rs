@@ -21,7 +21,7 @@ use crate::learn::error::LearnError;
 use crate::learn::feature_set::FeatureSet;
 use crate::learn::matrix::Dataset;
 use crate::learn::scaler::Scaler;
-use crate::material::Material;
+use crate::material::{Material, Ward};
 use crate::util::progress::{Observer, Silent};
 use boost::{BoostSpec, Boosted};
 use ndarray::{Array2, Axis};
@@ -249,19 +249,21 @@ pub fn ridge_spec(
     })
 }
 
-/// The regression targets of a material: [t, ρs / t, mirror ±1, log10 α].
-pub fn targets(m: &Material) -> [f64; 4] {
-    let total = m.rho_d + m.rho_s;
-    let fraction = if total > 0.0 { m.rho_s / total } else { 0.0 };
-    let (mirror, log_alpha) = match m.alpha > 0.0 {
-        true => (-1.0, m.alpha.log10()),
+/// The regression targets of Ward parameters: [t, ρs / t, mirror ±1, log10 α].
+pub fn targets(w: &Ward) -> [f64; 4] {
+    let total = w.rho_d + w.rho_s;
+    let fraction = if total > 0.0 { w.rho_s / total } else { 0.0 };
+    let (mirror, log_alpha) = match w.alpha > 0.0 {
+        true => (-1.0, w.alpha.log10()),
         false => (1.0, MIRROR_LOG_ALPHA),
     };
     [total, fraction, mirror, log_alpha]
 }
 
-/// (ρd, ρs, α, log10 α) of a prediction of the four outputs.
-pub fn parameters(prediction: &[f64]) -> (f64, f64, f64, f64) {
+/// The Ward parameters of a prediction of the four outputs, with its log10 α on the
+/// regression's axis (between [`MIRROR_LOG_ALPHA`] and log10 of the broadest α, also for a
+/// mirror).
+pub fn parameters(prediction: &[f64]) -> (Ward, f64) {
     let total = prediction[0].clamp(0.0, 1.0);
     let rho_s = total * prediction[1].clamp(0.0, 1.0);
     let (lo, hi) = (ALPHA_RANGE.0.log10(), ALPHA_RANGE.1.log10());
@@ -270,7 +272,12 @@ pub fn parameters(prediction: &[f64]) -> (f64, f64, f64, f64) {
         true => 0.0,
         false => 10f64.powf(log_alpha.max(lo)),
     };
-    (total - rho_s, rho_s, alpha, log_alpha)
+    let ward = Ward {
+        rho_d: total - rho_s,
+        rho_s,
+        alpha,
+    };
+    (ward, log_alpha)
 }
 
 /// A parameter with its interval.
@@ -338,16 +345,25 @@ impl WardEstimate {
         }
     }
 
-    /// The estimate with each interval widened to hold `materials`' parameters (ρd, ρs, α).
-    pub fn holding(mut self, materials: impl IntoIterator<Item = (f64, f64, f64)>) -> WardEstimate {
+    /// The estimated parameters themselves, without their intervals.
+    pub fn value(&self) -> Ward {
+        Ward {
+            rho_d: self.rho_d.value,
+            rho_s: self.rho_s.value,
+            alpha: self.alpha.value,
+        }
+    }
+
+    /// The estimate with each interval widened to hold `materials`' parameters.
+    pub fn holding(mut self, materials: impl IntoIterator<Item = Ward>) -> WardEstimate {
         let widen = |i: &mut Interval, v: f64| {
             i.low = i.low.min(v);
             i.high = i.high.max(v);
         };
-        for (rho_d, rho_s, alpha) in materials {
-            widen(&mut self.rho_d, rho_d);
-            widen(&mut self.rho_s, rho_s);
-            widen(&mut self.alpha, alpha);
+        for w in materials {
+            widen(&mut self.rho_d, w.rho_d);
+            widen(&mut self.rho_s, w.rho_s);
+            widen(&mut self.alpha, w.alpha);
         }
         self
     }
@@ -508,18 +524,18 @@ impl WardRegressor {
         ds: &Dataset,
         materials: &[Material],
     ) -> Result<(EstimateReport, EstimateDetails), LearnError> {
-        let material_of_class = materials_of(ds, materials)?;
+        let ward_of_class = wards_of(ds, materials)?;
         let outputs: Vec<f64> = (0..ds.n_rows())
             .flat_map(|i| self.predict(&ds.x.row(i).to_vec()))
             .collect();
         let predictions = Array2::from_shape_vec((ds.n_rows(), 4), outputs)
             .map_err(|e| LearnError::InvalidParameter(e.to_string()))?;
-        let mut errors = row_errors_of(ds, &predictions, &material_of_class);
+        let mut errors = row_errors_of(ds, &predictions, &ward_of_class);
         let widths = vec![self.half_widths; ds.group_names.len()];
         mark_covered(ds, &mut errors, &widths);
         let mut report = report(ds, &errors);
         report.half_widths = self.half_widths;
-        let details = details(ds, &errors, &predictions, &widths, &material_of_class);
+        let details = details(ds, &errors, &predictions, &widths, &ward_of_class);
         Ok((report, details))
     }
 }
@@ -534,11 +550,11 @@ fn interval(value: f64, half_width: f64, bounds: (f64, f64)) -> Interval {
 
 /// The estimate of a prediction, with intervals of the given half-widths.
 pub fn estimate_of(prediction: &[f64], widths: &HalfWidths) -> WardEstimate {
-    let (rho_d, rho_s, alpha, log_alpha) = parameters(prediction);
+    let (ward, log_alpha) = parameters(prediction);
     let log_high = 10f64.powf(log_alpha + widths.log10_alpha);
-    let alpha = match alpha > 0.0 {
+    let alpha = match ward.alpha > 0.0 {
         true => Interval {
-            value: alpha,
+            value: ward.alpha,
             low: 10f64.powf(log_alpha - widths.log10_alpha),
             high: log_high,
         },
@@ -549,8 +565,8 @@ pub fn estimate_of(prediction: &[f64], widths: &HalfWidths) -> WardEstimate {
         },
     };
     WardEstimate {
-        rho_d: interval(rho_d, widths.rho_d, (0.0, 1.0)),
-        rho_s: interval(rho_s, widths.rho_s, (0.0, 1.0)),
+        rho_d: interval(ward.rho_d, widths.rho_d, (0.0, 1.0)),
+        rho_s: interval(ward.rho_s, widths.rho_s, (0.0, 1.0)),
         alpha,
     }
 }
@@ -598,17 +614,6 @@ pub struct Errors {
     pub coverage_alpha: f64,
 }
 
-/// The true Ward parameters of a row.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Truth {
-    /// Diffuse reflectance ρd.
-    pub rho_d: f64,
-    /// Specular reflectance ρs.
-    pub rho_s: f64,
-    /// Roughness α (0: an ideal mirror).
-    pub alpha: f64,
-}
-
 /// One image's estimate made without its illumination, with intervals sized by the other
 /// illuminations' errors (the ones its coverage counts).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -618,7 +623,7 @@ pub struct HeldOut {
     /// As written in the table (an augmented view keeps its `@suffix`).
     pub illumination: String,
     /// Its true parameters.
-    pub truth: Truth,
+    pub truth: Ward,
     /// The estimate, with its intervals.
     pub estimate: WardEstimate,
 }
@@ -669,8 +674,8 @@ struct RowErrors {
     covered: [bool; 3],
 }
 
-fn row_errors(prediction: &[f64], truth: &Material) -> RowErrors {
-    let (rho_d, rho_s, _, log_alpha) = parameters(prediction);
+fn row_errors(prediction: &[f64], truth: &Ward) -> RowErrors {
+    let (Ward { rho_d, rho_s, .. }, log_alpha) = parameters(prediction);
     let predicted_mirror = prediction[2] > 0.0;
     let true_mirror = truth.alpha == 0.0;
     // A mirror's α interval is [0, high]: its error is how far the estimate's log α reaches
@@ -695,17 +700,15 @@ fn mean(values: impl Iterator<Item = f64>) -> f64 {
     if n == 0 { f64::NAN } else { sum / n as f64 }
 }
 
-/// The materials of `ds`'s classes, by name.
-fn materials_of<'a>(
-    ds: &Dataset,
-    materials: &'a [Material],
-) -> Result<Vec<&'a Material>, LearnError> {
+/// The Ward parameters of `ds`'s classes, from `materials` by name.
+fn wards_of(ds: &Dataset, materials: &[Material]) -> Result<Vec<Ward>, LearnError> {
     ds.classes
         .iter()
         .map(|c| {
-            materials.iter().find(|m| &m.name == c).ok_or_else(|| {
+            let material = materials.iter().find(|m| &m.name == c).ok_or_else(|| {
                 LearnError::InvalidParameter(format!("class {c:?} has no Ward parameters"))
-            })
+            })?;
+            Ok(material.ward)
         })
         .collect()
 }
@@ -732,7 +735,7 @@ pub fn fit_observed(
     spec: &RegressionSpec,
     observer: &dyn Observer,
 ) -> Result<Fit, LearnError> {
-    let material_of_class = materials_of(ds, materials)?;
+    let ward_of_class = wards_of(ds, materials)?;
     let input_indices = features.resolve(&ds.names)?.ok_or_else(|| {
         LearnError::InvalidParameter("estimation needs a fixed feature set".into())
     })?;
@@ -740,7 +743,7 @@ pub fn fit_observed(
     let scaler = Scaler::fit(x.view());
     let z = scaler.transform(x.view());
     let y = Array2::from_shape_fn((ds.n_rows(), 4), |(i, o)| {
-        targets(material_of_class[ds.labels[i]])[o]
+        targets(&ward_of_class[ds.labels[i]])[o]
     });
     let total_anchor = input_indices
         .iter()
@@ -776,11 +779,11 @@ pub fn fit_observed(
             row[0] = 10f64.powf(row[0] + x[[i, k]]);
         }
     }
-    let mut errors = row_errors_of(ds, &held_out, &material_of_class);
+    let mut errors = row_errors_of(ds, &held_out, &ward_of_class);
     let group_widths = held_out_widths(ds, &errors);
     mark_covered(ds, &mut errors, &group_widths);
     let report = report(ds, &errors);
-    let details = details(ds, &errors, &held_out, &group_widths, &material_of_class);
+    let details = details(ds, &errors, &held_out, &group_widths, &ward_of_class);
     let regressor = WardRegressor {
         inputs: input_indices.iter().map(|&i| ds.names[i].clone()).collect(),
         input_indices,
@@ -813,15 +816,10 @@ fn widths<'a>(errors: impl Iterator<Item = &'a RowErrors> + Clone) -> HalfWidths
 fn row_errors_of(
     ds: &Dataset,
     predictions: &Array2<f64>,
-    material_of_class: &[&Material],
+    ward_of_class: &[Ward],
 ) -> Vec<RowErrors> {
     (0..ds.n_rows())
-        .map(|i| {
-            row_errors(
-                &predictions.row(i).to_vec(),
-                material_of_class[ds.labels[i]],
-            )
-        })
+        .map(|i| row_errors(&predictions.row(i).to_vec(), &ward_of_class[ds.labels[i]]))
         .collect()
 }
 
@@ -898,7 +896,7 @@ fn details(
     errors: &[RowErrors],
     held_out: &Array2<f64>,
     group_widths: &[HalfWidths],
-    material_of_class: &[&Material],
+    ward_of_class: &[Ward],
 ) -> EstimateDetails {
     let subset = |keep: &dyn Fn(usize) -> bool| {
         summarize(
@@ -921,18 +919,11 @@ fn details(
         })
         .collect();
     let rows = (0..ds.n_rows())
-        .map(|i| {
-            let m = material_of_class[ds.labels[i]];
-            HeldOut {
-                path: ds.paths[i].clone(),
-                illumination: ds.illuminations[i].clone(),
-                truth: Truth {
-                    rho_d: m.rho_d,
-                    rho_s: m.rho_s,
-                    alpha: m.alpha,
-                },
-                estimate: estimate_of(&held_out.row(i).to_vec(), &group_widths[ds.groups[i]]),
-            }
+        .map(|i| HeldOut {
+            path: ds.paths[i].clone(),
+            illumination: ds.illuminations[i].clone(),
+            truth: ward_of_class[ds.labels[i]],
+            estimate: estimate_of(&held_out.row(i).to_vec(), &group_widths[ds.groups[i]]),
         })
         .collect();
     EstimateDetails {
@@ -951,22 +942,22 @@ fn log_alpha_of(alpha: f64) -> f64 {
     }
 }
 
-/// The class (index into `classes`: (ρd, ρs, α)) nearest to an estimate, each parameter
+/// The class (index into `classes`' parameters) nearest to an estimate, each parameter
 /// measured in units of its interval half-width (ρd, ρs and log10 α), so that the parameters
 /// the estimate knows well count most; none without classes.
 pub fn nearest_class(
     estimate: &WardEstimate,
     widths: &HalfWidths,
-    classes: &[(f64, f64, f64)],
+    classes: &[Ward],
 ) -> Option<usize> {
     let unit = |w: f64| if w > 0.0 && w.is_finite() { w } else { 1.0 };
-    let distance = |&(rho_d, rho_s, alpha): &(f64, f64, f64)| {
-        let d = (estimate.rho_d.value - rho_d) / unit(widths.rho_d);
-        let s = (estimate.rho_s.value - rho_s) / unit(widths.rho_s);
+    let distance = |class: &Ward| {
+        let d = (estimate.rho_d.value - class.rho_d) / unit(widths.rho_d);
+        let s = (estimate.rho_s.value - class.rho_s) / unit(widths.rho_s);
         // A class without a specular part has no lobe, so no α to compare with.
-        let a = match rho_s > 0.0 {
+        let a = match class.rho_s > 0.0 {
             true => {
-                (log_alpha_of(estimate.alpha.value) - log_alpha_of(alpha))
+                (log_alpha_of(estimate.alpha.value) - log_alpha_of(class.alpha))
                     / unit(widths.log10_alpha)
             }
             false => 0.0,
@@ -1006,7 +997,7 @@ mod tests {
         };
         let f = black.specular_fraction();
         assert_eq!((f.value, f.low, f.high), (0.0, 0.0, 1.0));
-        let held = estimate.holding([(0.0, 0.75, 0.0)]);
+        let held = estimate.holding([ward(0.0, 0.75, 0.0)]);
         assert_eq!(
             (held.rho_d.low, held.rho_s.high, held.alpha.low),
             (0.0, 0.75, 0.0)
@@ -1023,9 +1014,8 @@ mod tests {
         assert_eq!((stated.rho_d, stated.unknown), (Some(estimate.rho_d), None));
     }
 
-    fn material(rho_d: f64, rho_s: f64, alpha: f64) -> Material {
-        Material {
-            name: "m".into(),
+    fn ward(rho_d: f64, rho_s: f64, alpha: f64) -> Ward {
+        Ward {
             rho_d,
             rho_s,
             alpha,
@@ -1034,20 +1024,21 @@ mod tests {
 
     #[test]
     fn targets_and_parameters_round_trip() {
-        for m in [
-            material(0.3, 0.2, 0.02),
-            material(0.0, 0.75, 0.0),
-            material(0.9, 0.0, 0.1),
+        for w in [
+            ward(0.3, 0.2, 0.02),
+            ward(0.0, 0.75, 0.0),
+            ward(0.9, 0.0, 0.1),
         ] {
-            let (rho_d, rho_s, alpha, _) = parameters(&targets(&m));
-            assert!((rho_d - m.rho_d).abs() < 1e-12, "{m:?}");
-            assert!((rho_s - m.rho_s).abs() < 1e-12, "{m:?}");
-            assert!((alpha - m.alpha).abs() < 1e-12, "{m:?}");
+            let (back, _) = parameters(&targets(&w));
+            assert!((back.rho_d - w.rho_d).abs() < 1e-12, "{w:?}");
+            assert!((back.rho_s - w.rho_s).abs() < 1e-12, "{w:?}");
+            assert!((back.alpha - w.alpha).abs() < 1e-12, "{w:?}");
         }
         // Out-of-range predictions land on valid parameters.
-        let (rho_d, rho_s, alpha, _) = parameters(&[1.3, -0.2, -0.4, 0.5]);
-        assert_eq!((rho_d, rho_s), (1.0, 0.0));
-        assert!((alpha - 0.2).abs() < 1e-12);
+        let (w, _) = parameters(&[1.3, -0.2, -0.4, 0.5]);
+        assert_eq!((w.rho_d, w.rho_s), (1.0, 0.0));
+        assert!((w.alpha - 0.2).abs() < 1e-12);
+        w.validate().unwrap();
     }
 
     /// Materials of the design under 6 illuminations, seen through features that are smooth
@@ -1060,14 +1051,18 @@ mod tests {
         for g in 0..6 {
             let shift: Vec<f64> = (0..5).map(|_| 0.05 * (rng.next_f64() - 0.5)).collect();
             for m in materials {
-                let log_alpha = if m.alpha > 0.0 { m.alpha.log10() } else { -3.0 };
-                let total = m.rho_d + m.rho_s;
+                let log_alpha = if m.ward.alpha > 0.0 {
+                    m.ward.alpha.log10()
+                } else {
+                    -3.0
+                };
+                let total = m.ward.rho_d + m.ward.rho_s;
                 let clean = [
                     if anchored { total.log10() } else { total },
-                    m.rho_s,
-                    m.rho_d,
+                    m.ward.rho_s,
+                    m.ward.rho_d,
                     log_alpha,
-                    m.rho_s * (-2.0 - log_alpha),
+                    m.ward.rho_s * (-2.0 - log_alpha),
                 ];
                 let values = clean
                     .iter()
@@ -1230,36 +1225,40 @@ mod tests {
 
     #[test]
     fn nearest_class_weighs_each_parameter_by_its_uncertainty() {
-        let classes = [(0.1, 0.02, 0.1), (0.0, 0.8, 0.0), (0.4, 0.1, 0.02)];
+        let classes = [
+            ward(0.1, 0.02, 0.1),
+            ward(0.0, 0.8, 0.0),
+            ward(0.4, 0.1, 0.02),
+        ];
         let widths = HalfWidths {
             rho_d: 0.1,
             rho_s: 0.1,
             log10_alpha: 0.3,
         };
         let near =
-            |m: Material, w: &HalfWidths| nearest_class(&estimate_of(&targets(&m), w), w, &classes);
-        assert_eq!(near(material(0.12, 0.01, 0.09), &widths), Some(0));
-        assert_eq!(near(material(0.05, 0.7, 0.0), &widths), Some(1));
-        assert_eq!(near(material(0.35, 0.12, 0.03), &widths), Some(2));
+            |m: Ward, w: &HalfWidths| nearest_class(&estimate_of(&targets(&m), w), w, &classes);
+        assert_eq!(near(ward(0.12, 0.01, 0.09), &widths), Some(0));
+        assert_eq!(near(ward(0.05, 0.7, 0.0), &widths), Some(1));
+        assert_eq!(near(ward(0.35, 0.12, 0.03), &widths), Some(2));
         // Between classes 0 and 2 in ρd but with class 2's α: an α known well decides…
-        let between = material(0.25, 0.05, 0.02);
-        assert_eq!(near(between.clone(), &widths), Some(2));
+        let between = ward(0.25, 0.05, 0.02);
+        assert_eq!(near(between, &widths), Some(2));
         // …and one known poorly does not: ρd then decides.
         let vague = HalfWidths {
             log10_alpha: 100.0,
             ..widths
         };
-        assert_eq!(near(material(0.2, 0.05, 0.02), &vague), Some(0));
+        assert_eq!(near(ward(0.2, 0.05, 0.02), &vague), Some(0));
         assert_eq!(
             nearest_class(&estimate_of(&targets(&between), &widths), &widths, &[]),
             None
         );
         // A matte class (no specular part) has no α: a sphere with hardly any gloss is
         // nearest to it whatever its α, though its α matches the shiny class exactly.
-        let matte_or_shiny = [(0.1, 0.0, 0.0), (0.1, 0.1, 0.01)];
-        let barely = estimate_of(&targets(&material(0.1, 0.02, 0.01)), &widths);
+        let matte_or_shiny = [ward(0.1, 0.0, 0.0), ward(0.1, 0.1, 0.01)];
+        let barely = estimate_of(&targets(&ward(0.1, 0.02, 0.01)), &widths);
         assert_eq!(nearest_class(&barely, &widths, &matte_or_shiny), Some(0));
-        let shiny = estimate_of(&targets(&material(0.1, 0.09, 0.01)), &widths);
+        let shiny = estimate_of(&targets(&ward(0.1, 0.09, 0.01)), &widths);
         assert_eq!(nearest_class(&shiny, &widths, &matte_or_shiny), Some(1));
     }
 
@@ -1270,12 +1269,12 @@ mod tests {
             rho_s: 0.1,
             log10_alpha: 0.3,
         };
-        let glossy = estimate_of(&targets(&material(0.02, 0.95, 0.01)), &widths);
+        let glossy = estimate_of(&targets(&ward(0.02, 0.95, 0.01)), &widths);
         assert_eq!(glossy.rho_d.low, 0.0);
         assert_eq!(glossy.rho_s.high, 1.0);
         assert!((glossy.alpha.low - 0.01 / 10f64.powf(0.3)).abs() < 1e-12);
         assert!((glossy.alpha.high - 0.01 * 10f64.powf(0.3)).abs() < 1e-12);
-        let mirror = estimate_of(&targets(&material(0.0, 0.8, 0.0)), &widths);
+        let mirror = estimate_of(&targets(&ward(0.0, 0.8, 0.0)), &widths);
         assert_eq!((mirror.alpha.value, mirror.alpha.low), (0.0, 0.0));
         assert!((mirror.alpha.high - 10f64.powf(MIRROR_LOG_ALPHA + 0.3)).abs() < 1e-12);
     }

@@ -11,6 +11,7 @@ use crate::features::Extractor;
 use crate::image::display;
 use crate::learn::LearnError;
 use crate::locate;
+use crate::material::Ward;
 use crate::model::{Head, ModelError, ModelFile, Request};
 use crate::object::normals::NormalsError;
 use crate::white::Method as WhiteMethod;
@@ -108,15 +109,12 @@ impl LoadedModel {
     /// has an estimator and knows every class's Ward parameters.
     pub fn nearest_class(&self, estimate: &WardEstimate) -> Option<usize> {
         let estimator = self.file.estimator.as_ref()?;
-        let wards: Option<Vec<(f64, f64, f64)>> = self
+        let wards: Option<Vec<Ward>> = self
             .file
             .classifier
             .classes
             .iter()
-            .map(|name| {
-                let info = self.file.classes.iter().find(|c| &c.name == name)?;
-                info.ward.as_ref().map(|w| (w.rho_d, w.rho_s, w.alpha))
-            })
+            .map(|name| self.file.ward_of(name))
             .collect();
         crate::estimate::nearest_class(estimate, &estimator.half_widths, &wards?)
     }
@@ -512,16 +510,13 @@ pub fn estimate(file: &ModelFile, decision: &Decision, values: &[f64]) -> Option
         Some(set) => set.clone(),
         None => vec![decision.class],
     };
-    let parameters = named.iter().filter_map(|&k| {
-        let info = file.classes.iter().find(|c| c.name == classes[k])?;
-        info.ward.as_ref().map(|w| (w.rho_d, w.rho_s, w.alpha))
-    });
+    let parameters = named.iter().filter_map(|&k| file.ward_of(&classes[k]));
     Some(estimate.holding(parameters))
 }
 
 /// The prediction set of a classification: the head's calibrated set, and, when there is no
 /// white reference, every class that differs from a member mainly by a brightness scale
-/// ([`crate::model::Ward::same_up_to_scale`]): the exposure of a photograph without a white
+/// ([`Ward::same_up_to_scale`]): the exposure of a photograph without a white
 /// card hides that difference, whatever the training captures' exposures taught.
 fn prediction_set(
     file: &ModelFile,
@@ -533,10 +528,7 @@ fn prediction_set(
     let mut set = head.prediction_sets?.set(probabilities, coverage);
     if !white_given {
         let classes = &head.classifier.classes;
-        let ward = |k: usize| {
-            let info = file.classes.iter().find(|c| c.name == classes[k])?;
-            info.ward.clone()
-        };
+        let ward = |k: usize| file.ward_of(&classes[k]);
         for k in 0..classes.len() {
             let alike = set.iter().any(|&m| match (ward(m), ward(k)) {
                 (Some(a), Some(b)) => a.same_up_to_scale(&b),

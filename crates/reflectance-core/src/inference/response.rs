@@ -9,8 +9,9 @@ use crate::features::Extractor;
 use crate::image::colour::{self, Rgb};
 use crate::image::display;
 use crate::locate::{self, Method as GeometryMethod};
+use crate::material::Ward;
 use crate::material::gltf::METAL_RATIO;
-use crate::model::{ClassInfo, Head, Ward};
+use crate::model::{ClassInfo, Head};
 use crate::white::Method as WhiteMethod;
 use serde::{Deserialize, Serialize};
 
@@ -245,7 +246,7 @@ impl From<&ClassInfo> for ClassOut {
         ClassOut {
             name: c.name.clone(),
             description: c.description(),
-            ward: c.ward.clone(),
+            ward: c.ward,
         }
     }
 }
@@ -571,7 +572,7 @@ pub(super) fn materials(
     estimate: Option<&WardEstimate>,
     white_given: bool,
 ) -> Option<MaterialsOut> {
-    let class = class.ward.clone().map(|ward| MaterialOut {
+    let class = class.ward.map(|ward| MaterialOut {
         source: "class".into(),
         name: class.name.clone(),
         ward,
@@ -581,11 +582,7 @@ pub(super) fn materials(
     let estimate = estimate.filter(|_| white_given).map(|e| MaterialOut {
         source: "estimate".into(),
         name: "estimate".into(),
-        ward: Ward {
-            rho_d: e.rho_d.value,
-            rho_s: e.rho_s.value,
-            alpha: e.alpha.value,
-        },
+        ward: e.value(),
         nearest_class: model
             .nearest_class(e)
             .map(|k| model.file.classifier.classes()[k].clone()),

@@ -6,7 +6,7 @@
 //! ρs is uniform in [0, ρs_max]; ρd uniform in [0, 1 − ρs] (energy conservation); α is 0
 //! (an ideal mirror) for a share of the materials, else log-uniform in [α_min, α_max].
 
-use super::Material;
+use super::{Material, Ward};
 use crate::util::rng::Rng;
 
 /// The parameter ranges of the design.
@@ -57,9 +57,11 @@ fn material(name: String, [u_s, u_d, u_a]: [f64; 3], ranges: &Ranges) -> Materia
     };
     Material {
         name,
-        rho_d,
-        rho_s,
-        alpha,
+        ward: Ward {
+            rho_d,
+            rho_s,
+            alpha,
+        },
     }
 }
 
@@ -92,21 +94,24 @@ mod tests {
         assert_eq!(design.len(), n);
         let mut rho_s_strata: Vec<usize> = design
             .iter()
-            .map(|m| (m.rho_s / ranges.rho_s_max * n as f64) as usize)
+            .map(|m| (m.ward.rho_s / ranges.rho_s_max * n as f64) as usize)
             .collect();
         rho_s_strata.sort();
         assert_eq!(rho_s_strata, (0..n).collect::<Vec<_>>());
         let mut rho_d_strata: Vec<usize> = design
             .iter()
-            .map(|m| (m.rho_d / (1.0 - m.rho_s) * n as f64) as usize)
+            .map(|m| (m.ward.rho_d / (1.0 - m.ward.rho_s) * n as f64) as usize)
             .collect();
         rho_d_strata.sort();
         assert_eq!(rho_d_strata, (0..n).collect::<Vec<_>>());
-        let mirrors = design.iter().filter(|m| m.alpha == 0.0).count();
+        let mirrors = design.iter().filter(|m| m.ward.alpha == 0.0).count();
         assert_eq!(mirrors, 10, "a quarter of 40");
         for m in &design {
             m.validate().unwrap();
-            assert!(m.alpha == 0.0 || (0.005..=0.2).contains(&m.alpha), "{m:?}");
+            assert!(
+                m.ward.alpha == 0.0 || (0.005..=0.2).contains(&m.ward.alpha),
+                "{m:?}"
+            );
         }
         assert_eq!(design[0].name, "m0001");
     }
@@ -116,8 +121,8 @@ mod tests {
         let design = continuous(300, 3, &Ranges::default());
         let logs: Vec<f64> = design
             .iter()
-            .filter(|m| m.alpha > 0.0)
-            .map(|m| m.alpha.log10())
+            .filter(|m| m.ward.alpha > 0.0)
+            .map(|m| m.ward.alpha.log10())
             .collect();
         let (lo, hi) = (0.005f64.log10(), 0.2f64.log10());
         // Each quarter of the log range holds a quarter of the glossy materials (±1).

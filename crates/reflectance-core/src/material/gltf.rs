@@ -29,7 +29,7 @@
 //!   is ρs. Over the disc cos θ = √(1 − ρ²) with ρ² uniform, so the mean of (1 − cos θ)⁵ is
 //!   1/21 and F0 = (ρs − 1/21) / (1 − 1/21); ρd is dropped.
 
-use super::Material;
+use super::{Material, Ward};
 use serde_json::{Value, json};
 
 /// Over a sphere's disc, the mean of Schlick's (1 − cos θ)⁵.
@@ -124,9 +124,9 @@ pub fn dielectric_f0(rho_s: f64) -> f64 {
 }
 
 /// The mapping of (ρd, ρs, α) onto glTF's model (see the module's documentation).
-pub fn pbr_of(rho_d: f64, rho_s: f64, alpha: f64) -> Pbr {
-    let (rho_d, rho_s) = (rho_d.clamp(0.0, 1.0), rho_s.clamp(0.0, 1.0));
-    let roughness = (GGX_ALPHA_SCALE * alpha.clamp(0.0, 1.0)).sqrt();
+pub fn pbr_of(ward: &Ward) -> Pbr {
+    let (rho_d, rho_s) = (ward.rho_d.clamp(0.0, 1.0), ward.rho_s.clamp(0.0, 1.0));
+    let roughness = (GGX_ALPHA_SCALE * ward.alpha.clamp(0.0, 1.0)).sqrt();
     if rho_s > 0.0 && rho_d < METAL_RATIO * rho_s {
         return Pbr {
             base_color: metal_f0(rho_s),
@@ -298,13 +298,8 @@ pub struct SphereAsset {
 /// A sphere with `material`'s glTF material (tinted by `colour` when known), recording the
 /// Ward parameters and the colour in `extras` with `about`.
 pub fn sphere(material: &Material, colour: Option<Rgb>, about: Value) -> SphereAsset {
-    let (name, rho_d, rho_s, alpha) = (
-        material.name.as_str(),
-        material.rho_d,
-        material.rho_s,
-        material.alpha,
-    );
-    let pbr = pbr_of(rho_d, rho_s, alpha);
+    let name = material.name.as_str();
+    let pbr = pbr_of(&material.ward);
     let (positions, indices) = sphere_mesh(32, 64);
     // On a unit sphere the normal is the position.
     let mut buffer = le_bytes(positions.iter().flatten().copied());
@@ -342,7 +337,7 @@ pub fn sphere(material: &Material, colour: Option<Rgb>, about: Value) -> SphereA
             {"bufferView": 2, "componentType": 5123, "count": indices.len(), "type": "SCALAR"},
         ],
         "extras": {
-            "ward": {"rho_d": rho_d, "rho_s": rho_s, "alpha": alpha},
+            "ward": material.ward,
             "colour": colour,
             "about": about,
         },
@@ -399,6 +394,19 @@ impl SphereAsset {
 mod tests {
     use super::*;
 
+    fn ward(rho_d: f64, rho_s: f64, alpha: f64) -> Ward {
+        Ward {
+            rho_d,
+            rho_s,
+            alpha,
+        }
+    }
+
+    /// The mapping of these parameters.
+    fn pbr(rho_d: f64, rho_s: f64, alpha: f64) -> Pbr {
+        pbr_of(&ward(rho_d, rho_s, alpha))
+    }
+
     /// The disc mean of Schlick's weight, by quadrature.
     #[test]
     fn the_disc_mean_of_the_fresnel_weight_is_one_twenty_first() {
@@ -440,7 +448,7 @@ mod tests {
             (0.7, 0.2, 0.0),
             (0.7, 0.25, 0.02),
         ] {
-            let p = pbr_of(rho_d, rho_s, alpha);
+            let p = pbr(rho_d, rho_s, alpha);
             assert_eq!((p.metallic, p.specular), (0.0, 1.0), "{p:?}");
             assert!(p.ior >= 1.0, "{p:?}");
             let f0 = fresnel_dielectric(1.0, p.ior);
@@ -456,43 +464,41 @@ mod tests {
         }
         // A dielectric as shiny as a metal: the exact term's dip at Brewster's angle lifts F0
         // above ρs; the index stays a real one.
-        let glaze = pbr_of(0.1, 0.9, 0.1);
+        let glaze = pbr(0.1, 0.9, 0.1);
         let f0 = fresnel_dielectric(1.0, glaze.ior);
         assert!(glaze.ior > 1.0 && f0 < 0.99, "{glaze:?}");
         let w = GRAZING_LIGHT;
         assert!(((1.0 - w) * f0 + w * disc_fresnel(f0) - 0.9).abs() < 1e-9);
         // Classes of the paper's Fig. 11, against the rule solved independently (numpy, 20 000
         // points of the disc): F0 0.0316 and 0.2403.
-        let gray_shiny = pbr_of(0.25, 0.05, 0.01);
+        let gray_shiny = pbr(0.25, 0.05, 0.01);
         assert!((gray_shiny.ior - 1.4326).abs() < 2e-3, "{gray_shiny:?}");
-        let white_shiny = pbr_of(0.7, 0.25, 0.01);
+        let white_shiny = pbr(0.7, 0.25, 0.01);
         assert!((white_shiny.ior - 2.9232).abs() < 5e-3, "{white_shiny:?}");
     }
 
     /// Matte surfaces reflect nothing; metals average ρs over the disc.
     #[test]
     fn mattes_and_metals() {
-        let matte = pbr_of(0.9, 0.0, 0.0);
+        let matte = pbr(0.9, 0.0, 0.0);
         assert_eq!(
             (matte.base_color, matte.specular, matte.metallic),
             (0.9, 0.0, 0.0)
         );
         for rho_s in [0.75, 0.3, 0.05] {
-            let metal = pbr_of(0.0, rho_s, 0.0);
+            let metal = pbr(0.0, rho_s, 0.0);
             assert_eq!(metal.metallic, 1.0);
             let mean = metal.base_color + (1.0 - metal.base_color) * DISC_FRESNEL_WEIGHT;
             assert!((mean - rho_s).abs() < 1e-9, "{rho_s}: {metal:?}");
         }
-        assert_eq!(pbr_of(0.05, 0.05, 0.0).metallic, 0.0);
+        assert_eq!(pbr(0.05, 0.05, 0.0).metallic, 0.0);
     }
 
     #[test]
     fn the_asset_holds_a_closed_sphere_and_only_the_extensions_it_uses() {
         let material = |name: &str, rho_d, rho_s, alpha| Material {
             name: name.into(),
-            rho_d,
-            rho_s,
-            alpha,
+            ward: ward(rho_d, rho_s, alpha),
         };
         let chrome = sphere(&material("chrome", 0.0, 0.75, 0.0), None, Value::Null).gltf_json();
         assert!(chrome.get("extensionsUsed").is_none());
@@ -516,9 +522,7 @@ mod tests {
         let asset = sphere(
             &Material {
                 name: "gray_shiny".into(),
-                rho_d: 0.25,
-                rho_s: 0.05,
-                alpha: 0.01,
+                ward: ward(0.25, 0.05, 0.01),
             },
             None,
             json!({"source": "test"}),
@@ -565,9 +569,7 @@ mod tests {
         assert!((luminance(red) - 1.0).abs() < 1e-12);
         let plastic = Material {
             name: "red".into(),
-            rho_d: 0.3,
-            rho_s: 0.05,
-            alpha: 0.02,
+            ward: ward(0.3, 0.05, 0.02),
         };
         let doc = sphere(&plastic, Some(red), Value::Null).gltf_json();
         let base: Vec<f64> = doc["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"]
@@ -576,7 +578,7 @@ mod tests {
             .iter()
             .map(|v| v.as_f64().unwrap())
             .collect();
-        let grey = pbr_of(0.3, 0.05, 0.02).base_color;
+        let grey = pbr(0.3, 0.05, 0.02).base_color;
         assert!(
             (luminance([base[0], base[1], base[2]]) - grey).abs() < 1e-9,
             "{base:?}"

@@ -5,49 +5,88 @@
 pub mod design;
 mod envelope;
 pub mod gltf;
+mod ward;
 
 pub use envelope::{CaptureEnvelope, CaptureRanges, InvalidRanges, VIEW_TAG};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
+pub use ward::{InvalidWard, Ward};
 
-/// One reflectance class: isotropic Ward parameters (diffuse ρd, specular ρs, roughness
-/// α; α = 0 is the ideal mirror).
+/// One reflectance class: its name and its Ward parameters (on the wire flat, as class
+/// files hold it: `{"name", "rho_d", "rho_s", "alpha"}`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(from = "Flat", into = "Flat")]
 pub struct Material {
     /// The class's name (not empty).
     pub name: String,
-    /// Diffuse reflectance ρd ≥ 0.
-    pub rho_d: f64,
-    /// Specular reflectance ρs ≥ 0, with ρd + ρs ≤ 1.
-    pub rho_s: f64,
-    /// Roughness α, in [0, 1] (0: the ideal mirror).
-    pub alpha: f64,
+    /// Its Ward parameters.
+    pub ward: Ward,
 }
 
-/// A class whose parameters break the rules of [`Material::validate`].
+/// A class as class files spell it. Not `#[serde(flatten)]`: that buffers the object, and
+/// a class file's errors would then point past the class rather than at the bad value.
+#[derive(Serialize, Deserialize)]
+#[serde(rename = "Material", expecting = "struct Material")]
+struct Flat {
+    name: String,
+    rho_d: f64,
+    rho_s: f64,
+    alpha: f64,
+}
+
+impl From<Flat> for Material {
+    fn from(f: Flat) -> Material {
+        let ward = Ward {
+            rho_d: f.rho_d,
+            rho_s: f.rho_s,
+            alpha: f.alpha,
+        };
+        Material { name: f.name, ward }
+    }
+}
+
+impl From<Material> for Flat {
+    fn from(m: Material) -> Flat {
+        let Ward {
+            rho_d,
+            rho_s,
+            alpha,
+        } = m.ward;
+        Flat {
+            name: m.name,
+            rho_d,
+            rho_s,
+            alpha,
+        }
+    }
+}
+
+/// A class that breaks the rules of [`Material::validate`].
 #[derive(Debug, thiserror::Error, PartialEq)]
-#[error("class {name:?}: need 0 ≤ rho_d, 0 ≤ rho_s, rho_d + rho_s ≤ 1 and 0 ≤ alpha ≤ 1")]
-pub struct MaterialError {
-    /// The class's name.
-    pub name: String,
+pub enum MaterialError {
+    /// A class without a name.
+    #[error("a class needs a name")]
+    Unnamed,
+    /// A class whose parameters break the rules of [`Ward::validate`].
+    #[error("class {name:?}: {ward}")]
+    Ward {
+        /// The class's name.
+        name: String,
+        /// Its parameters, and the rules.
+        ward: InvalidWard,
+    },
 }
 
 impl Material {
-    /// Check the rules: a name, 0 ≤ ρd, 0 ≤ ρs, ρd + ρs ≤ 1 and 0 ≤ α ≤ 1.
+    /// Check the rules: a name, and parameters that keep [`Ward::validate`]'s.
     pub fn validate(&self) -> Result<(), MaterialError> {
-        // The sum may exceed 1 by rounding (0.7 + 0.3 in a class file); each part may not.
-        let ok = (0.0..=1.0).contains(&self.rho_d)
-            && (0.0..=1.0).contains(&self.rho_s)
-            && self.rho_d + self.rho_s <= 1.0 + 1e-12
-            && (0.0..=1.0).contains(&self.alpha)
-            && !self.name.is_empty();
-        if ok {
-            Ok(())
-        } else {
-            Err(MaterialError {
-                name: self.name.clone(),
-            })
+        if self.name.is_empty() {
+            return Err(MaterialError::Unnamed);
         }
+        self.ward.validate().map_err(|ward| MaterialError::Ward {
+            name: self.name.clone(),
+            ward,
+        })
     }
 }
 
@@ -110,25 +149,41 @@ pub fn load_classes(path: &Path) -> Result<Vec<Material>, ClassFileError> {
 
 #[cfg(test)]
 mod tests {
-    use super::Material;
-
-    fn material(rho_d: f64, rho_s: f64) -> Material {
-        Material {
-            name: "m".into(),
-            rho_d,
-            rho_s,
-            alpha: 0.05,
-        }
-    }
+    use super::{Material, MaterialError, Ward};
 
     #[test]
-    fn each_reflectance_is_at_most_one_and_their_sum_rounds() {
-        assert!(material(1.0, 0.0).validate().is_ok());
-        // A sum above 1 by rounding only, as class files hold.
-        assert!(material(0.700_000_000_000_000_1, 0.3).validate().is_ok());
-        assert!(material(1.000_000_000_000_000_2, 0.0).validate().is_err());
-        assert!(material(0.0, 1.000_000_000_000_000_2).validate().is_err());
-        assert!(material(0.6, 0.5).validate().is_err());
-        assert!(material(-0.0001, 0.5).validate().is_err());
+    fn a_class_needs_a_name_and_valid_parameters() {
+        let ward = Ward {
+            rho_d: 0.7,
+            rho_s: 0.25,
+            alpha: 0.01,
+        };
+        let class = |name: &str, ward| Material {
+            name: name.into(),
+            ward,
+        };
+        assert!(class("a", ward).validate().is_ok());
+        assert_eq!(class("", ward).validate(), Err(MaterialError::Unnamed));
+        let bright = Ward { rho_s: 0.5, ..ward };
+        let e = class("a", bright).validate().unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!("class \"a\": {}", bright.validate().unwrap_err())
+        );
+    }
+
+    /// On the wire a class is flat, as class files hold it; an error points at the bad
+    /// value.
+    #[test]
+    fn a_class_reads_and_writes_flat() {
+        let text = r#"{"name":"chrome","rho_d":0.0,"rho_s":0.75,"alpha":0.0}"#;
+        let class: Material = serde_json::from_str(text).unwrap();
+        assert_eq!(class.ward.rho_s, 0.75);
+        assert_eq!(serde_json::to_string(&class).unwrap(), text);
+        let bad = r#"{"name":"x","rho_d":"0.3","rho_s":0.1,"alpha":0.0}"#;
+        let e = serde_json::from_str::<Material>(bad).unwrap_err();
+        assert_eq!((e.line(), e.column()), (1, 25), "{e}");
+        let e = serde_json::from_str::<Material>("3").unwrap_err();
+        assert!(e.to_string().contains("expected struct Material"), "{e}");
     }
 }

@@ -13,7 +13,7 @@ use crate::classify::domain::DomainCheck;
 use crate::estimate::WardRegressor;
 use crate::features::{ConfigError, FeatureConfig};
 use crate::learn::LearnError;
-use crate::material::CaptureEnvelope;
+use crate::material::{CaptureEnvelope, Ward};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use sha2::{Digest, Sha256};
@@ -24,65 +24,6 @@ pub const SCHEMA: &str = "reflectance.model";
 pub const SCHEMA_VERSION: u32 = 1;
 /// The self-test must reproduce the stored probabilities to this precision.
 const SELF_TEST_TOLERANCE: f64 = 1e-9;
-
-/// Ward reflectance parameters (of a class rendered from them, or estimated).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
-#[cfg_attr(feature = "openapi", schema(as = WardParams))]
-pub struct Ward {
-    /// Diffuse reflectance ρd, in [0, 1].
-    pub rho_d: f64,
-    /// Specular reflectance ρs, in [0, 1] (0: matte).
-    pub rho_s: f64,
-    /// Roughness α, the standard deviation of the surface slope (0: a perfect mirror).
-    pub alpha: f64,
-}
-
-impl Ward {
-    /// Whether the two reflectances differ, to a camera without a white reference, mainly
-    /// in how much light they reflect: the same kind of surface (matte: ρs = 0; metal: ρd <
-    /// 0.02 with ρs > 0; else glossy) with the same roughness α (within 10 %). Without white,
-    /// such spheres differ in the image mostly by a brightness scale, which the exposure
-    /// hides (exactly so for matte ones).
-    pub fn same_up_to_scale(&self, other: &Ward) -> bool {
-        #[derive(PartialEq)]
-        enum Kind {
-            Matte,
-            Metal,
-            Glossy,
-        }
-        let kind = |w: &Ward| match (w.rho_d, w.rho_s) {
-            (_, s) if s <= 0.0 => Kind::Matte,
-            (d, _) if d < 0.02 => Kind::Metal,
-            _ => Kind::Glossy,
-        };
-        let alpha_alike = (self.alpha - other.alpha).abs() <= 0.1 * self.alpha.max(other.alpha);
-        kind(self) == kind(other) && (kind(self) == Kind::Matte || alpha_alike)
-    }
-
-    /// The reflectance in words, for people: the tone of the diffuse part, and how much and
-    /// how sharply the surface mirrors its surroundings.
-    pub fn describe(&self) -> String {
-        let sharpness = match self.alpha {
-            a if a <= 0.0 => "sharp",
-            a if a <= 0.03 => "slightly blurred",
-            _ => "blurred",
-        };
-        let tone = match self.rho_d {
-            d if d < 0.15 => "black",
-            d if d < 0.5 => "grey",
-            _ => "white",
-        };
-        match (self.rho_d, self.rho_s) {
-            (_, s) if s <= 0.0 => format!("{tone} matte"),
-            (d, s) if d < 0.02 && s >= 0.5 => {
-                format!("metal: a mirror with {sharpness} reflections")
-            }
-            (_, s) if s < 0.15 => format!("{tone}, faintly glossy: {sharpness} reflections"),
-            _ => format!("{tone}, glossy: {sharpness} reflections"),
-        }
-    }
-}
 
 /// A class the model knows: its name, and its Ward parameters when rendered from them.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -628,6 +569,11 @@ impl ModelFile {
     pub fn stored_heads(&self) -> impl Iterator<Item = &StoredHead> {
         self.no_white.iter().chain(&self.objects)
     }
+
+    /// The Ward parameters of the class named `class`, when the model knows them.
+    pub fn ward_of(&self, class: &str) -> Option<Ward> {
+        self.classes.iter().find(|c| c.name == class)?.ward
+    }
 }
 
 /// Current time as RFC 3339 UTC (`2026-11-21T12:00:00Z`), or `SOURCE_DATE_EPOCH` when set
@@ -670,58 +616,22 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_papers_eleven_reflectances_have_eleven_descriptions() {
-        let ward = |rho_d, rho_s, alpha| Ward {
-            rho_d,
-            rho_s,
-            alpha,
+    fn a_class_is_described_by_its_parameters_else_by_its_name() {
+        let ward = Ward {
+            rho_d: 0.1,
+            rho_s: 0.0,
+            alpha: 0.0,
         };
-        let described: Vec<String> = [
-            ward(0.1, 0.0, 0.0),
-            ward(0.9, 0.0, 0.0),
-            ward(0.35, 0.0, 0.0),
-            ward(0.0, 0.75, 0.0),
-            ward(0.05, 0.05, 0.0),
-            ward(0.7, 0.2, 0.0),
-            ward(0.05, 0.05, 0.02),
-            ward(0.7, 0.25, 0.02),
-            ward(0.25, 0.1, 0.0),
-            ward(0.25, 0.1, 0.02),
-            ward(0.0, 0.75, 0.02),
-        ]
-        .iter()
-        .map(Ward::describe)
-        .collect();
-        let unique: std::collections::HashSet<_> = described.iter().collect();
-        assert_eq!(unique.len(), 11, "{described:?}");
-        assert_eq!(described[0], "black matte");
-        assert_eq!(described[3], "metal: a mirror with sharp reflections");
-        assert_eq!(described[7], "white, glossy: slightly blurred reflections");
-        assert_eq!(described[8], "grey, faintly glossy: sharp reflections");
+        let rendered = ClassInfo {
+            name: "A".into(),
+            ward: Some(ward),
+        };
+        assert_eq!(rendered.description(), "black matte");
         let named = ClassInfo {
             name: "white_shiny".into(),
             ward: None,
         };
         assert_eq!(named.description(), "white shiny");
-    }
-
-    #[test]
-    fn reflectances_alike_up_to_a_brightness_scale() {
-        let ward = |rho_d, rho_s, alpha| Ward {
-            rho_d,
-            rho_s,
-            alpha,
-        };
-        let (black, white) = (ward(0.1, 0.0, 0.0), ward(0.9, 0.0, 0.0));
-        let (black_shiny, gray_shiny) = (ward(0.1, 0.1, 0.01), ward(0.25, 0.05, 0.01));
-        let chrome = ward(0.0, 0.75, 0.0);
-        assert!(black.same_up_to_scale(&white) && white.same_up_to_scale(&black));
-        assert!(black_shiny.same_up_to_scale(&gray_shiny));
-        assert!(!black_shiny.same_up_to_scale(&black));
-        assert!(!chrome.same_up_to_scale(&black_shiny));
-        // The paper's E and G differ only in α.
-        assert!(!ward(0.05, 0.05, 0.0).same_up_to_scale(&ward(0.05, 0.05, 0.02)));
-        assert!(chrome.same_up_to_scale(&ward(0.0, 0.5, 0.0)));
     }
 
     #[test]

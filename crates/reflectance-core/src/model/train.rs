@@ -13,11 +13,10 @@ use crate::features::stats;
 use crate::features::{CAPTURE_NAMES, Families, FeatureConfig, Preprocessing};
 use crate::image::display;
 use crate::learn::{Dataset, FeatureSet, LearnError};
-use crate::material::Material;
-use crate::material::{CaptureEnvelope, CaptureRanges, VIEW_TAG};
+use crate::material::{CaptureEnvelope, CaptureRanges, Material, VIEW_TAG};
 use crate::model::{
     self, ClassInfo, Exemplar, FeatureSpec, ModelError, ModelFile, Provenance, SelfTest, StoredCv,
-    StoredHead, Ward,
+    StoredHead,
 };
 use crate::util::progress::{Observer, Silent};
 use rayon::prelude::*;
@@ -313,13 +312,7 @@ fn fit_classifier(
 /// The classes in the classifier's order, with their Ward parameters when a class file
 /// gave them.
 fn class_infos(names: &[String], materials: Option<&[Material]>) -> Vec<ClassInfo> {
-    let ward_of = |name: &str| {
-        materials?.iter().find(|m| m.name == name).map(|m| Ward {
-            rho_d: m.rho_d,
-            rho_s: m.rho_s,
-            alpha: m.alpha,
-        })
-    };
+    let ward_of = |name: &str| materials?.iter().find(|m| m.name == name).map(|m| m.ward);
     names
         .iter()
         .map(|name| ClassInfo {

@@ -19,7 +19,7 @@ use reflectance_core::locate::{self, Circle, GeometryError};
 use reflectance_core::util::rng::Rng;
 use reflectance_render::capture;
 use reflectance_render::envmap::EnvMap;
-use reflectance_render::ward::Material;
+use reflectance_render::ward::Ward;
 use reflectance_render::{Lighting, Quality, View};
 use std::path::PathBuf;
 
@@ -67,9 +67,8 @@ fn spheres(probes: &[EnvMap]) -> Vec<Sphere> {
         let lighting = Lighting::new(map.clone());
         let view = View::default();
         let white = lighting.white(&view);
-        for (class, rho_d, rho_s, alpha) in classes {
-            let material = Material {
-                name: class.into(),
+        for (_class, rho_d, rho_s, alpha) in classes {
+            let material = Ward {
                 rho_d,
                 rho_s,
                 alpha,

@@ -12,7 +12,7 @@ use reflectance_core::features::{
 };
 use reflectance_core::util::rng::Rng;
 use reflectance_render::envmap::EnvMap;
-use reflectance_render::ward::Material;
+use reflectance_render::ward::{Material, Ward};
 use reflectance_render::{Lighting, Quality, View, render};
 
 /// The shared ict_grace probe: texture, and a small bright source.
@@ -51,22 +51,26 @@ fn sizes_agree_within_the_measured_tolerances() {
     for material in [
         Material {
             name: "chrome".into(),
-            rho_d: 0.0,
-            rho_s: 0.75,
-            alpha: 0.0,
+            ward: Ward {
+                rho_d: 0.0,
+                rho_s: 0.75,
+                alpha: 0.0,
+            },
         },
         Material {
             name: "white_matte".into(),
-            rho_d: 0.9,
-            rho_s: 0.0,
-            alpha: 0.0,
+            ward: Ward {
+                rho_d: 0.9,
+                rho_s: 0.0,
+                alpha: 0.0,
+            },
         },
     ] {
         let features = |radius: f64, extractor: &Extractor| {
             let size = (radius * 2.2).round() as usize;
             let img = render(
                 &lighting,
-                &material,
+                &material.ward,
                 size,
                 &View::default(),
                 &Quality::default(),

@@ -1,6 +1,6 @@
 use super::*;
 use crate::envmap::EnvMap;
-use crate::ward::Material;
+use crate::ward::Ward;
 use crate::{Lighting, Quality, View, render, render_normals};
 use reflectance_core::decode::Limits;
 
@@ -47,9 +47,8 @@ fn shipped_lighting() -> Lighting {
     Lighting::new(EnvMap::load(&path).unwrap())
 }
 
-fn material(rho_d: f64, rho_s: f64, alpha: f64) -> Material {
-    Material {
-        name: "m".into(),
+fn material(rho_d: f64, rho_s: f64, alpha: f64) -> Ward {
+    Ward {
         rho_d,
         rho_s,
         alpha,

@@ -1,0 +1,175 @@
+//! The isotropic Ward parameters (ρd, ρs, α): the one type every layer holds them in (a
+//! class's material, a model's classes, an estimate's point, a training row's truth, a
+//! request's query), with the one check of their rules and its one message.
+
+use serde::{Deserialize, Serialize};
+
+/// Ward reflectance parameters (of a class rendered from them, or estimated).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+#[cfg_attr(feature = "openapi", schema(as = WardParams))]
+pub struct Ward {
+    /// Diffuse reflectance ρd, in [0, 1].
+    pub rho_d: f64,
+    /// Specular reflectance ρs, in [0, 1] (0: matte).
+    pub rho_s: f64,
+    /// Roughness α, the standard deviation of the surface slope (0: a perfect mirror).
+    pub alpha: f64,
+}
+
+/// Ward parameters that break the rules of [`Ward::validate`]: the rules, and the values.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[error(
+    "need 0 ≤ rho_d, 0 ≤ rho_s, rho_d + rho_s ≤ 1 and 0 ≤ alpha ≤ 1, not rho_d {}, rho_s {}, \
+     alpha {}",
+    .0.rho_d,
+    .0.rho_s,
+    .0.alpha
+)]
+pub struct InvalidWard(pub Ward);
+
+impl Ward {
+    /// The parameters, when they keep the rules of [`Ward::validate`].
+    pub fn new(rho_d: f64, rho_s: f64, alpha: f64) -> Result<Ward, InvalidWard> {
+        let ward = Ward {
+            rho_d,
+            rho_s,
+            alpha,
+        };
+        ward.validate().map(|()| ward)
+    }
+
+    /// Check the rules: 0 ≤ ρd, 0 ≤ ρs, ρd + ρs ≤ 1 and 0 ≤ α ≤ 1 (none NaN).
+    pub fn validate(&self) -> Result<(), InvalidWard> {
+        // The sum may exceed 1 by rounding (0.7 + 0.3 in a class file); each part may not.
+        let ok = (0.0..=1.0).contains(&self.rho_d)
+            && (0.0..=1.0).contains(&self.rho_s)
+            && self.rho_d + self.rho_s <= 1.0 + 1e-12
+            && (0.0..=1.0).contains(&self.alpha);
+        if ok { Ok(()) } else { Err(InvalidWard(*self)) }
+    }
+
+    /// Whether the two reflectances differ, to a camera without a white reference, mainly
+    /// in how much light they reflect: the same kind of surface (matte: ρs = 0; metal: ρd <
+    /// 0.02 with ρs > 0; else glossy) with the same roughness α (within 10 %). Without white,
+    /// such spheres differ in the image mostly by a brightness scale, which the exposure
+    /// hides (exactly so for matte ones).
+    pub fn same_up_to_scale(&self, other: &Ward) -> bool {
+        #[derive(PartialEq)]
+        enum Kind {
+            Matte,
+            Metal,
+            Glossy,
+        }
+        let kind = |w: &Ward| match (w.rho_d, w.rho_s) {
+            (_, s) if s <= 0.0 => Kind::Matte,
+            (d, _) if d < 0.02 => Kind::Metal,
+            _ => Kind::Glossy,
+        };
+        let alpha_alike = (self.alpha - other.alpha).abs() <= 0.1 * self.alpha.max(other.alpha);
+        kind(self) == kind(other) && (kind(self) == Kind::Matte || alpha_alike)
+    }
+
+    /// The reflectance in words, for people: the tone of the diffuse part, and how much and
+    /// how sharply the surface mirrors its surroundings.
+    pub fn describe(&self) -> String {
+        let sharpness = match self.alpha {
+            a if a <= 0.0 => "sharp",
+            a if a <= 0.03 => "slightly blurred",
+            _ => "blurred",
+        };
+        let tone = match self.rho_d {
+            d if d < 0.15 => "black",
+            d if d < 0.5 => "grey",
+            _ => "white",
+        };
+        match (self.rho_d, self.rho_s) {
+            (_, s) if s <= 0.0 => format!("{tone} matte"),
+            (d, s) if d < 0.02 && s >= 0.5 => {
+                format!("metal: a mirror with {sharpness} reflections")
+            }
+            (_, s) if s < 0.15 => format!("{tone}, faintly glossy: {sharpness} reflections"),
+            _ => format!("{tone}, glossy: {sharpness} reflections"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ward(rho_d: f64, rho_s: f64, alpha: f64) -> Ward {
+        Ward {
+            rho_d,
+            rho_s,
+            alpha,
+        }
+    }
+
+    #[test]
+    fn each_reflectance_is_at_most_one_and_their_sum_rounds() {
+        assert!(ward(1.0, 0.0, 0.05).validate().is_ok());
+        // A sum above 1 by rounding only, as class files hold.
+        assert!(ward(0.700_000_000_000_000_1, 0.3, 0.05).validate().is_ok());
+        assert!(ward(1.000_000_000_000_000_2, 0.0, 0.05).validate().is_err());
+        assert!(ward(0.0, 1.000_000_000_000_000_2, 0.05).validate().is_err());
+        assert!(ward(0.6, 0.5, 0.05).validate().is_err());
+        assert!(ward(-0.0001, 0.5, 0.05).validate().is_err());
+        assert!(ward(0.1, 0.1, 1.0).validate().is_ok());
+        assert!(ward(0.1, 0.1, 1.5).validate().is_err());
+        assert!(ward(0.1, 0.1, -0.1).validate().is_err());
+        assert!(ward(f64::NAN, 0.1, 0.0).validate().is_err());
+        assert_eq!(Ward::new(0.7, 0.25, 0.01), Ok(ward(0.7, 0.25, 0.01)));
+    }
+
+    /// One message states every rule, and the values that break one.
+    #[test]
+    fn the_message_states_every_rule_and_the_values() {
+        let e = Ward::new(0.1, 0.1, 2.0).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "need 0 ≤ rho_d, 0 ≤ rho_s, rho_d + rho_s ≤ 1 and 0 ≤ alpha ≤ 1, not rho_d 0.1, \
+             rho_s 0.1, alpha 2"
+        );
+    }
+
+    #[test]
+    fn the_papers_eleven_reflectances_have_eleven_descriptions() {
+        let described: Vec<String> = [
+            ward(0.1, 0.0, 0.0),
+            ward(0.9, 0.0, 0.0),
+            ward(0.35, 0.0, 0.0),
+            ward(0.0, 0.75, 0.0),
+            ward(0.05, 0.05, 0.0),
+            ward(0.7, 0.2, 0.0),
+            ward(0.05, 0.05, 0.02),
+            ward(0.7, 0.25, 0.02),
+            ward(0.25, 0.1, 0.0),
+            ward(0.25, 0.1, 0.02),
+            ward(0.0, 0.75, 0.02),
+        ]
+        .iter()
+        .map(Ward::describe)
+        .collect();
+        let unique: std::collections::HashSet<_> = described.iter().collect();
+        assert_eq!(unique.len(), 11, "{described:?}");
+        assert_eq!(described[0], "black matte");
+        assert_eq!(described[3], "metal: a mirror with sharp reflections");
+        assert_eq!(described[7], "white, glossy: slightly blurred reflections");
+        assert_eq!(described[8], "grey, faintly glossy: sharp reflections");
+    }
+
+    #[test]
+    fn reflectances_alike_up_to_a_brightness_scale() {
+        let (black, white) = (ward(0.1, 0.0, 0.0), ward(0.9, 0.0, 0.0));
+        let (black_shiny, gray_shiny) = (ward(0.1, 0.1, 0.01), ward(0.25, 0.05, 0.01));
+        let chrome = ward(0.0, 0.75, 0.0);
+        assert!(black.same_up_to_scale(&white) && white.same_up_to_scale(&black));
+        assert!(black_shiny.same_up_to_scale(&gray_shiny));
+        assert!(!black_shiny.same_up_to_scale(&black));
+        assert!(!chrome.same_up_to_scale(&black_shiny));
+        // The paper's E and G differ only in α.
+        assert!(!ward(0.05, 0.05, 0.0).same_up_to_scale(&ward(0.05, 0.05, 0.02)));
+        assert!(chrome.same_up_to_scale(&ward(0.0, 0.5, 0.0)));
+    }
+}
