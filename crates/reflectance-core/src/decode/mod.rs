@@ -8,6 +8,7 @@
 mod color;
 pub(crate) mod exr_file;
 mod integer;
+mod jpeg;
 pub mod pfm;
 pub mod rgbe;
 pub mod scaled;
@@ -19,7 +20,7 @@ use std::path::Path;
 use std::str::FromStr;
 
 pub use color::{Encoding, srgb_to_linear};
-pub use scaled::{Reduced, decode_reduced, denominator_for};
+pub use scaled::{Photo, Scaled, denominator_for};
 
 /// Rec. 709 luminance weights for linear R, G, B.
 pub const LUMA_WEIGHTS: [f64; 3] = [0.2126, 0.7152, 0.0722];

@@ -1,40 +1,36 @@
-//! A JPEG decoded at 1/2, 1/4 or 1/8 of its size by scaling in the DCT domain (the reduced
-//! inverse transforms of `jpeg-decoder`): what a step that works on a reduced copy needs,
-//! for a fraction of the pixels and the memory. At 12 MP it takes half the time of a full
-//! decode (the entropy decoding, which every scale pays, is the rest); at 4 MP and below the
-//! full decoder is as fast or faster (docs/performance.md, "Phone photographs").
+//! A photograph decoded at the scale each step needs ([`Photo`]): a JPEG is read by
+//! libjpeg-turbo ([`super::jpeg`]) at 1/1, 1/2, 1/4 or 1/8 of its size, whole (what
+//! location searches) or only the region around the ball (what the features read), so that a
+//! phone photograph costs about what decoding it once costs; every other file, and any JPEG
+//! that decoder does not read as the full path would, is decoded whole once
+//! ([`super::decode`]) and every step reads that image, as before.
 //!
-//! Whatever `jpeg-decoder` does not decode the way the full path does (CMYK, 12-bit and
-//! lossless JPEG) or refuses (a corrupt, truncated or unsupported file), and every file
-//! that is not a JPEG, goes through the full decode instead ([`super::decode`]): its
-//! answers, its errors and its limits are those of the full path. A JPEG over the limits
-//! is refused on its header before anything is allocated, as the full path does.
+//! A [`Scaled`] copy says where its pixels lie on the full image: pixel (i, j) of a copy at
+//! 1/d covers full pixels [i·d, (i + 1)·d) along each axis, shifted by the copy's origin
+//! (a region's corner, or for an axis the EXIF orientation reversed, whose last decoded
+//! pixel was the partial one, full − decoded × d).
 
-use super::{DecodeError, DecodeOptions, LinearImage, integer};
+use super::jpeg::{self, Header, Window};
+use super::{DecodeError, DecodeOptions, Format, LinearImage, integer};
+use crate::image::circle::Circle;
 use image::metadata::Orientation;
-use image::{DynamicImage, ImageBuffer};
+use image::{DynamicImage, ImageBuffer, ImageDecoder};
+use std::borrow::Cow;
 use std::io::Cursor;
 
-/// An image decoded at a reduction of its size, and how its pixels map onto the full image's.
+/// A copy of a photograph (whole or a region) at 1/`denominator` of its size.
 #[derive(Clone, Debug)]
-pub struct Reduced {
-    /// The reduced image (the full one when [`Reduced::denominator`] is 1).
-    pub image: LinearImage,
-    /// The full image's width (after its EXIF orientation).
-    pub full_width: usize,
-    /// The full image's height (after its EXIF orientation).
-    pub full_height: usize,
-    /// Full-image pixels per reduced pixel along each axis: 1, 2, 4 or 8.
+pub struct Scaled<'a> {
+    /// The copy's pixels (the photograph itself when `denominator` is 1 and nothing was cut).
+    pub image: Cow<'a, LinearImage>,
+    /// Full-image pixels per copy pixel along each axis: 1, 2, 4 or 8.
     pub denominator: usize,
-    /// Where the reduced grid starts on the full image, per axis: 0, or (for an axis the
-    /// orientation reversed, whose last reduced pixel was the partial one) full − reduced ×
-    /// denominator.
+    /// Where the copy's pixel grid starts on the full image, per axis (x, y).
     offset: [f64; 2],
 }
 
-impl Reduced {
-    /// The full image's coordinates (pixel centres are integers) of a point of the reduced
-    /// image.
+impl Scaled<'_> {
+    /// The full image's coordinates (pixel centres are integers) of a point of the copy.
     pub fn to_full(&self, x: f64, y: f64) -> (f64, f64) {
         let d = self.denominator as f64;
         (
@@ -43,7 +39,7 @@ impl Reduced {
         )
     }
 
-    /// The reduced image's coordinates of a point of the full image.
+    /// The copy's coordinates of a point of the full image.
     pub fn from_full(&self, x: f64, y: f64) -> (f64, f64) {
         let d = self.denominator as f64;
         (
@@ -52,14 +48,237 @@ impl Reduced {
         )
     }
 
-    fn full(image: LinearImage) -> Reduced {
-        Reduced {
-            full_width: image.width(),
-            full_height: image.height(),
+    /// A circle of the full image on the copy.
+    pub fn circle_from_full(&self, c: &Circle) -> Circle {
+        let (cx, cy) = self.from_full(c.cx, c.cy);
+        let r = c.r / self.denominator as f64;
+        Circle { cx, cy, r }
+    }
+
+    /// A circle of the copy on the full image.
+    pub fn circle_to_full(&self, c: &Circle) -> Circle {
+        let (cx, cy) = self.to_full(c.cx, c.cy);
+        let r = c.r * self.denominator as f64;
+        Circle { cx, cy, r }
+    }
+}
+
+/// A photograph, decoded when and at the scale a step asks ([`Photo::whole`],
+/// [`Photo::region`]).
+pub struct Photo<'a> {
+    bytes: &'a [u8],
+    options: DecodeOptions,
+    source: Source,
+}
+
+enum Source {
+    /// A JPEG libjpeg-turbo reads, decoded piece by piece.
+    Jpeg {
+        header: Header,
+        orientation: Orientation,
+    },
+    /// Anything else, decoded whole once.
+    Decoded(LinearImage),
+}
+
+/// Which stored axis an oriented axis runs along, and whether reversed.
+#[derive(Clone, Copy)]
+struct Axis {
+    stored_x: bool,
+    reversed: bool,
+}
+
+/// The oriented x and y axes of an EXIF orientation, in stored terms.
+fn axes(orientation: Orientation) -> [Axis; 2] {
+    let axis = |stored_x, reversed| Axis { stored_x, reversed };
+    // (reverse x, reverse y, transposed) as `image` applies each orientation.
+    let (rx, ry, transposed) = match orientation {
+        Orientation::NoTransforms => (false, false, false),
+        Orientation::FlipHorizontal => (true, false, false),
+        Orientation::FlipVertical => (false, true, false),
+        Orientation::Rotate180 => (true, true, false),
+        Orientation::Rotate90 => (true, false, true),
+        Orientation::Rotate270 => (false, true, true),
+        Orientation::Rotate90FlipH => (false, false, true),
+        Orientation::Rotate270FlipH => (true, true, true),
+    };
+    match transposed {
+        false => [axis(true, rx), axis(false, ry)],
+        true => [axis(false, rx), axis(true, ry)],
+    }
+}
+
+impl<'a> Photo<'a> {
+    /// The photograph of `bytes`: a JPEG that libjpeg-turbo reads (within the limits) is only
+    /// looked at; anything else is decoded now, with the full path's errors.
+    pub fn open(bytes: &'a [u8], options: &DecodeOptions) -> Result<Photo<'a>, DecodeError> {
+        let source = match jpeg_source(bytes, options) {
+            Some(source) => source,
+            None => Source::Decoded(super::decode(bytes, options)?),
+        };
+        Ok(Photo {
+            bytes,
+            options: *options,
+            source,
+        })
+    }
+
+    /// A photograph decoded already (an array, a file read before).
+    pub fn decoded(image: LinearImage) -> Photo<'static> {
+        Photo {
+            bytes: &[],
+            options: DecodeOptions::default(),
+            source: Source::Decoded(image),
+        }
+    }
+
+    /// Width and height after the EXIF orientation.
+    pub fn size(&self) -> (usize, usize) {
+        match &self.source {
+            Source::Jpeg {
+                header,
+                orientation,
+            } => match axes(*orientation)[0].stored_x {
+                true => (header.width, header.height),
+                false => (header.height, header.width),
+            },
+            Source::Decoded(image) => (image.width(), image.height()),
+        }
+    }
+
+    /// The photograph decoded whole, when it was (a JPEG is decoded in pieces).
+    pub fn decoded_whole(&self) -> Option<&LinearImage> {
+        match &self.source {
+            Source::Decoded(image) => Some(image),
+            Source::Jpeg { .. } => None,
+        }
+    }
+
+    /// What the decode could not honour but went on (an encoding given for a float format).
+    pub fn warnings(&self) -> &[String] {
+        match &self.source {
+            Source::Decoded(image) => &image.warnings,
+            Source::Jpeg { .. } => &[],
+        }
+    }
+
+    /// The whole photograph at 1/`denominator` (1, 2, 4 or 8; clamped down to one of them). A
+    /// photograph decoded whole answers itself, at 1/1.
+    pub fn whole(&self, denominator: usize) -> Result<Scaled<'_>, DecodeError> {
+        let (width, height) = self.size();
+        self.region([0, 0, width, height], denominator)
+    }
+
+    /// The part `[x0, y0, x1)`×`[y0, y1)` of the full image (after orientation; clipped to
+    /// it) at 1/`denominator`, a little larger where the decoder's blocks begin. A photograph
+    /// decoded whole answers all of itself, at 1/1 (the steps read only what they need).
+    pub fn region(
+        &self,
+        [x0, y0, x1, y1]: [usize; 4],
+        denominator: usize,
+    ) -> Result<Scaled<'_>, DecodeError> {
+        let whole = |image| Scaled {
             image,
             denominator: 1,
             offset: [0.0; 2],
+        };
+        let (header, orientation) = match &self.source {
+            Source::Decoded(image) => return Ok(whole(Cow::Borrowed(image))),
+            Source::Jpeg {
+                header,
+                orientation,
+            } => (header, *orientation),
+        };
+        let d = supported(denominator);
+        let decoded = self.decode_window(header, orientation, [x0, y0, x1, y1], d);
+        match decoded {
+            Some(scaled) => Ok(scaled),
+            // What libjpeg-turbo does not read cleanly, the full path answers (or refuses).
+            None => Ok(whole(Cow::Owned(super::decode(self.bytes, &self.options)?))),
         }
+    }
+
+    /// The window of the oriented rectangle at 1/`d`, decoded and oriented, or None.
+    fn decode_window(
+        &self,
+        header: &Header,
+        orientation: Orientation,
+        oriented: [usize; 4],
+        d: usize,
+    ) -> Option<Scaled<'static>> {
+        let axes = axes(orientation);
+        let (width, height) = (header.width, header.height);
+        // The rectangle in stored pixels, then at 1/d, rounded outwards.
+        let mut stored = [0usize; 4];
+        for (k, axis) in axes.iter().enumerate() {
+            let extent = if axis.stored_x { width } else { height };
+            let (lo, hi) = (oriented[k].min(extent), oriented[k + 2].min(extent));
+            let (lo, hi) = match axis.reversed {
+                true => (extent - hi, extent - lo),
+                false => (lo, hi),
+            };
+            let at = if axis.stored_x { 0 } else { 1 };
+            stored[at] = lo / d;
+            stored[at + 2] = hi.div_ceil(d);
+        }
+        let want = Window {
+            x: stored[0],
+            y: stored[1],
+            w: stored[2].checked_sub(stored[0])?,
+            h: stored[3].checked_sub(stored[1])?,
+        };
+        let window = header.window(want, d)?;
+        let (scaled_w, scaled_h) = header.scaled(d);
+        let crop = (window
+            != Window {
+                x: 0,
+                y: 0,
+                w: scaled_w,
+                h: scaled_h,
+            })
+        .then_some(window);
+        let pixels = jpeg::decode(self.bytes, d, crop)?;
+        let stored_image = match pixels.channels {
+            1 => DynamicImage::ImageLuma8(ImageBuffer::from_raw(
+                u32::try_from(window.w).ok()?,
+                u32::try_from(window.h).ok()?,
+                pixels.samples,
+            )?),
+            _ => DynamicImage::ImageRgb8(ImageBuffer::from_raw(
+                u32::try_from(window.w).ok()?,
+                u32::try_from(window.h).ok()?,
+                pixels.samples,
+            )?),
+        };
+        let mut oriented_image = stored_image;
+        oriented_image.apply_orientation(orientation);
+        let image = integer::to_linear(oriented_image, Format::Jpeg, &self.options).ok()?;
+        // Where the oriented copy's first pixel lies, per oriented axis.
+        let offset = axes.map(|axis| {
+            let (start, length, extent) = match axis.stored_x {
+                true => (window.x, window.w, width),
+                false => (window.y, window.h, height),
+            };
+            match axis.reversed {
+                true => extent as f64 - ((start + length) * d) as f64,
+                false => (start * d) as f64,
+            }
+        });
+        Some(Scaled {
+            image: Cow::Owned(image),
+            denominator: d,
+            offset,
+        })
+    }
+}
+
+/// 1, 2, 4 or 8: the largest of them not above `denominator`.
+fn supported(denominator: usize) -> usize {
+    match denominator {
+        0..=1 => 1,
+        2..=3 => 2,
+        4..=7 => 4,
+        _ => 8,
     }
 }
 
@@ -73,134 +292,38 @@ pub fn denominator_for(width: usize, height: usize, min_long_side: usize) -> usi
         .unwrap_or(1)
 }
 
-/// Decode `bytes` at 1/`denominator` (1, 2, 4 or 8) of its size when it is a JPEG that the
-/// scaled decoder reads as the full path would, else in full ([`Reduced::denominator`] says
-/// which). `denominator` is clamped to those values (down to the nearest).
-pub fn decode_reduced(
-    bytes: &[u8],
-    options: &DecodeOptions,
-    denominator: usize,
-) -> Result<Reduced, DecodeError> {
-    let denominator = match denominator {
-        0..=1 => 1,
-        2..=3 => 2,
-        4..=7 => 4,
-        _ => 8,
-    };
-    if denominator > 1
-        && bytes.starts_with(&[0xff, 0xd8, 0xff])
-        && let Some(reduced) = jpeg_reduced(bytes, options, denominator)
-    {
-        return Ok(reduced);
-    }
-    super::decode(bytes, options).map(Reduced::full)
-}
-
-/// The scaled decode, or None for whatever the full path should answer instead.
-fn jpeg_reduced(bytes: &[u8], options: &DecodeOptions, denominator: usize) -> Option<Reduced> {
-    let mut decoder = jpeg_decoder::Decoder::new(Cursor::new(bytes));
-    decoder.read_info().ok()?;
-    let info = decoder.info()?;
-    let (width, height) = (usize::from(info.width), usize::from(info.height));
-    // Over the limits: the full path refuses it, on its header too.
-    options.limits.check(width as u64, height as u64).ok()?;
-    let (w, h) = (width.div_ceil(denominator), height.div_ceil(denominator));
-    let (sw, sh) = decoder
-        .scale(u16::try_from(w).ok()?, u16::try_from(h).ok()?)
-        .ok()?;
-    if (usize::from(sw), usize::from(sh)) != (w, h) {
+/// A JPEG libjpeg-turbo reads as the full path would, within the limits, with its EXIF
+/// orientation; None for whatever the full path should decode (or refuse).
+fn jpeg_source(bytes: &[u8], options: &DecodeOptions) -> Option<Source> {
+    if !bytes.starts_with(&[0xff, 0xd8, 0xff]) {
         return None;
     }
-    // Room for the reduced pixels only (at most three bytes each).
-    decoder.set_max_decoding_buffer_size(w.checked_mul(h)?.checked_mul(3)?);
-    let pixels = decoder.decode().ok()?;
-    let info = decoder.info()?;
-    let stored = match info.pixel_format {
-        jpeg_decoder::PixelFormat::L8 => {
-            DynamicImage::ImageLuma8(ImageBuffer::from_raw(w as u32, h as u32, pixels)?)
-        }
-        jpeg_decoder::PixelFormat::RGB24 => {
-            DynamicImage::ImageRgb8(ImageBuffer::from_raw(w as u32, h as u32, pixels)?)
-        }
-        // CMYK and 16-bit (lossless) samples: as the full path converts them.
-        _ => return None,
-    };
-    let orientation = decoder
-        .exif_data()
-        .and_then(Orientation::from_exif_chunk)
-        .unwrap_or(Orientation::NoTransforms);
-    let mut oriented = stored;
-    oriented.apply_orientation(orientation);
-    let image = integer::to_linear(oriented, super::Format::Jpeg, options).ok()?;
-    let (reverse_x, reverse_y, transposed) = match orientation {
-        Orientation::NoTransforms => (false, false, false),
-        Orientation::FlipHorizontal => (true, false, false),
-        Orientation::FlipVertical => (false, true, false),
-        Orientation::Rotate180 => (true, true, false),
-        Orientation::Rotate90 => (true, false, true),
-        Orientation::Rotate270 => (false, true, true),
-        Orientation::Rotate90FlipH => (false, false, true),
-        Orientation::Rotate270FlipH => (true, true, true),
-    };
-    let (full_width, full_height) = if transposed {
-        (height, width)
-    } else {
-        (width, height)
-    };
-    let shift = |reversed: bool, full: usize, reduced: usize| match reversed {
-        true => full as f64 - (reduced * denominator) as f64,
-        false => 0.0,
-    };
-    let offset = [
-        shift(reverse_x, full_width, image.width()),
-        shift(reverse_y, full_height, image.height()),
-    ];
-    Some(Reduced {
-        image,
-        full_width,
-        full_height,
-        denominator,
-        offset,
+    let header = jpeg::header(bytes)?;
+    options
+        .limits
+        .check(header.width as u64, header.height as u64)
+        .ok()?;
+    let mut decoder = image::codecs::jpeg::JpegDecoder::new(Cursor::new(bytes)).ok()?;
+    let orientation = decoder.orientation().unwrap_or(Orientation::NoTransforms);
+    Some(Source::Jpeg {
+        header,
+        orientation,
     })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::decode::{DecodeError, Limits, decode};
+    use crate::decode::decode;
+    use crate::decode::jpeg::tests::encoded;
 
-    /// A `width` × `height` JPEG (grey, or RGB when `colour`) of a bright square around
-    /// (`x`, `y`), half-side `half`, on a mid-grey ramp.
-    fn jpeg(width: u32, height: u32, spot: (f64, f64, f64), colour: bool) -> Vec<u8> {
-        let (x0, y0, half) = spot;
-        let value = |x: u32, y: u32| -> u8 {
+    /// A JPEG (grey or RGB) with a bright square around (`x`, `y`), half-side `half`, on a
+    /// mid-grey ramp.
+    fn spot(width: u32, height: u32, (x0, y0, half): (f64, f64, f64), colour: bool) -> Vec<u8> {
+        encoded(width, height, colour, |x, y| {
             let inside = (f64::from(x) - x0).abs() <= half && (f64::from(y) - y0).abs() <= half;
             if inside { 250 } else { 40 + (x % 7) as u8 }
-        };
-        let mut samples = Vec::new();
-        for y in 0..height {
-            for x in 0..width {
-                let v = value(x, y);
-                match colour {
-                    true => samples.extend_from_slice(&[v, v / 2 + 10, v / 3 + 20]),
-                    false => samples.push(v),
-                }
-            }
-        }
-        let kind = match colour {
-            true => image::ExtendedColorType::Rgb8,
-            false => image::ExtendedColorType::L8,
-        };
-        let mut out = Vec::new();
-        image::ImageEncoder::write_image(
-            image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, 95),
-            &samples,
-            width,
-            height,
-            kind,
-        )
-        .expect("encode");
-        out
+        })
     }
 
     /// `jpeg` with an EXIF orientation (1–8) in an APP1 segment after SOI.
@@ -216,147 +339,110 @@ mod tests {
         [&jpeg[..2], &app1, &jpeg[2..]].concat()
     }
 
-    /// The centroid of the pixels above half the brightest.
-    fn bright_centroid(image: &LinearImage) -> (f64, f64) {
+    /// The centroid of the pixels above half the brightest, in the full image's coordinates.
+    fn bright_centroid(scaled: &Scaled) -> (f64, f64) {
+        let image = &scaled.image;
         let peak = image.luminance.iter().copied().fold(0.0, f64::max);
         let (mut sx, mut sy, mut n) = (0.0, 0.0, 0.0);
         for ((y, x), &v) in image.luminance.indexed_iter() {
             if v > 0.5 * peak {
-                let w = v;
-                sx += w * x as f64;
-                sy += w * y as f64;
-                n += w;
+                sx += v * x as f64;
+                sy += v * y as f64;
+                n += v;
             }
         }
-        (sx / n, sy / n)
+        scaled.to_full(sx / n, sy / n)
     }
 
     #[test]
-    fn reduced_pixels_land_where_the_full_image_has_them_in_every_orientation() {
+    fn copies_and_regions_land_where_the_full_image_has_them_in_every_orientation() {
         // Odd sizes: the last reduced column and row are partial.
-        let plain = jpeg(203, 131, (150.0, 40.0, 9.5), false);
+        let plain = spot(203, 131, (150.0, 40.0, 9.5), true);
         for orientation in 1..=8 {
             let bytes = with_orientation(&plain, orientation);
-            let full = decode(&bytes, &DecodeOptions::default()).unwrap();
-            let (fx, fy) = bright_centroid(&full);
-            for d in [2, 4, 8] {
-                let reduced = decode_reduced(&bytes, &DecodeOptions::default(), d).unwrap();
-                assert_eq!(reduced.denominator, d);
-                assert_eq!(
-                    (reduced.full_width, reduced.full_height),
-                    (full.width(), full.height()),
-                    "orientation {orientation}"
-                );
-                assert_eq!(
-                    (reduced.image.width(), reduced.image.height()),
-                    (full.width().div_ceil(d), full.height().div_ceil(d))
-                );
-                let (rx, ry) = bright_centroid(&reduced.image);
-                let (x, y) = reduced.to_full(rx, ry);
-                let tolerance = 0.3 * d as f64 + 0.5;
+            let options = DecodeOptions::default();
+            let full = decode(&bytes, &options).unwrap();
+            let photo = Photo::open(&bytes, &options).unwrap();
+            assert_eq!(photo.size(), (full.width(), full.height()));
+            let whole = Scaled {
+                image: Cow::Owned(full.clone()),
+                denominator: 1,
+                offset: [0.0; 2],
+            };
+            let (fx, fy) = bright_centroid(&whole);
+            for d in [1, 2, 4, 8] {
+                let copy = photo.whole(d).unwrap();
+                assert_eq!(copy.denominator, d);
+                let (cx, cy) = bright_centroid(&copy);
+                let tolerance = 0.6 * d as f64;
                 assert!(
-                    (x - fx).abs() <= tolerance && (y - fy).abs() <= tolerance,
-                    "orientation {orientation}, 1/{d}: ({x:.2}, {y:.2}) for ({fx:.2}, {fy:.2})"
+                    (cx - fx).abs() < tolerance && (cy - fy).abs() < tolerance,
+                    "orientation {orientation}, 1/{d}: ({cx}, {cy}) against ({fx}, {fy})"
                 );
-                let (bx, by) = reduced.from_full(x, y);
-                assert!((bx - rx).abs() < 1e-9 && (by - ry).abs() < 1e-9);
+                // The spot's region alone, wherever the orientation put it.
+                let (x, y) = (fx.round() as usize, fy.round() as usize);
+                let region = photo.region([x - 15, y - 15, x + 16, y + 16], d).unwrap();
+                assert!(region.image.width() < copy.image.width());
+                let (rx, ry) = bright_centroid(&region);
+                assert!(
+                    (rx - cx).abs() < 0.3 && (ry - cy).abs() < 0.3,
+                    "orientation {orientation}, 1/{d}: region ({rx}, {ry}), copy ({cx}, {cy})"
+                );
             }
         }
     }
 
     #[test]
-    fn reduced_luminance_is_the_full_one_averaged() {
-        let bytes = jpeg(256, 192, (100.0, 90.0, 30.0), true);
-        let options = DecodeOptions {
-            colour: true,
-            ..Default::default()
-        };
+    fn the_full_size_copy_is_the_full_decode() {
+        let bytes = spot(96, 80, (40.0, 30.0, 6.0), false);
+        let options = DecodeOptions::default();
         let full = decode(&bytes, &options).unwrap();
-        for d in [2usize, 4, 8] {
-            let reduced = decode_reduced(&bytes, &options, d).unwrap();
-            assert!(reduced.image.colour.is_some() && !reduced.image.is_float);
-            let averaged =
-                crate::image::resample::downsample(full.luminance.view(), 1.0 / d as f64);
-            assert_eq!(averaged.dim(), reduced.image.luminance.dim());
-            // Averaged in the encoded (not linear) values, away from the square's edges.
-            let worst = averaged
-                .indexed_iter()
-                .filter(|((y, x), _)| {
-                    let (cx, cy) = ((*x as f64 + 0.5) * d as f64, (*y as f64 + 0.5) * d as f64);
-                    let edge = ((cx - 100.0).abs() - 30.0)
-                        .abs()
-                        .min(((cy - 90.0).abs() - 30.0).abs());
-                    edge > d as f64 + 2.0
-                })
-                .map(|((y, x), &a)| (a - reduced.image.luminance[[y, x]]).abs())
-                .fold(0.0, f64::max);
-            assert!(worst < 0.02, "1/{d}: {worst}");
-        }
+        let photo = Photo::open(&bytes, &options).unwrap();
+        let copy = photo.whole(1).unwrap();
+        // Two decoders' rounding: within a level of the 8-bit samples.
+        let worst = full
+            .luminance
+            .iter()
+            .zip(copy.image.luminance.iter())
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 0.02, "{worst}");
     }
 
     #[test]
-    fn what_the_scaled_decoder_does_not_take_is_decoded_in_full() {
+    fn other_files_are_decoded_whole_once_and_read_as_they_are() {
         let options = DecodeOptions::default();
-        // Small files and other formats: in full, as `decode` gives them.
+        let bytes = spot(64, 48, (20.0, 20.0, 4.0), false);
+        // A truncated JPEG: libjpeg-turbo's warning hands it to the full path, whose answer
+        // (an error, or the image it makes of what is there) stands.
+        for cut in [bytes.len() / 3, bytes.len() / 2, bytes.len() - 3] {
+            let full = decode(&bytes[..cut], &options);
+            let answer = Photo::open(&bytes[..cut], &options).and_then(|photo| {
+                let copy = photo.whole(4)?;
+                Ok((copy.denominator, copy.image.luminance.clone()))
+            });
+            match (full, answer) {
+                (Ok(full), Ok((d, luminance))) => assert_eq!((d, luminance), (1, full.luminance)),
+                (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string()),
+                (a, b) => panic!("cut at {cut}: {:?} against {:?}", a.is_ok(), b.is_ok()),
+            }
+        }
         let png = {
             let mut out = Vec::new();
+            let samples = vec![128u8; 40 * 30];
             image::ImageEncoder::write_image(
                 image::codecs::png::PngEncoder::new(&mut out),
-                &[10u8; 64 * 64],
-                64,
-                64,
+                &samples,
+                40,
+                30,
                 image::ExtendedColorType::L8,
             )
             .unwrap();
             out
         };
-        let reduced = decode_reduced(&png, &options, 4).unwrap();
-        assert_eq!((reduced.denominator, reduced.image.width()), (1, 64));
-        assert_eq!(reduced.to_full(3.0, 5.0), (3.0, 5.0));
-        let jpeg = jpeg(120, 80, (60.0, 40.0, 10.0), false);
-        assert_eq!(decode_reduced(&jpeg, &options, 1).unwrap().denominator, 1);
-        assert_eq!(decode_reduced(&jpeg, &options, 5).unwrap().denominator, 4);
-        // Truncated (which the full path fills in grey or refuses) and corrupt: the full
-        // path's answer, never a panic.
-        for bytes in [&jpeg, &self::jpeg(200, 200, (90.0, 90.0, 40.0), true)] {
-            let cut = &bytes[..bytes.len() / 3];
-            match (decode_reduced(cut, &options, 4), decode(cut, &options)) {
-                (Ok(reduced), Ok(full)) => {
-                    assert_eq!(reduced.denominator, 1);
-                    assert_eq!(reduced.image.luminance, full.luminance);
-                }
-                (Err(reduced), Err(full)) => assert_eq!(reduced.to_string(), full.to_string()),
-                (reduced, full) => panic!("{:?} against {:?}", reduced.err(), full.err()),
-            }
-        }
-        for cut in [4, 20, 200, jpeg.len() - 2] {
-            let _ = decode_reduced(&jpeg[..cut], &options, 8);
-        }
-        let mut garbled = jpeg.clone();
-        let middle = garbled.len() / 2;
-        garbled[middle..middle + 40].fill(0xff);
-        let _ = decode_reduced(&garbled, &options, 2);
-        // Over the limits: refused as the full path refuses it.
-        let tight = DecodeOptions {
-            limits: Limits {
-                max_width: 100,
-                max_height: 100,
-                max_pixels: 1_000_000,
-            },
-            ..options
-        };
-        assert!(matches!(
-            decode_reduced(&jpeg, &tight, 8),
-            Err(DecodeError::TooLarge { .. } | DecodeError::LimitExceeded(_))
-        ));
-    }
-
-    #[test]
-    fn denominators_keep_the_long_side() {
-        assert_eq!(denominator_for(4096, 3072, 640), 4);
-        assert_eq!(denominator_for(8000, 6000, 640), 8);
-        assert_eq!(denominator_for(1200, 1200, 640), 1);
-        assert_eq!(denominator_for(1300, 900, 640), 2);
-        assert_eq!(denominator_for(300, 200, 640), 1);
+        let photo = Photo::open(&png, &options).unwrap();
+        assert!(photo.decoded_whole().is_some());
+        let copy = photo.whole(4).unwrap();
+        assert_eq!((copy.denominator, copy.image.width()), (1, 40));
     }
 }
