@@ -1,27 +1,25 @@
-//! Phone photographs (issue 46): colour JPEGs (quality 90, 4:2:0) of 4 and 12 MP with a small
-//! and a large shaded ball, and of 48 MP with a small one, on a wood-grain table, single
-//! thread; decoded in full and for the location's working copy (DCT-domain scaling,
-//! [`decode::decode_reduced`]), located automatically and given the circle, through the
-//! shipped ward6 model's extraction (decode → white → locate → features: what
-//! `POST /v1/classify` does before the classifier, which takes under a millisecond). The dev photograph
-//! `chrome_arhangoyal_grainger125_full.jpg` (4096 × 3072) is measured too when
+//! Phone photographs (issues 46 and 63): colour JPEGs (quality 90, 4:2:0) of 4 and 12 MP with
+//! a small and a large shaded ball, and of 48 MP with a small one, on a wood-grain table,
+//! single thread: libjpeg-turbo's `djpeg` decoding the file in full (the floor every request
+//! pays, measured in the same run), the photograph decoded whole and for location, and a
+//! classification by the shipped ward6 model located automatically and given the circle,
+//! through `inference::classify` (what `POST /v1/classify` runs on its CPU pool). The dev
+//! photograph `chrome_arhangoyal_grainger125_full.jpg` (4096 × 3072) is measured too when
 //! `../shared/data/photos/dev/` holds it.
 //!
-//! `taskset -c 0 cargo bench --bench phone` (one core: `jpeg-decoder` decodes a large
-//! image's colour components on threads of its own).
+//! `taskset -c 0 cargo bench --bench phone` (docs/performance.md, "Phone photographs").
 
+use bytes::Bytes;
 use divan::Bencher;
-use reflectance_core::analysis::{self, Placement, WhiteSpec};
+use reflectance_core::analysis::{LOCATING_SIDE, Placement, WhiteSpec};
 use reflectance_core::decode::{self, DecodeOptions};
-use reflectance_core::features::Extractor;
-use reflectance_core::locate::{self, Circle};
+use reflectance_core::inference::{self, Answer, Input, LoadedModel};
+use reflectance_core::locate::Circle;
 use std::collections::HashMap;
 use std::fmt;
-use std::path::Path;
-use std::sync::{Mutex, OnceLock};
-
-/// The location's working copy is at most this many pixels across (`image::detect`).
-const WORK_SIZE: usize = 640;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::{Arc, Mutex, OnceLock};
 
 fn main() {
     assert!(reflectance::tune_heap(), "heap thresholds refused");
@@ -126,112 +124,148 @@ fn jpeg(photo: &Photo) -> Vec<u8> {
     cache.entry(*photo).or_insert_with(|| encode(photo)).clone()
 }
 
-/// The shipped ward6 model's extractor.
-fn extractor() -> &'static Extractor {
-    static EXTRACTOR: OnceLock<Extractor> = OnceLock::new();
-    EXTRACTOR.get_or_init(|| {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/ward6/1");
-        let file = reflectance_core::model::registry::load_path(&path).expect("models/ward6");
-        Extractor::new(file.features.config).expect("its extractor")
-    })
+/// The shipped ward6 model (its latest version).
+fn model() -> Arc<LoadedModel> {
+    static MODEL: OnceLock<Arc<LoadedModel>> = OnceLock::new();
+    MODEL
+        .get_or_init(|| {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/ward6");
+            let file = reflectance_core::model::registry::load_path(&path).expect("models/ward6");
+            Arc::new(LoadedModel::new(file).expect("its extractor"))
+        })
+        .clone()
 }
 
-/// Decode, then white, locate and extract as a request does.
-fn classify_front(bytes: &[u8], locate: &Placement) -> analysis::Analysis {
-    let image = decode::decode(bytes, &DecodeOptions::default()).expect("decode");
-    analysis::analyze(extractor(), &image, locate, &WhiteSpec::Value(1.0)).expect("analysis")
+/// A request's CPU work: decode what it needs, locate, white, features, classify.
+fn classify(bytes: &Bytes, locate: Placement<Bytes, Bytes>) -> inference::Classified {
+    let input = Input::new(
+        bytes.clone(),
+        WhiteSpec::Value(1.0),
+        locate,
+        None,
+        Answer::default(),
+    )
+    .expect("input");
+    inference::classify(model(), input, decode::Limits::default()).expect("classified")
+}
+
+/// The file on disk for `djpeg` (written once per photograph).
+fn file_of(name: &str, bytes: &[u8]) -> PathBuf {
+    let path = std::env::temp_dir().join(format!("reflectance-bench-{name}.jpg"));
+    if !path.exists() {
+        std::fs::write(&path, bytes).expect("write the bench's JPEG");
+    }
+    path
+}
+
+/// libjpeg-turbo's `djpeg` decoding the file in full, when it is installed
+/// (`libjpeg-turbo-progs`): the floor the targets are set against.
+fn djpeg(bencher: Bencher, path: &Path) {
+    let run = || {
+        Command::new("djpeg")
+            .args(["-outfile", "/dev/null"])
+            .arg(path)
+            .stdout(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    if !run() {
+        eprintln!("djpeg is not installed: no baseline");
+        return;
+    }
+    bencher.bench(run);
+}
+
+#[divan::bench(args = PHOTOS, sample_count = 10)]
+fn djpeg_full(bencher: Bencher, photo: &Photo) {
+    djpeg(
+        bencher,
+        &file_of(&photo.to_string().replace(' ', "_"), &jpeg(photo)),
+    );
 }
 
 #[divan::bench(args = PHOTOS, sample_count = 10)]
 fn decode_full(bencher: Bencher, photo: &Photo) {
     let bytes = jpeg(photo);
-    bencher.bench(|| decode::decode(divan::black_box(&bytes), &DecodeOptions::default()));
+    let options = DecodeOptions::default();
+    bencher.bench(|| {
+        let photo = decode::Photo::open(divan::black_box(&bytes), &options).expect("open");
+        photo.whole(1).map(|copy| copy.image.width())
+    });
 }
 
-/// The location's working copy: the largest DCT-domain reduction that keeps
-/// [`WORK_SIZE`] across.
+/// The located copy: the largest DCT-domain reduction that keeps [`LOCATING_SIDE`].
 #[divan::bench(args = PHOTOS, sample_count = 10)]
 fn decode_for_location(bencher: Bencher, photo: &Photo) {
     let bytes = jpeg(photo);
-    let d = decode::denominator_for(photo.width, photo.height, WORK_SIZE);
-    bencher
-        .bench(|| decode::decode_reduced(divan::black_box(&bytes), &DecodeOptions::default(), d));
+    let options = DecodeOptions::default();
+    let d = decode::denominator_for(photo.width, photo.height, LOCATING_SIDE);
+    bencher.bench(|| {
+        let photo = decode::Photo::open(divan::black_box(&bytes), &options).expect("open");
+        photo.whole(d).map(|copy| copy.image.width())
+    });
 }
 
 #[divan::bench(args = PHOTOS, sample_count = 10)]
 fn located(bencher: Bencher, photo: &Photo) {
-    let bytes = jpeg(photo);
-    let found = classify_front(&bytes, &Placement::Auto).geometry.circle();
+    let bytes = Bytes::from(jpeg(photo));
+    let found = classify(&bytes, Placement::Auto).analysis.geometry.circle();
     let truth = photo.circle();
     assert!(
         (found.cx - truth.cx).hypot(found.cy - truth.cy) < 0.04 * truth.r,
         "{photo}: found {found:?}"
     );
-    bencher.bench(|| classify_front(divan::black_box(&bytes), &Placement::Auto));
+    bencher.bench(|| classify(divan::black_box(&bytes), Placement::Auto));
 }
 
 #[divan::bench(args = PHOTOS, sample_count = 10)]
 fn circle_given(bencher: Bencher, photo: &Photo) {
-    let bytes = jpeg(photo);
-    let locate = Placement::Circle(photo.circle());
-    bencher.bench(|| classify_front(divan::black_box(&bytes), &locate));
-}
-
-/// Detection alone on the reduced copy (its candidates and its sub-pixel fit at the reduced
-/// scale): what location would cost if the full image were not needed for the fit.
-#[divan::bench(args = PHOTOS, sample_count = 10)]
-fn detect_on_reduced_copy(bencher: Bencher, photo: &Photo) {
-    let bytes = jpeg(photo);
-    let d = decode::denominator_for(photo.width, photo.height, WORK_SIZE);
-    let reduced = decode::decode_reduced(&bytes, &DecodeOptions::default(), d).expect("decode");
-    bencher.bench(|| locate::detect(divan::black_box(reduced.image.luminance.view())).ok());
+    let bytes = Bytes::from(jpeg(photo));
+    let circle = photo.circle();
+    bencher.bench(|| classify(divan::black_box(&bytes), Placement::Circle(circle)));
 }
 
 /// The dev photograph, when present: 4096 × 3072, a ball of radius 201 px.
-fn dev_photo() -> Option<Vec<u8>> {
+fn dev_photo() -> Option<(PathBuf, Bytes)> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/data/photos/dev/chrome_arhangoyal_grainger125_full.jpg");
-    std::fs::read(path).ok()
+    let bytes = std::fs::read(&path).ok()?;
+    Some((path, Bytes::from(bytes)))
 }
 
 #[divan::bench(sample_count = 10)]
-fn dev_photo_decode_full(bencher: Bencher) {
-    let Some(bytes) = dev_photo() else { return };
-    bencher.bench(|| decode::decode(divan::black_box(&bytes), &DecodeOptions::default()));
-}
-
-#[divan::bench(sample_count = 10)]
-fn dev_photo_decode_for_location(bencher: Bencher) {
-    let Some(bytes) = dev_photo() else { return };
-    let d = decode::denominator_for(4096, 3072, WORK_SIZE);
-    bencher
-        .bench(|| decode::decode_reduced(divan::black_box(&bytes), &DecodeOptions::default(), d));
+fn dev_photo_djpeg_full(bencher: Bencher) {
+    let Some((path, _)) = dev_photo() else { return };
+    djpeg(bencher, &path);
 }
 
 #[divan::bench(sample_count = 10)]
 fn dev_photo_located(bencher: Bencher) {
-    let Some(bytes) = dev_photo() else { return };
-    // Refused today (issue 46's detection part): located, then not confident enough.
+    let Some((_, bytes)) = dev_photo() else {
+        return;
+    };
     bencher.bench(|| {
-        let image =
-            decode::decode(divan::black_box(&bytes), &DecodeOptions::default()).expect("decode");
-        analysis::analyze(
-            extractor(),
-            &image,
-            &Placement::Auto,
-            &WhiteSpec::Value(1.0),
+        let input = Input::new(
+            bytes.clone(),
+            WhiteSpec::Value(1.0),
+            Placement::Auto,
+            None,
+            Answer::default(),
         )
-        .ok()
+        .expect("input");
+        inference::classify(model(), input, decode::Limits::default()).ok()
     });
 }
 
 #[divan::bench(sample_count = 10)]
 fn dev_photo_circle_given(bencher: Bencher) {
-    let Some(bytes) = dev_photo() else { return };
-    let locate = Placement::Circle(Circle {
+    let Some((_, bytes)) = dev_photo() else {
+        return;
+    };
+    let circle = Circle {
         cx: 2348.6,
         cy: 2252.6,
         r: 201.4,
-    });
-    bencher.bench(|| classify_front(divan::black_box(&bytes), &locate));
+    };
+    bencher.bench(|| classify(divan::black_box(&bytes), Placement::Circle(circle)));
 }

@@ -7,7 +7,7 @@
 use libfuzzer_sys::fuzz_target;
 use reflectance_core::analysis::{self, Placement, WhiteSpec};
 use reflectance_core::features::{Extractor, FeatureConfig};
-use reflectance_core::decode::{DecodeOptions, Limits, decode, decode_reduced};
+use reflectance_core::decode::{DecodeOptions, Limits, Photo, decode};
 use reflectance_core::locate::Circle;
 use std::sync::OnceLock;
 
@@ -28,15 +28,19 @@ fuzz_target!(|data: &[u8]| {
         // The colour copy is decoded too, so that its path is fuzzed with the rest.
         colour: true,
     };
-    // The scaled (DCT-domain) JPEG decode, at a reduction the input picks: an error, or an
-    // image of the reduced size with usable luminance.
+    // The photograph decoded at a reduction the input picks, whole and as a region: an
+    // error, or an image of the reduced size with usable luminance.
     let denominator = 1 << (data.len() % 4);
-    if let Ok(reduced) = decode_reduced(data, &options, denominator) {
-        let (d, lum) = (reduced.denominator, &reduced.image.luminance);
-        assert!([1, 2, 4, 8].contains(&d) && d <= denominator);
-        let (w, h) = (reduced.full_width, reduced.full_height);
-        assert_eq!(lum.dim(), (h.div_ceil(d), w.div_ceil(d)));
-        assert!(lum.iter().all(|v| v.is_finite() && *v >= 0.0));
+    if let Ok(photo) = Photo::open(data, &options) {
+        let (w, h) = photo.size();
+        for region in [[0, 0, w, h], [w / 4, h / 3, w / 2 + 1, h / 2 + 1]] {
+            if let Ok(copy) = photo.region(region, denominator) {
+                let (d, lum) = (copy.denominator, &copy.image.luminance);
+                assert!([1, 2, 4, 8].contains(&d) && d <= denominator);
+                assert!(lum.nrows() <= h.div_ceil(d) + 1 && lum.ncols() <= w.div_ceil(d) + 4);
+                assert!(lum.iter().all(|v| v.is_finite() && *v >= 0.0));
+            }
+        }
     }
     let Ok(image) = decode(data, &options) else {
         return;

@@ -361,10 +361,15 @@ pub fn extract_entry(
         encoding: entry.encoding.or(options.encoding),
         ..*options
     };
-    let image = decode::decode_file(&entry.file, &options)?;
+    // The photograph read as a request reads it (decode::Photo): what a model learns from
+    // is what it will be shown.
+    let bytes = std::fs::read(&entry.file).map_err(decode::DecodeError::Io)?;
+    let photo = decode::Photo::open(&bytes, &options)?;
     let placement = entry.placement(&options)?;
     let white = entry.white.map_or(WhiteSpec::Missing, WhiteSpec::Value);
-    Ok(analysis::analyze(extractor, &image, &placement, &white)?.values)
+    let (analysis, _) =
+        analysis::analyze_photo(extractor, &photo, &placement, &white, None, false)?;
+    Ok(analysis.values)
 }
 
 /// `work` on every entry, in parallel, results in manifest order, each finished entry

@@ -3,8 +3,12 @@
 //! was used and every warning.
 
 pub mod input;
+mod photo;
 
 pub use input::{InputError, PartError, Placement, WhiteSpec, decode_mask, mask_from_image};
+pub use photo::{
+    FEATURE_MARGIN, LOCATING_SIDE, Read, analyze_photo, feature_denominator, locate_photo_ranked,
+};
 
 use crate::decode::{DecodeError, LinearImage};
 use crate::features::observed::ObservedError;

@@ -1,9 +1,9 @@
 //! A photograph decoded at the scale each step needs ([`Photo`]): a JPEG is read by
-//! libjpeg-turbo ([`super::jpeg`]) at 1/1, 1/2, 1/4 or 1/8 of its size, whole (what
-//! location searches) or only the region around the ball (what the features read), so that a
-//! phone photograph costs about what decoding it once costs; every other file, and any JPEG
-//! that decoder does not read as the full path would, is decoded whole once
-//! ([`super::decode`]) and every step reads that image, as before.
+//! libjpeg-turbo ([`super::jpeg`]) at 1/2, 1/4 or 1/8 of its size (what location searches)
+//! or as the region around the ball at the scale the features need, so that a phone
+//! photograph costs about what decoding it once costs; all of it at full size is the full
+//! path's decode ([`super::decode`]), as is every other file and any JPEG libjpeg-turbo does
+//! not read as the full path would (decoded whole once: every step reads that image).
 //!
 //! A [`Scaled`] copy says where its pixels lie on the full image: pixel (i, j) of a copy at
 //! 1/d covers full pixels [i·d, (i + 1)·d) along each axis, shifted by the copy's origin
@@ -190,86 +190,99 @@ impl<'a> Photo<'a> {
             } => (header, *orientation),
         };
         let d = supported(denominator);
-        let decoded = self.decode_window(header, orientation, [x0, y0, x1, y1], d);
+        let (width, height) = self.size();
+        let everything = x0 == 0 && y0 == 0 && x1 >= width && y1 >= height;
+        let window = [x0, y0, x1, y1];
+        let decoded = match d == 1 && everything {
+            // All of it at full size: the full path's decoder, as every decode of a whole
+            // image ([`super::decode`]).
+            true => None,
+            false => decode_window(self.bytes, &self.options, header, orientation, window, d),
+        };
         match decoded {
             Some(scaled) => Ok(scaled),
-            // What libjpeg-turbo does not read cleanly, the full path answers (or refuses).
-            None => Ok(whole(Cow::Owned(super::decode(self.bytes, &self.options)?))),
+            // What libjpeg-turbo does not read cleanly, the image crate's decoder answers (or
+            // refuses), as it does every other file.
+            None => Ok(whole(Cow::Owned(integer::decode(
+                self.bytes,
+                &self.options,
+            )?))),
         }
     }
+}
 
-    /// The window of the oriented rectangle at 1/`d`, decoded and oriented, or None.
-    fn decode_window(
-        &self,
-        header: &Header,
-        orientation: Orientation,
-        oriented: [usize; 4],
-        d: usize,
-    ) -> Option<Scaled<'static>> {
-        let axes = axes(orientation);
-        let (width, height) = (header.width, header.height);
-        // The rectangle in stored pixels, then at 1/d, rounded outwards.
-        let mut stored = [0usize; 4];
-        for (k, axis) in axes.iter().enumerate() {
-            let extent = if axis.stored_x { width } else { height };
-            let (lo, hi) = (oriented[k].min(extent), oriented[k + 2].min(extent));
-            let (lo, hi) = match axis.reversed {
-                true => (extent - hi, extent - lo),
-                false => (lo, hi),
-            };
-            let at = if axis.stored_x { 0 } else { 1 };
-            stored[at] = lo / d;
-            stored[at + 2] = hi.div_ceil(d);
-        }
-        let want = Window {
-            x: stored[0],
-            y: stored[1],
-            w: stored[2].checked_sub(stored[0])?,
-            h: stored[3].checked_sub(stored[1])?,
+/// The window of the oriented rectangle at 1/`d`, decoded and oriented, or None.
+fn decode_window(
+    bytes: &[u8],
+    options: &DecodeOptions,
+    header: &Header,
+    orientation: Orientation,
+    oriented: [usize; 4],
+    d: usize,
+) -> Option<Scaled<'static>> {
+    let axes = axes(orientation);
+    let (width, height) = (header.width, header.height);
+    // The rectangle in stored pixels, then at 1/d, rounded outwards.
+    let mut stored = [0usize; 4];
+    for (k, axis) in axes.iter().enumerate() {
+        let extent = if axis.stored_x { width } else { height };
+        let (lo, hi) = (oriented[k].min(extent), oriented[k + 2].min(extent));
+        let (lo, hi) = match axis.reversed {
+            true => (extent - hi, extent - lo),
+            false => (lo, hi),
         };
-        let window = header.window(want, d)?;
-        let (scaled_w, scaled_h) = header.scaled(d);
-        let crop = (window
-            != Window {
-                x: 0,
-                y: 0,
-                w: scaled_w,
-                h: scaled_h,
-            })
-        .then_some(window);
-        let pixels = jpeg::decode(self.bytes, d, crop)?;
-        let stored_image = match pixels.channels {
-            1 => DynamicImage::ImageLuma8(ImageBuffer::from_raw(
-                u32::try_from(window.w).ok()?,
-                u32::try_from(window.h).ok()?,
-                pixels.samples,
-            )?),
-            _ => DynamicImage::ImageRgb8(ImageBuffer::from_raw(
-                u32::try_from(window.w).ok()?,
-                u32::try_from(window.h).ok()?,
-                pixels.samples,
-            )?),
-        };
-        let mut oriented_image = stored_image;
-        oriented_image.apply_orientation(orientation);
-        let image = integer::to_linear(oriented_image, Format::Jpeg, &self.options).ok()?;
-        // Where the oriented copy's first pixel lies, per oriented axis.
-        let offset = axes.map(|axis| {
-            let (start, length, extent) = match axis.stored_x {
-                true => (window.x, window.w, width),
-                false => (window.y, window.h, height),
-            };
-            match axis.reversed {
-                true => extent as f64 - ((start + length) * d) as f64,
-                false => (start * d) as f64,
-            }
-        });
-        Some(Scaled {
-            image: Cow::Owned(image),
-            denominator: d,
-            offset,
-        })
+        let at = if axis.stored_x { 0 } else { 1 };
+        stored[at] = lo / d;
+        stored[at + 2] = hi.div_ceil(d);
     }
+    let want = Window {
+        x: stored[0],
+        y: stored[1],
+        w: stored[2].checked_sub(stored[0])?,
+        h: stored[3].checked_sub(stored[1])?,
+    };
+    let window = header.window(want, d)?;
+    let (scaled_w, scaled_h) = header.scaled(d);
+    let crop = (window
+        != Window {
+            x: 0,
+            y: 0,
+            w: scaled_w,
+            h: scaled_h,
+        })
+    .then_some(window);
+    let pixels = jpeg::decode(bytes, d, crop)?;
+    let stored_image = match pixels.channels {
+        1 => DynamicImage::ImageLuma8(ImageBuffer::from_raw(
+            u32::try_from(window.w).ok()?,
+            u32::try_from(window.h).ok()?,
+            pixels.samples,
+        )?),
+        _ => DynamicImage::ImageRgb8(ImageBuffer::from_raw(
+            u32::try_from(window.w).ok()?,
+            u32::try_from(window.h).ok()?,
+            pixels.samples,
+        )?),
+    };
+    let mut oriented_image = stored_image;
+    oriented_image.apply_orientation(orientation);
+    let image = integer::to_linear(oriented_image, Format::Jpeg, options).ok()?;
+    // Where the oriented copy's first pixel lies, per oriented axis.
+    let offset = axes.map(|axis| {
+        let (start, length, extent) = match axis.stored_x {
+            true => (window.x, window.w, width),
+            false => (window.y, window.h, height),
+        };
+        match axis.reversed {
+            true => extent as f64 - ((start + length) * d) as f64,
+            false => (start * d) as f64,
+        }
+    });
+    Some(Scaled {
+        image: Cow::Owned(image),
+        denominator: d,
+        offset,
+    })
 }
 
 /// 1, 2, 4 or 8: the largest of them not above `denominator`.
@@ -393,12 +406,14 @@ mod tests {
     }
 
     #[test]
-    fn the_full_size_copy_is_the_full_decode() {
+    fn a_full_size_region_is_the_full_decode_there() {
         let bytes = spot(96, 80, (40.0, 30.0, 6.0), false);
         let options = DecodeOptions::default();
         let full = decode(&bytes, &options).unwrap();
         let photo = Photo::open(&bytes, &options).unwrap();
-        let copy = photo.whole(1).unwrap();
+        assert_eq!(photo.whole(1).unwrap().image.luminance, full.luminance);
+        let copy = photo.region([0, 0, 96, 79], 1).unwrap();
+        assert_eq!(copy.image.height(), 79);
         // Two decoders' rounding: within a level of the 8-bit samples.
         let worst = full
             .luminance

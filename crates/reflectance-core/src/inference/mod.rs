@@ -5,7 +5,7 @@
 use crate::analysis::{self, AnalysisError, InputError, PartError, Placement, WhiteSpec};
 use crate::classify::conformal;
 use crate::classify::domain::Verdict;
-use crate::decode::{self, DecodeError, DecodeOptions};
+use crate::decode::{self, DecodeError, DecodeOptions, Photo};
 use crate::estimate::WardEstimate;
 use crate::features::Extractor;
 use crate::image::display;
@@ -272,14 +272,6 @@ fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
 }
 
-fn decode_part(
-    part: &'static str,
-    bytes: &[u8],
-    options: &DecodeOptions,
-) -> Result<decode::LinearImage, InferenceError> {
-    decode::decode(bytes, options).map_err(|source| InferenceError::Decode { part, source })
-}
-
 impl From<PartError> for InferenceError {
     fn from(e: PartError) -> InferenceError {
         match e {
@@ -309,11 +301,11 @@ pub fn classify(
         // A colour is read only against a card's colour.
         colour: input.white.is_card(),
     };
-    let image = decode_part("", &input.image, &options)?;
-    drop(input.image);
+    let photo = Photo::open(&input.image, &options)
+        .map_err(|source| InferenceError::Decode { part: "", source })?;
     let white = input.white.decode(&options)?;
     let placement = input.locate.decode(&options)?;
-    classify_decoded(model, image, &placement, &white, &input.answer, ms(t))
+    classify_photo(model, &photo, &placement, &white, &input.answer, ms(t))
 }
 
 /// What an answer includes beyond the class, and the prediction set's coverage.
@@ -410,6 +402,26 @@ pub fn classify_decoded(
     answer: &Answer,
     decode_ms: f64,
 ) -> Result<Classified, InferenceError> {
+    classify_photo(
+        model,
+        &Photo::decoded(image),
+        locate,
+        white,
+        answer,
+        decode_ms,
+    )
+}
+
+/// Locate, extract and classify a photograph, decoding what each step reads
+/// ([`analysis::analyze_photo`]); `decode_ms` is what opening it took.
+pub fn classify_photo(
+    model: Arc<LoadedModel>,
+    photo: &Photo,
+    locate: &Placement,
+    white: &WhiteSpec,
+    answer: &Answer,
+    decode_ms: f64,
+) -> Result<Classified, InferenceError> {
     let t = Instant::now();
     // Unless every feature is asked for, extract only those the classifier reads.
     let wanted = match &model.needed {
@@ -417,9 +429,9 @@ pub fn classify_decoded(
         _ => None,
     };
     let envelope = model.file.capture.as_ref();
-    let mut analysis = analysis::analyze_subset(
+    let (mut analysis, read) = analysis::analyze_photo(
         &model.extractor,
-        &image,
+        photo,
         locate,
         white,
         wanted,
@@ -427,8 +439,8 @@ pub fn classify_decoded(
     )?;
     let images = answer
         .include_images
-        .then(|| images_of(&model.extractor, &image, &analysis));
-    drop(image);
+        .then(|| images_of(&model.extractor, &read, &analysis));
+    drop(read);
     let features_ms = ms(t);
     let t = Instant::now();
     let coverage = widened_for_objects(&mut analysis, answer.coverage);
@@ -555,10 +567,12 @@ pub fn locate(
     options: &DecodeOptions,
     preview: bool,
 ) -> Result<LocateResponse, InferenceError> {
-    let image = decode_part("", bytes, options)?;
-    let mut warnings = image.warnings.clone();
-    let (chosen, ranked) = analysis::locate_ranked(&image, &model.extractor);
-    let (width, height) = (image.width(), image.height());
+    let decode_error = |source| InferenceError::Decode { part: "", source };
+    let photo = Photo::open(bytes, options).map_err(decode_error)?;
+    let (chosen, ranked, copy) =
+        analysis::locate_photo_ranked(&photo, &model.extractor).map_err(decode_error)?;
+    let mut warnings = photo.warnings().to_vec();
+    let (width, height) = photo.size();
     let candidates = ranked
         .iter()
         .take(CANDIDATES)
@@ -579,13 +593,14 @@ pub fn locate(
     };
     Ok(LocateResponse {
         request_id: String::new(),
-        width: image.width(),
-        height: image.height(),
+        width,
+        height,
         geometry,
         candidates,
         warnings,
         preview: preview.then(|| {
-            display::data_url(&display::preview_png(image.luminance.view(), PREVIEW_SIDE))
+            let side = PREVIEW_SIDE.min(width.max(height));
+            display::data_url(&display::preview_png(copy.image.luminance.view(), side))
         }),
     })
 }

@@ -2,8 +2,7 @@
 //! prints) and how a classification becomes one.
 
 use super::{Classified, Decision, LoadedModel};
-use crate::analysis::Analysis;
-use crate::decode;
+use crate::analysis::{Analysis, Read};
 use crate::estimate::{StatedEstimate, WardEstimate};
 use crate::features::Extractor;
 use crate::image::colour::{self, Rgb};
@@ -389,15 +388,11 @@ pub fn wire_name(value: &impl Serialize) -> String {
 }
 
 /// The annulus and subbands that `analysis` came from.
-pub(super) fn images_of(
-    extractor: &Extractor,
-    image: &decode::LinearImage,
-    analysis: &Analysis,
-) -> ImagesOut {
+pub(super) fn images_of(extractor: &Extractor, read: &Read, analysis: &Analysis) -> ImagesOut {
     let white = analysis.white.value;
     let stages = match &analysis.equivalent {
         Some(sphere) => extractor.stages_of_equivalent(sphere, white),
-        None => extractor.stages(image.luminance.view(), &analysis.geometry.circle(), white),
+        None => extractor.stages(read.copy.image.luminance.view(), &read.circle, white),
     };
     let equivalent_sphere = analysis.equivalent.as_ref().map(|sphere| {
         let seen = sphere.luminance.mapv(|v| v / white);
