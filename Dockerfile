@@ -10,6 +10,11 @@
 
 ARG RUST_VERSION=1.95
 FROM rust:${RUST_VERSION}-slim-bookworm AS chef
+# libjpeg-turbo (the turbojpeg-sys crate builds it from its bundled source, linked
+# statically) needs cmake, make and nasm at build time; the runtime image needs nothing.
+RUN (command -v cmake && command -v make && command -v nasm) >/dev/null \
+ || (apt-get update && apt-get install -y --no-install-recommends cmake make nasm \
+     && rm -rf /var/lib/apt/lists/*)
 RUN cargo install cargo-chef --locked
 WORKDIR /app
 # The binary is stripped below: the line tables Cargo.toml's release profile keeps for

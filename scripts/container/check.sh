@@ -6,7 +6,8 @@
 #
 # 1. Local stand-ins of the Dockerfile's two base images, under the exact names of its FROM
 #    lines (no registry is reachable here): the builder, Debian bookworm (minbase) with gcc,
-#    libc6-dev, ca-certificates and this machine's Rust toolchain laid out as the official
+#    libc6-dev, ca-certificates, cmake, make and nasm (libjpeg-turbo's build, which the
+#    Dockerfile installs into the official image) and this machine's Rust toolchain laid out as the official
 #    rust image lays it out (/usr/local/cargo, /usr/local/rustup, PATH, CARGO_HOME,
 #    RUSTUP_HOME); the runtime, what distroless cc holds (libc6, libgcc-s1, libstdc++6,
 #    libgomp1, libssl3, ca-certificates, tzdata, netbase, the user nonroot 65532), no shell.
@@ -46,7 +47,7 @@ MIRROR=${DEBIAN_MIRROR:-http://deb.debian.org/debian}
 SECURITY_MIRROR=${DEBIAN_SECURITY_MIRROR:-http://deb.debian.org/debian-security}
 # Changes when the stand-ins' recipe below changes: images built by an older recipe are
 # rebuilt.
-RECIPE=4
+RECIPE=5
 FIXTURE=tests/fixtures/features/sphere_rgb8.png
 
 die() { echo "container check: $*" >&2; exit 1; }
@@ -221,7 +222,7 @@ build_builder_base() {
     echo "$BUILDER_BASE: kept ($fp)"
     return
   fi
-  mmdebstrap --variant=minbase --include=ca-certificates,gcc,libc6-dev "${SLIM[@]}" \
+  mmdebstrap --variant=minbase --include=ca-certificates,gcc,libc6-dev,cmake,make,nasm "${SLIM[@]}" \
       --customize-hook="bash '$SELF' hook-builder \"\$1\"" bookworm - "${SOURCES[@]}" </dev/null \
     | podman import -q \
       --change "ENV PATH=/usr/local/cargo/bin:/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin" \
