@@ -80,6 +80,29 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> RegistryError + '_ {
     }
 }
 
+/// A model file's identity on disk ([`Registry::stamp`]): it changes when the file is
+/// replaced or written to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Stamp {
+    len: u64,
+    modified: Option<std::time::SystemTime>,
+    inode: u64,
+}
+
+impl Stamp {
+    fn of(meta: &fs::Metadata) -> Stamp {
+        #[cfg(unix)]
+        let inode = std::os::unix::fs::MetadataExt::ino(meta);
+        #[cfg(not(unix))]
+        let inode = 0;
+        Stamp {
+            len: meta.len(),
+            modified: meta.modified().ok(),
+            inode,
+        }
+    }
+}
+
 /// Model names are path components: keep them to a safe alphabet.
 pub fn valid_name(name: &str) -> bool {
     (1..=64).contains(&name.len())
@@ -175,6 +198,32 @@ impl Registry {
             .ok_or_else(|| RegistryError::UnknownModel(name.to_string()))
     }
 
+    /// What `ACTIVE` says: `Ok(None)` without the file, `Err` when it cannot be read or does
+    /// not hold a version number (being replaced, or written by hand), whether or not the
+    /// version it names exists.
+    pub fn pinned(&self, name: &str) -> Result<Option<u32>, RegistryError> {
+        let path = self.model_dir(name)?.join(ACTIVE_FILE);
+        match fs::read_to_string(&path) {
+            Ok(text) => text.trim().parse::<u32>().map(Some).map_err(|_| {
+                let source = std::io::Error::new(
+                    std::io::ErrorKind::InvalidData,
+                    format!("not a version number: {:?}", text.trim()),
+                );
+                io(&path)(source)
+            }),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(e) => Err(io(&path)(e)),
+        }
+    }
+
+    /// The identity of a version's model file as the file system gives it (size, change
+    /// time, inode): two looks at the registry compare it instead of reading the file again.
+    pub fn stamp(&self, name: &str, version: u32) -> Result<Stamp, RegistryError> {
+        let path = self.version_dir(name, version)?.join(MODEL_FILE);
+        let meta = fs::metadata(&path).map_err(io(&path))?;
+        Ok(Stamp::of(&meta))
+    }
+
     /// Record `version` as active (atomically).
     pub fn set_active(&self, name: &str, version: u32) -> Result<(), RegistryError> {
         self.require(name, version)?;
@@ -225,12 +274,17 @@ impl Registry {
     ) -> Result<(u32, PathBuf), RegistryError> {
         let dir = self.model_dir(&model.name)?;
         fs::create_dir_all(&dir).map_err(io(&dir))?;
+        // Past a folder that holds this number without being a complete version (a
+        // version being written in place, or left half-written): the listing alone would
+        // give the same number again and again.
+        let mut floor = 1;
         loop {
             let version = match self.versions(&model.name) {
                 Ok(v) => v.last().copied().unwrap_or(0) + 1,
                 Err(RegistryError::UnknownModel(_)) => 1,
                 Err(e) => return Err(e),
-            };
+            }
+            .max(floor);
             model.version = version;
             let staging = crate::util::durable::temp_path(&dir.join(version.to_string()));
             let written = self.stage(&staging, model, extra);
@@ -248,6 +302,7 @@ impl Registry {
                 // Another writer took this number first: try the next one.
                 Err(_) if target.exists() => {
                     let _ = fs::remove_dir_all(&staging);
+                    floor = version + 1;
                 }
                 Err(e) => {
                     let _ = fs::remove_dir_all(&staging);
@@ -386,6 +441,74 @@ mod tests {
         for bad in ["", "..", "a/b", "Ward6", "a b", ".hidden", &"x".repeat(65)] {
             assert!(!valid_name(bad), "{bad}");
         }
+    }
+
+    /// A registry holding a copy of the shipped `ward6` version 1.
+    fn scratch(name: &str) -> (PathBuf, Registry) {
+        let root = std::env::temp_dir().join(format!("registry-{name}-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&root);
+        let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/ward6/1");
+        fs::create_dir_all(root.join("ward6/1")).unwrap();
+        fs::copy(
+            shipped.join(MODEL_FILE),
+            root.join("ward6/1").join(MODEL_FILE),
+        )
+        .unwrap();
+        (root.clone(), Registry::new(root))
+    }
+
+    #[test]
+    fn pinned_is_what_active_says() {
+        let (root, registry) = scratch("pinned");
+        assert_eq!(registry.pinned("ward6").unwrap(), None);
+        fs::write(root.join("ward6/ACTIVE"), "7\n").unwrap();
+        // Named even though there is no version 7 (yet): `active` falls back, `pinned` tells.
+        assert_eq!(registry.pinned("ward6").unwrap(), Some(7));
+        assert_eq!(registry.active("ward6").unwrap(), 1);
+        fs::write(root.join("ward6/ACTIVE"), "seven").unwrap();
+        assert!(matches!(
+            registry.pinned("ward6"),
+            Err(RegistryError::Io { .. })
+        ));
+        fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[test]
+    fn a_stamp_changes_with_the_file_only() {
+        let (root, registry) = scratch("stamp");
+        let before = registry.stamp("ward6", 1).unwrap();
+        let _ = registry.load("ward6", 1).unwrap();
+        assert_eq!(
+            registry.stamp("ward6", 1).unwrap(),
+            before,
+            "reading leaves it"
+        );
+        let path = root.join("ward6/1").join(MODEL_FILE);
+        let bytes = fs::read(&path).unwrap();
+        crate::util::durable::write_atomic(&path, &bytes).unwrap();
+        assert_ne!(
+            registry.stamp("ward6", 1).unwrap(),
+            before,
+            "the same bytes, replaced"
+        );
+        assert!(registry.stamp("ward6", 2).is_err());
+        fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[test]
+    fn publish_goes_past_a_folder_being_written() {
+        let (root, registry) = scratch("past");
+        // Version 2's folder, its model file not there yet: not a version, and not taken over.
+        fs::create_dir_all(root.join("ward6/2")).unwrap();
+        fs::write(root.join("ward6/2/report.json"), b"{}").unwrap();
+        assert_eq!(registry.versions("ward6").unwrap(), [1]);
+        let mut model = registry.load("ward6", 1).unwrap();
+        let (version, dir) = registry.publish(&mut model, &[]).unwrap();
+        assert_eq!((version, dir), (3, root.join("ward6/3")));
+        assert_eq!(registry.versions("ward6").unwrap(), [1, 3]);
+        assert_eq!(registry.load("ward6", 3).unwrap().version, 3);
+        assert!(root.join("ward6/2/report.json").is_file());
+        fs::remove_dir_all(&root).unwrap();
     }
 
     #[test]
