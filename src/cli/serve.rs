@@ -81,6 +81,11 @@ pub struct ServeArgs {
     /// Non-active model versions kept loaded for `?version=` requests.
     #[arg(long, env = "REFLECTANCE_MODEL_CACHE", default_value_t = defaults::MODEL_CACHE)]
     pub model_cache: usize,
+    /// Seconds between two looks at the model registry: a new `ACTIVE` or latest version is
+    /// loaded (checked as an activation is) and swapped in, a removed one stops being served;
+    /// 0 (the default) reads the registry at start only.
+    #[arg(long, env = "REFLECTANCE_POLL_INTERVAL", default_value_t = defaults::POLL_INTERVAL_S)]
+    pub poll_interval: f64,
     /// Log format.
     #[arg(long, env = "REFLECTANCE_LOG_FORMAT", value_enum, default_value_t = LogFormat::Auto)]
     pub log_format: LogFormat,
@@ -150,6 +155,8 @@ impl ServeArgs {
             shutdown_grace: seconds("--shutdown-grace", self.shutdown_grace)?,
             drain_delay: seconds("--drain-delay", self.drain_delay)?,
             model_cache: self.model_cache,
+            poll_interval: Some(seconds("--poll-interval", self.poll_interval)?)
+                .filter(|d| !d.is_zero()),
             limits: self.limits.limits(),
             datasets: DatasetLimits {
                 archive_bytes: self.dataset_max_archive,

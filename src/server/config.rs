@@ -29,6 +29,8 @@ pub mod defaults {
     pub const SHUTDOWN_GRACE_S: f64 = 30.0;
     pub const DRAIN_DELAY_S: f64 = 0.0;
     pub const MODEL_CACHE: usize = 4;
+    /// Seconds between two looks at the registry (0: never, the registry is read at start).
+    pub const POLL_INTERVAL_S: f64 = 0.0;
     pub const LOG: &str = "info";
     /// Dataset uploads (`POST /admin/v1/datasets`): the archive's size in bytes, its
     /// unpacked size, its members, and the time the whole upload may take.
@@ -99,6 +101,9 @@ pub struct Config {
     pub shutdown_grace: Duration,
     pub drain_delay: Duration,
     pub model_cache: usize,
+    /// How often the registry is looked at for new, changed or removed versions (`None`:
+    /// never; the models are loaded at start and change by admin activation only).
+    pub poll_interval: Option<Duration>,
     pub limits: Limits,
     pub datasets: DatasetLimits,
     pub log_format: LogFormat,
@@ -130,6 +135,7 @@ impl std::fmt::Debug for Config {
             .field("shutdown_grace", &self.shutdown_grace)
             .field("drain_delay", &self.drain_delay)
             .field("model_cache", &self.model_cache)
+            .field("poll_interval", &self.poll_interval)
             .field("limits", &self.limits)
             .field("datasets", &self.datasets)
             .field("log_format", &self.log_format)
@@ -164,6 +170,7 @@ impl Config {
             shutdown_grace: Duration::from_secs_f64(defaults::SHUTDOWN_GRACE_S),
             drain_delay: Duration::from_secs_f64(defaults::DRAIN_DELAY_S),
             model_cache: defaults::MODEL_CACHE,
+            poll_interval: None,
             limits: Limits::default(),
             datasets: DatasetLimits::default(),
             log_format: LogFormat::Auto,
@@ -201,6 +208,9 @@ impl Config {
         ];
         if let Some((flag, _)) = counts.iter().find(|(_, n)| *n == 0) {
             return Err(InvalidConfig::Zero(flag));
+        }
+        if self.poll_interval.is_some_and(|d| d.is_zero()) {
+            return Err(InvalidConfig::NoTime("--poll-interval"));
         }
         let durations = [
             ("--request-timeout", self.request_timeout),

@@ -76,7 +76,19 @@ fn describe() {
     );
     describe_counter!(
         "reflectance_model_load_failures_total",
-        "Model versions refused at load or activation (schema, checksum, self-test, I/O)"
+        "Model versions refused at load, activation or a look at the registry (schema, checksum, self-test, I/O)"
+    );
+    describe_gauge!(
+        "reflectance_model_loaded_timestamp_seconds",
+        "When this process loaded the served version of each model (Unix time; 0: not served)"
+    );
+    describe_counter!(
+        "reflectance_registry_polls_total",
+        "Looks at the registry (--poll-interval) completed"
+    );
+    describe_counter!(
+        "reflectance_registry_poll_failures_total",
+        "Looks at the registry (--poll-interval) that could not read it; the served versions stay"
     );
     describe_counter!(
         "reflectance_model_fallbacks_total",
@@ -99,6 +111,8 @@ fn describe() {
 fn register_at_zero() {
     counter!("reflectance_requests_shed_total").increment(0);
     counter!("reflectance_job_record_write_failures_total").increment(0);
+    counter!("reflectance_registry_polls_total").increment(0);
+    counter!("reflectance_registry_poll_failures_total").increment(0);
     gauge!("reflectance_http_requests_in_flight").increment(0.0);
     gauge!("reflectance_job_queue_depth").increment(0.0);
     for state in JOB_STATES {
@@ -136,12 +150,32 @@ pub fn shed() {
     counter!("reflectance_requests_shed_total").increment(1);
 }
 
-pub fn model_active(model: &str, version: u32) {
+pub fn model_active(model: &str, version: u32, loaded: std::time::SystemTime) {
     gauge!("reflectance_model_active_version", "model" => model.to_string())
         .set(f64::from(version));
+    let since = loaded
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64());
+    gauge!("reflectance_model_loaded_timestamp_seconds", "model" => model.to_string()).set(since);
     // A served model's failure counters exist from the start (see `register_at_zero`).
     counter!("reflectance_model_load_failures_total", "model" => model.to_string()).increment(0);
     counter!("reflectance_model_fallbacks_total", "model" => model.to_string()).increment(0);
+}
+
+/// A model with no version left in the registry, no longer served.
+pub fn model_removed(model: &str) {
+    gauge!("reflectance_model_active_version", "model" => model.to_string()).set(0.0);
+    gauge!("reflectance_model_loaded_timestamp_seconds", "model" => model.to_string()).set(0.0);
+}
+
+/// A look at the registry completed.
+pub fn registry_polled() {
+    counter!("reflectance_registry_polls_total").increment(1);
+}
+
+/// A look at the registry that could not read it (the served versions stay).
+pub fn registry_poll_failure() {
+    counter!("reflectance_registry_poll_failures_total").increment(1);
 }
 
 pub fn model_load_failure(model: &str) {

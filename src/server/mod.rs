@@ -241,6 +241,13 @@ pub async fn serve(
     });
     let grpc_task =
         grpc.map(|grpc| tokio::spawn(grpc::serve(state.clone(), grpc, signal(stop_rx.clone()))));
+    if let Some(every) = state.config.poll_interval {
+        tokio::spawn(watch_registry(
+            state.clone(),
+            every,
+            signal(stop_rx.clone()),
+        ));
+    }
     shutdown.await;
     tracing::info!("shutting down: draining");
     state.readiness.set(Phase::Draining);
@@ -269,6 +276,37 @@ pub async fn serve(
         let _ = tokio::task::spawn_blocking(move || jobs.join(grace)).await;
     }
     tracing::info!("stopped");
+}
+
+/// Every `every`, once the models are loaded, look at the registry and serve what it says
+/// ([`store::ModelStore::poll`]), off the runtime's threads, until `stop` resolves.
+async fn watch_registry(
+    state: SharedState,
+    every: std::time::Duration,
+    stop: impl Future<Output = ()> + Send,
+) {
+    tokio::pin!(stop);
+    loop {
+        tokio::select! {
+            () = &mut stop => return,
+            () = tokio::time::sleep(every) => {}
+        }
+        if state.readiness.get() == Phase::Loading {
+            continue;
+        }
+        let looking = state.clone();
+        let polled =
+            tokio::task::spawn_blocking(move || looking.models.poll(&looking.config.default_model))
+                .await;
+        match polled {
+            Ok(Ok(_)) => {}
+            Ok(Err(e)) => {
+                metrics::registry_poll_failure();
+                tracing::warn!(error = %e, "cannot read the registry: the served versions stay");
+            }
+            Err(e) => tracing::error!(error = %e, "the look at the registry failed"),
+        }
+    }
 }
 
 /// `reflectance serve`: everything, from configuration to shutdown.

@@ -12,5 +12,6 @@ mod honest;
 mod hostile;
 mod openapi;
 mod page;
+mod replicas;
 mod shapes;
 mod v2;

@@ -299,7 +299,8 @@ pub struct Activation {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub previous: Option<u32>,
     /// Whether the registry recorded the choice (false: a read-only models folder; the
-    /// activation holds until the process restarts).
+    /// activation holds until the process restarts, or with `--poll-interval` until its
+    /// next look at the registry).
     pub persisted: bool,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub warning: Option<String>,

@@ -2,6 +2,7 @@
 
 use crate::server::error::{ApiError, Problem};
 use crate::server::state::{LoadedModel, SharedState};
+use crate::server::store::Served;
 use axum::Json;
 use axum::extract::{Path, State};
 use reflectance_core::inference::ClassOut;
@@ -14,6 +15,8 @@ pub struct ModelSummary {
     pub name: String,
     /// The version that answers requests without `?version=`.
     pub active_version: u32,
+    /// When this replica loaded the active version (RFC 3339, UTC).
+    pub loaded: String,
     /// Whether `POST /v1/classify` uses this model.
     pub default: bool,
     pub classes: Vec<String>,
@@ -123,7 +126,13 @@ pub struct TrainingOut {
 #[derive(Clone, Debug, Serialize, Deserialize, ToSchema)]
 pub struct ModelDetail {
     pub name: String,
+    /// The version this replica serves.
     pub active_version: u32,
+    /// When this replica loaded it (RFC 3339, UTC): at start, at an activation, or when a
+    /// look at the registry (`--poll-interval`) found it.
+    pub loaded: String,
+    /// The replica that answered (its host name: the pod's name on Kubernetes).
+    pub replica: String,
     /// Versions in the registry, ascending.
     pub versions: Vec<u32>,
     /// Creation time of the active version (RFC 3339).
@@ -141,7 +150,33 @@ pub struct ModelDetail {
     pub sha256: String,
 }
 
-pub fn detail(model: &LoadedModel, versions: Vec<u32>) -> ModelDetail {
+/// When a served version was loaded, as RFC 3339.
+pub fn loaded(served: &Served) -> String {
+    let secs = served
+        .loaded
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    reflectance_core::model::rfc3339(secs)
+}
+
+/// This process's host name (the pod's name on Kubernetes), else `HOSTNAME`, else empty.
+pub fn replica() -> String {
+    static NAME: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    NAME.get_or_init(|| {
+        let mut buffer = [0u8; 256];
+        // SAFETY: the buffer and its length are ours; gethostname writes at most that many.
+        let rc = unsafe { libc::gethostname(buffer.as_mut_ptr().cast(), buffer.len()) };
+        let end = buffer.iter().position(|&b| b == 0).unwrap_or(buffer.len());
+        match rc {
+            0 if end > 0 => String::from_utf8_lossy(&buffer[..end]).into_owned(),
+            _ => std::env::var("HOSTNAME").unwrap_or_default(),
+        }
+    })
+    .clone()
+}
+
+pub fn detail(served: &Served, versions: Vec<u32>) -> ModelDetail {
+    let model: &LoadedModel = &served.model;
     let f = model.file();
     let (c, gamma) = match f.classifier.model() {
         reflectance_core::classify::pipeline::Model::Svm(m) => (Some(m.c), Some(m.gamma)),
@@ -150,6 +185,8 @@ pub fn detail(model: &LoadedModel, versions: Vec<u32>) -> ModelDetail {
     ModelDetail {
         name: f.name.clone(),
         active_version: f.version,
+        loaded: loaded(served),
+        replica: replica(),
         versions,
         created: f.created.clone(),
         classes: f.classes.iter().map(ClassOut::from).collect(),
@@ -203,11 +240,13 @@ pub fn detail(model: &LoadedModel, versions: Vec<u32>) -> ModelDetail {
 pub async fn list(State(state): State<SharedState>) -> Json<ModelList> {
     let models = state
         .models
-        .all_active()
+        .all_served()
         .iter()
-        .map(|m| ModelSummary {
+        .map(|served| (served, &served.model))
+        .map(|(served, m)| ModelSummary {
             name: m.name().to_string(),
             active_version: m.version(),
+            loaded: loaded(served),
             default: m.name() == state.config.default_model,
             classes: m.file().classifier.classes().to_vec(),
             feature_set: m.file().features.set.clone(),
@@ -234,11 +273,12 @@ pub async fn get(
     State(state): State<SharedState>,
     Path(name): Path<String>,
 ) -> Result<Json<ModelDetail>, ApiError> {
-    let model = state.models.served(&name)?;
+    let served = state.models.served_with_time(&name)?;
     let registry = state.models.registry().clone();
+    let version = served.model.version();
     let versions = tokio::task::spawn_blocking(move || registry.versions(&name))
         .await
         .map_err(ApiError::internal)?
-        .unwrap_or_else(|_| vec![model.version()]);
-    Ok(Json(detail(&model, versions)))
+        .unwrap_or_else(|_| vec![version]);
+    Ok(Json(detail(&served, versions)))
 }
