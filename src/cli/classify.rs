@@ -122,10 +122,7 @@ fn write_gltf(path: &Path, answer: &ClassifyResponse, which: GltfMaterial) -> Cl
         };
         return Err(CliError::Invalid(format!("--gltf-material: {why}")));
     };
-    let material = reflectance_core::material::Material {
-        name: chosen.name.clone(),
-        ward: chosen.ward,
-    };
+    let material = reflectance_core::material::Material::new(chosen.name.clone(), chosen.ward);
     let about = serde_json::json!({"source": format!("the {} of reflectance classify", chosen.source),
                                    "material": chosen, "model": answer.model, "label": answer.label,
                                    "note": materials.note});

@@ -74,8 +74,9 @@ pub fn run(args: GltfArgs) -> CliResult {
                 Format::Glb => "glb",
             };
             for material in &materials {
-                let path = args.out.join(format!("{}.{extension}", material.name));
-                let about = json!({"source": format!("class {:?} of {}", material.name, classes.display())});
+                let label = material.label();
+                let path = args.out.join(format!("{label}.{extension}"));
+                let about = json!({"source": format!("class {label:?} of {}", classes.display())});
                 write(&path, material, args.colour, about)?;
                 println!("{}", path.display());
             }
@@ -88,14 +89,14 @@ pub fn run(args: GltfArgs) -> CliResult {
                     "--name {name:?}: use 1–64 of a-z, 0-9, '_' and '-'"
                 )));
             }
-            let material = Material {
+            let material = Material::new(
                 name,
-                ward: Ward {
+                Ward {
                     rho_d,
                     rho_s,
                     alpha,
                 },
-            };
+            );
             write(
                 &args.out,
                 &material,

@@ -1,13 +1,14 @@
-//! Rendering whole datasets: every probe × class (× augmentation views), in parallel,
+//! Rendering whole datasets: every probe × class entry (× augmentation views), in parallel,
 //! deterministic for a seed, resumable, with `manifest.csv`
 //! (`path,class,illumination,cx,cy,r,white`; illumination = probe file stem, or
-//! `<stem>@<variant>` for augmented views). A shard renders one contiguous block of the
+//! `<stem>@<variant>` for augmented views; a class's members are named
+//! `<class>+<member>` in file names, by their class in the `class` column). A shard renders one contiguous block of the
 //! same images and writes its part of the manifest ([`reflectance_core::util::shard`]).
 
 use super::envmap::{EnvMap, EnvMapError};
 use super::shapes::{Normals, ShapeError, ShapeSpec};
 use super::ward::Material;
-use super::{Lighting, Quality, View, render, render_normals};
+use super::{Lighting, Quality, View, render_finished, render_normals_finished};
 use crate::capture::{self, CaptureRanges, CaptureSettings, DrawSettings};
 use rayon::prelude::*;
 use reflectance_core::dataset::{SYNTHETIC_ILLUMINATION, format_f64};
@@ -455,7 +456,7 @@ fn jobs_of(spec: &BatchSpec, probes: &[Probe]) -> Result<Vec<Job>, RenderError> 
                     probe: pi,
                     variant: variant.clone(),
                     class: ci,
-                    name: format!("{}{}__{}", probe.stem, variant.suffix, class.name),
+                    name: format!("{}{}__{}", probe.stem, variant.suffix, class.label()),
                 });
             }
         }
@@ -493,14 +494,20 @@ fn render_job(
         let lighting =
             probe.lightings[k].get_or_init(|| Lighting::new(spec.augment.lighting(map, k)));
         let mut rng = Rng::fork(spec.seed, stable_hash(&job.name));
-        let (material, view) = (&spec.classes[job.class].ward, &job.variant.view);
+        let class = &spec.classes[job.class];
+        let (material, finish, view) = (&class.ward, &class.finish, &job.variant.view);
+        let quality = &spec.quality;
         let image = match object {
-            None => render(lighting, material, spec.size, view, &spec.quality, &mut rng),
+            None => render_finished(
+                lighting, material, finish, spec.size, view, quality, &mut rng,
+            ),
             Some(object) => {
                 let path = spec.out.join(normals_file(&job.name));
                 write_atomic(&path, &object.png).map_err(io_error(&path))?;
                 let normals = &object.normals;
-                render_normals(lighting, material, view, normals, &spec.quality, &mut rng)
+                render_normals_finished(
+                    lighting, material, finish, view, normals, quality, &mut rng,
+                )
             }
         };
         write_image(&spec.out, &job.name, &image)?;
@@ -607,7 +614,7 @@ impl CaptureView {
             job.variant.suffix,
             capture::VIEW_TAG
         );
-        let stem = format!("{illumination}__{}", spec.classes[job.class].name);
+        let stem = format!("{illumination}__{}", spec.classes[job.class].label());
         let mut rng = Rng::fork(spec.seed, stable_hash(&stem));
         let mut settings = spec.augment.capture_ranges.sample(&mut rng);
         if spec.augment.shape != ShapeSpec::Sphere {

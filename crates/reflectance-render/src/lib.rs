@@ -6,6 +6,8 @@
 //! image right = +X, frame half-width 1.1 radii: the sphere's circle in an N×N image is
 //! `cx = cy = (N−1)/2`, `r = N/2.2`. Each pixel averages stratified sub-pixel samples
 //! (background 0); shiny classes add stratified samples of the Ward lobe per sub-pixel.
+//! A class entry's [`Finish`] adds a Fresnel term to the specular part (and weights the
+//! diffuse part by what the coat lets through) and a printed disc ([`render_finished`]).
 //!
 //! Other objects (issue #44) are rasterized to camera-space normal maps ([`shapes`]) and
 //! shaded through the same path by [`render_normals`].
@@ -30,6 +32,8 @@ use envmap::EnvMap;
 use highlights::{BrightSources, SourcePoint, points_per_side};
 use irradiance::Irradiance;
 use reflectance_core::locate::Circle;
+pub use reflectance_core::material::Finish;
+use reflectance_core::material::{Disc, Specular};
 use reflectance_core::util::rng::Rng;
 use std::f64::consts::PI;
 use std::ops::{Add, Mul, Sub};
@@ -256,10 +260,29 @@ pub fn render(
     quality: &Quality,
     rng: &mut Rng,
 ) -> Rendering {
+    let plain = Finish::default();
+    render_finished(lighting, material, &plain, size, view, quality, rng)
+}
+
+/// [`render`] of a material with a [`Finish`]: its Fresnel term on the mirror (at n·v),
+/// the lobe (at v·h per sample) and the bright sources (at v·h), the diffuse part weighted
+/// by 1 − the coat's reflectance at n·v, and its printed disc, centred at a direction drawn
+/// from `rng` ([`Disc::draw_centre`]) before any pixel. The plain finish renders exactly
+/// as [`render`] (the same bytes: `rng` is not drawn from for it).
+pub fn render_finished(
+    lighting: &Lighting,
+    material: &Ward,
+    finish: &Finish,
+    size: usize,
+    view: &View,
+    quality: &Quality,
+    rng: &mut Rng,
+) -> Rendering {
     let surface = SphereSurface {
         scale: Grid::new(size).scale,
     };
-    shade_image(lighting, material, view, quality, size, &surface, rng)
+    let appearance = (material, finish);
+    shade_image(lighting, appearance, view, quality, size, &surface, rng)
 }
 
 /// Render an object from its camera-space normals ([`shapes::Normals`]) under `lighting`:
@@ -274,29 +297,38 @@ pub fn render_normals(
     quality: &Quality,
     rng: &mut Rng,
 ) -> Rendering {
+    let plain = Finish::default();
+    render_normals_finished(lighting, material, &plain, view, normals, quality, rng)
+}
+
+/// [`render_normals`] of a material with a [`Finish`], as [`render_finished`] (a disc
+/// lies on the object where its normals point within the disc's radius of its centre).
+pub fn render_normals_finished(
+    lighting: &Lighting,
+    material: &Ward,
+    finish: &Finish,
+    view: &View,
+    normals: &shapes::Normals,
+    quality: &Quality,
+    rng: &mut Rng,
+) -> Rendering {
     let surface = shapes::MapSurface::new(normals);
-    shade_image(
-        lighting,
-        material,
-        view,
-        quality,
-        normals.size(),
-        &surface,
-        rng,
-    )
+    let appearance = (material, finish);
+    let size = normals.size();
+    shade_image(lighting, appearance, view, quality, size, &surface, rng)
 }
 
 /// Shade every pixel `surface` covers: the one shading path of spheres and shapes.
 fn shade_image(
     lighting: &Lighting,
-    material: &Ward,
+    appearance: (&Ward, &Finish),
     view: &View,
     quality: &Quality,
     size: usize,
     surface: &impl Surface,
     rng: &mut Rng,
 ) -> Rendering {
-    let shader = Shader::new(lighting, material, view, quality, size, surface);
+    let shader = Shader::new(lighting, appearance, view, quality, size, surface, rng);
     let mut luminance = vec![0.0f32; size * size];
     let mut coverage = vec![0.0f32; size * size];
     let mut near = Vec::new();
@@ -403,11 +435,21 @@ impl Surface for SphereSurface {
     }
 }
 
+/// A printed disc placed on the object: its centre (world), cos of its radius, its albedo.
+struct PlacedDisc {
+    centre: Vec3,
+    cos_radius: f64,
+    albedo: f64,
+}
+
 /// Everything fixed for one image.
 struct Shader<'a, S> {
     lighting: &'a Lighting,
     surface: &'a S,
     material: &'a Ward,
+    /// The specular reflectance by angle (Ward's constant ρs for the plain finish).
+    specular: Specular,
+    disc: Option<PlacedDisc>,
     camera: Camera,
     /// Sub-pixel samples per side.
     k: usize,
@@ -423,12 +465,22 @@ struct Shader<'a, S> {
 impl<'a, S: Surface> Shader<'a, S> {
     fn new(
         lighting: &'a Lighting,
-        material: &'a Ward,
+        (material, finish): (&'a Ward, &Finish),
         view: &View,
         quality: &Quality,
         size: usize,
         surface: &'a S,
+        rng: &mut Rng,
     ) -> Self {
+        let camera = Camera::new(view);
+        let disc = finish.disc.map(|disc: Disc| {
+            let [x, y, z] = Disc::draw_centre(rng);
+            PlacedDisc {
+                centre: camera.world(Vec3::new(x, y, z)),
+                cos_radius: disc.cos_radius(),
+                albedo: disc.albedo,
+            }
+        });
         let k = quality.pixel_samples.max(1);
         let glossy = material.rho_s > 0.0 && material.alpha > 0.0;
         let per_side = points_per_side(lighting.map.height, material.alpha);
@@ -447,7 +499,9 @@ impl<'a, S: Surface> Shader<'a, S> {
             lighting,
             surface,
             material,
-            camera: Camera::new(view),
+            specular: Specular::new(material.rho_s, finish.fresnel),
+            disc,
+            camera,
             k,
             lobe_k: if glossy {
                 quality.lobe_pixel_samples.max(1)
@@ -520,17 +574,31 @@ impl<'a, S: Surface> Shader<'a, S> {
         (value, covered)
     }
 
-    /// Diffuse light from the irradiance, plus for mirrors the reflection of the whole map.
+    /// The diffuse albedo at world normal `n`: the disc's on it, else ρd.
+    #[inline]
+    fn albedo(&self, n: Vec3) -> f64 {
+        match &self.disc {
+            Some(disc) if n.dot(disc.centre) >= disc.cos_radius => disc.albedo,
+            _ => self.material.rho_d,
+        }
+    }
+
+    /// Diffuse light from the irradiance (under a Fresnel coat, what the coat lets through
+    /// at the view angle), plus for mirrors the reflection of the whole map.
     fn radiance(&self, n: Vec3) -> f64 {
         let (m, camera) = (self.material, &self.camera);
+        let v = camera.v;
         let mut radiance = 0.0;
-        if m.rho_d > 0.0 {
-            radiance += m.rho_d / PI * self.lighting.irradiance.at(camera.to_map(n));
+        let albedo = self.albedo(n);
+        if albedo > 0.0 {
+            // The plain coat's weight is exactly 1.
+            let through = self.specular.diffuse_weight(n.dot(v));
+            radiance += albedo / PI * self.lighting.irradiance.at(camera.to_map(n)) * through;
         }
         if m.rho_s > 0.0 && m.alpha == 0.0 {
-            let v = camera.v;
             let mirror = n * (2.0 * n.dot(v)) - v;
-            radiance += m.rho_s * self.lighting.map.lookup(camera.to_map(mirror));
+            radiance +=
+                self.specular.at(n.dot(v)) * self.lighting.map.lookup(camera.to_map(mirror));
         }
         radiance
     }
@@ -538,11 +606,11 @@ impl<'a, S: Surface> Shader<'a, S> {
     /// The glossy lobe over the map without its bright sources, by the lattice quadrature
     /// in a tangent frame that turns continuously with the normal.
     fn glossy(&self, n: Vec3) -> f64 {
-        let (m, camera) = (self.material, &self.camera);
+        let camera = &self.camera;
         let frame = Frame::continuous(n, camera.right);
         let mut total = 0.0;
         for h in &self.lattice {
-            if let Some(s) = lobe_sample(&frame, camera.v, m.rho_s, h) {
+            if let Some(s) = lobe_sample(&frame, camera.v, &self.specular, h) {
                 total += s.weight * self.lighting.bright.dim.lookup(camera.to_map(s.wi));
             }
         }
@@ -556,9 +624,15 @@ impl<'a, S: Surface> Shader<'a, S> {
         let mut total = 0.0;
         let m = self.material;
         let limit = (LOBE_REACH * m.alpha).powi(2);
+        let constant = self.specular.is_constant();
         for &index in near {
             for p in &self.points[index] {
-                if let Some(f) = m.specular_brdf_within(n_map, v_map, p.direction, limit) {
+                if let Some(mut f) = m.specular_brdf_within(n_map, v_map, p.direction, limit) {
+                    if !constant {
+                        // The coat's reflectance at v·h in place of Ward's ρs (> 0 here).
+                        let h = p.direction + v_map;
+                        f *= self.specular.at(v_map.dot(h) / h.dot(h).sqrt()) / m.rho_s;
+                    }
                     total += f * n_map.dot(p.direction) * p.power;
                 }
             }

@@ -82,10 +82,7 @@ pub async fn gltf(
             parse_colour(text).map_err(|e| ApiError::new(Kind::InvalidField, e.to_string()))
         })
         .transpose()?;
-    let material = Material {
-        name,
-        ward: Ward::new(q.rho_d, q.rho_s, q.alpha)?,
-    };
+    let material = Material::new(name, Ward::new(q.rho_d, q.rho_s, q.alpha)?);
     let container = match q.format {
         Some(Format::Glb) => Container::Glb,
         Some(Format::Gltf) | None => Container::Gltf,

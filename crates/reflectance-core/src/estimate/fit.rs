@@ -132,12 +132,13 @@ fn mean(values: impl Iterator<Item = f64>) -> f64 {
     if n == 0 { f64::NAN } else { sum / n as f64 }
 }
 
-/// The Ward parameters of `ds`'s classes, from `materials` by name.
+/// The Ward parameters of `ds`'s classes, from `materials` by name (each class's reference
+/// entry, [`crate::material::reference`]).
 fn wards_of(ds: &Dataset, materials: &[Material]) -> Result<Vec<Ward>, LearnError> {
     ds.classes
         .iter()
         .map(|c| {
-            let material = materials.iter().find(|m| &m.name == c).ok_or_else(|| {
+            let material = crate::material::reference(materials, c).ok_or_else(|| {
                 LearnError::InvalidParameter(format!("class {c:?} has no Ward parameters"))
             })?;
             Ok(material.ward)

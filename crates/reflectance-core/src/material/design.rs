@@ -55,14 +55,14 @@ fn material(name: String, [u_s, u_d, u_a]: [f64; 3], ranges: &Ranges) -> Materia
         let (lo, hi) = (ranges.alpha_min.log10(), ranges.alpha_max.log10());
         10f64.powf(lo + t * (hi - lo))
     };
-    Material {
+    Material::new(
         name,
-        ward: Ward {
+        Ward {
             rho_d,
             rho_s,
             alpha,
         },
-    }
+    )
 }
 
 /// `n` materials named `m0001…`, a function of `(n, seed)` only.

@@ -496,10 +496,8 @@ mod tests {
 
     #[test]
     fn the_asset_holds_a_closed_sphere_and_only_the_extensions_it_uses() {
-        let material = |name: &str, rho_d, rho_s, alpha| Material {
-            name: name.into(),
-            ward: ward(rho_d, rho_s, alpha),
-        };
+        let material =
+            |name: &str, rho_d, rho_s, alpha| Material::new(name, ward(rho_d, rho_s, alpha));
         let chrome = sphere(&material("chrome", 0.0, 0.75, 0.0), None, Value::Null).gltf_json();
         assert!(chrome.get("extensionsUsed").is_none());
         let dull = sphere(&material("black", 0.05, 0.02, 0.1), None, Value::Null).gltf_json();
@@ -520,10 +518,7 @@ mod tests {
     fn glb_is_the_binary_container_of_the_same_asset() {
         use base64::Engine;
         let asset = sphere(
-            &Material {
-                name: "gray_shiny".into(),
-                ward: ward(0.25, 0.05, 0.01),
-            },
+            &Material::new("gray_shiny", ward(0.25, 0.05, 0.01)),
             None,
             json!({"source": "test"}),
         );
@@ -567,10 +562,7 @@ mod tests {
         let y = luminance(red);
         let red = red.map(|k| k / y);
         assert!((luminance(red) - 1.0).abs() < 1e-12);
-        let plastic = Material {
-            name: "red".into(),
-            ward: ward(0.3, 0.05, 0.02),
-        };
+        let plastic = Material::new("red", ward(0.3, 0.05, 0.02));
         let doc = sphere(&plastic, Some(red), Value::Null).gltf_json();
         let base: Vec<f64> = doc["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"]
             .as_array()

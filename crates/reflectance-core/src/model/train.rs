@@ -312,7 +312,7 @@ fn fit_classifier(
 /// The classes in the classifier's order, with their Ward parameters when a class file
 /// gave them.
 fn class_infos(names: &[String], materials: Option<&[Material]>) -> Vec<ClassInfo> {
-    let ward_of = |name: &str| materials?.iter().find(|m| m.name == name).map(|m| m.ward);
+    let ward_of = |name: &str| Some(crate::material::reference(materials?, name)?.ward);
     names
         .iter()
         .map(|name| ClassInfo {

@@ -49,22 +49,22 @@ fn sizes_agree_within_the_measured_tolerances() {
     let set = hand6();
     let at = |name: &str| names.iter().position(|n| n == name).unwrap();
     for material in [
-        Material {
-            name: "chrome".into(),
-            ward: Ward {
+        Material::new(
+            "chrome",
+            Ward {
                 rho_d: 0.0,
                 rho_s: 0.75,
                 alpha: 0.0,
             },
-        },
-        Material {
-            name: "white_matte".into(),
-            ward: Ward {
+        ),
+        Material::new(
+            "white_matte",
+            Ward {
                 rho_d: 0.9,
                 rho_s: 0.0,
                 alpha: 0.0,
             },
-        },
+        ),
     ] {
         let features = |radius: f64, extractor: &Extractor| {
             let size = (radius * 2.2).round() as usize;
