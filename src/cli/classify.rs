@@ -23,7 +23,7 @@ pub enum GltfMaterial {
 
 #[derive(Args, Debug)]
 pub struct ClassifyArgs {
-    /// The photograph or rendering (PNG, JPEG, TIFF, PNM, Radiance HDR, PFM or OpenEXR).
+    /// The photograph or rendering (PNG, JPEG, WebP, TIFF, PNM, Radiance HDR, PFM or OpenEXR).
     image: PathBuf,
     /// The model: `DIR/NAME` (its active version) or `DIR/NAME/VERSION`, e.g. `models/ward6`.
     #[arg(long)]

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 #[derive(Args, Debug)]
 pub struct FeaturesArgs {
-    /// Image of the sphere (PNG, JPEG, TIFF, PNM, Radiance HDR, PFM, OpenEXR).
+    /// Image of the sphere (PNG, JPEG, WebP, TIFF, PNM, Radiance HDR, PFM, OpenEXR).
     #[arg(required_unless_present = "manifest", conflicts_with = "manifest")]
     image: Option<PathBuf>,
     #[command(flatten)]

@@ -55,6 +55,40 @@ tokio::task_local! {
     /// Whether the current request is one of the Open Inference Protocol's (`/v2…`), whose
     /// clients read an error's message from an `error` member.
     pub static OPEN_INFERENCE: bool;
+    /// The body limit of the current request's route (`None`: the route counts its own).
+    pub static BODY_LIMIT: Option<usize>;
+}
+
+/// A 413's detail for the current request: the limit, and the setting that raises it.
+fn body_too_large() -> String {
+    match BODY_LIMIT.try_with(|limit| *limit).ok().flatten() {
+        Some(limit) => over_limit("the request body", limit),
+        None => "the request body is over the size limit".to_string(),
+    }
+}
+
+/// `what` is over the body limit `limit`: the limit, and the setting that raises it.
+fn over_limit(what: &str, limit: usize) -> String {
+    format!(
+        "{what} is over the server's limit of {} ({limit} bytes); the server's --body-limit \
+         (REFLECTANCE_BODY_LIMIT) raises it",
+        human_bytes(limit as u64)
+    )
+}
+
+/// Bytes for people: 16 MiB, 1.5 GiB, 900 bytes.
+fn human_bytes(n: u64) -> String {
+    let units = [(1u64 << 30, "GiB"), (1 << 20, "MiB"), (1 << 10, "KiB")];
+    for (size, unit) in units {
+        if n >= size {
+            let value = n as f64 / size as f64;
+            return match value.fract() == 0.0 {
+                true => format!("{value:.0} {unit}"),
+                false => format!("{value:.1} {unit}"),
+            };
+        }
+    }
+    format!("{n} bytes")
 }
 
 /// The `error` member of a problem on the Open Inference Protocol's routes.
@@ -431,9 +465,9 @@ impl IntoResponse for ApiError {
 impl From<DecodeError> for ApiError {
     fn from(e: DecodeError) -> ApiError {
         let kind = match &e {
-            DecodeError::UnsupportedFormat | DecodeError::Unsupported { .. } => {
-                Kind::UnsupportedImageFormat
-            }
+            DecodeError::UnsupportedFormat
+            | DecodeError::NotRead { .. }
+            | DecodeError::Unsupported { .. } => Kind::UnsupportedImageFormat,
             DecodeError::Corrupt { .. } => Kind::CorruptImage,
             DecodeError::TooLarge { .. } | DecodeError::LimitExceeded(_) => Kind::ImageTooLarge,
             DecodeError::Empty { .. }
@@ -637,23 +671,55 @@ impl From<LearnError> for ApiError {
     }
 }
 
-impl From<axum::extract::multipart::MultipartRejection> for ApiError {
-    fn from(e: axum::extract::multipart::MultipartRejection) -> ApiError {
+/// What a request sent, by its headers, for [`ApiError::unsupported_body`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Sent {
+    /// No body at all.
+    Nothing,
+    /// A body of this media type (lower case, without its parameters), or none given.
+    Body(Option<String>),
+}
+
+impl ApiError {
+    /// 413 for `what` (e.g. "the decompressed body") over the body limit `limit`.
+    pub fn over_body_limit(what: &str, limit: usize) -> ApiError {
+        ApiError::new(Kind::BodyTooLarge, over_limit(what, limit))
+    }
+
+    /// 415 for a body a route cannot read, saying what was sent and what the route `takes`
+    /// (the media types, the fields and a curl line).
+    pub fn unsupported_body(sent: &Sent, takes: &str) -> ApiError {
+        let what = match sent {
+            Sent::Nothing => "the request has no body".to_string(),
+            Sent::Body(None) => "the body has no Content-Type".to_string(),
+            Sent::Body(Some(t)) if t == "multipart/form-data" => {
+                "the body is multipart/form-data without a boundary (let the client build the \
+                 form: do not set Content-Type yourself)"
+                    .to_string()
+            }
+            Sent::Body(Some(t)) if t.ends_with("json") => format!("the body is JSON ({t})"),
+            Sent::Body(Some(t)) if t == "application/x-www-form-urlencoded" => format!(
+                "the body is {t} (what curl's --data and --data-binary send: a file goes in a \
+                 form field, -F image=@photo.jpg)"
+            ),
+            Sent::Body(Some(t)) if t.starts_with("image/") || t == "application/octet-stream" => {
+                format!("the body is raw bytes ({t}), not a form")
+            }
+            Sent::Body(Some(t)) => format!("the body is {t}"),
+        };
         ApiError::new(
             Kind::UnsupportedMediaType,
-            format!("expected a multipart/form-data body ({})", e.body_text()),
+            format!("{what}: this route takes {takes}"),
         )
     }
 }
 
 impl From<axum::extract::multipart::MultipartError> for ApiError {
     fn from(e: axum::extract::multipart::MultipartError) -> ApiError {
-        let kind = if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
-            Kind::BodyTooLarge
-        } else {
-            Kind::MalformedRequest
-        };
-        ApiError::new(kind, e.body_text())
+        if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
+            return ApiError::new(Kind::BodyTooLarge, body_too_large());
+        }
+        ApiError::new(Kind::MalformedRequest, e.body_text())
     }
 }
 
@@ -664,10 +730,21 @@ impl From<axum::extract::rejection::JsonRejection> for ApiError {
             J::MissingJsonContentType(_) => Kind::UnsupportedMediaType,
             J::JsonDataError(_) => Kind::InvalidField,
             J::JsonSyntaxError(_) => Kind::MalformedRequest,
-            _ if e.status() == StatusCode::PAYLOAD_TOO_LARGE => Kind::BodyTooLarge,
+            _ if e.status() == StatusCode::PAYLOAD_TOO_LARGE => {
+                return ApiError::new(Kind::BodyTooLarge, body_too_large());
+            }
             _ => Kind::MalformedRequest,
         };
         ApiError::new(kind, e.body_text())
+    }
+}
+
+impl From<axum::extract::rejection::BytesRejection> for ApiError {
+    fn from(e: axum::extract::rejection::BytesRejection) -> ApiError {
+        if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
+            return ApiError::new(Kind::BodyTooLarge, body_too_large());
+        }
+        ApiError::new(Kind::MalformedRequest, e.body_text())
     }
 }
 
@@ -731,6 +808,7 @@ pub async fn normalize(response: Response, request_id: &str) -> Response {
     let text = axum::body::to_bytes(body, 4096).await.unwrap_or_default();
     let kind = kind_of_status(status);
     let detail = match std::str::from_utf8(&text) {
+        _ if kind == Kind::BodyTooLarge => body_too_large(),
         Ok(t) if !t.trim().is_empty() && kind != Kind::Internal => t.trim().to_string(),
         _ => default_detail(kind).into_owned(),
     };
@@ -786,9 +864,28 @@ mod tests {
     }
 
     #[test]
+    fn sizes_are_written_for_people() {
+        assert_eq!(human_bytes(16 * 1024 * 1024), "16 MiB");
+        assert_eq!(human_bytes(200_000), "195.3 KiB");
+        assert_eq!(human_bytes(900), "900 bytes");
+        let detail = over_limit("the request body", 16 * 1024 * 1024);
+        assert!(
+            detail.contains("16 MiB (16777216 bytes)") && detail.contains("--body-limit"),
+            "{detail}"
+        );
+    }
+
+    #[test]
     fn library_errors_map_to_client_errors() {
         let decode = [
             (DecodeError::UnsupportedFormat, 415),
+            (
+                DecodeError::NotRead {
+                    name: "a GIF image",
+                    advice: "",
+                },
+                415,
+            ),
             (
                 DecodeError::Corrupt {
                     format: reflectance_core::decode::Format::Png,

@@ -80,7 +80,8 @@ fn own_properties(schema: &mut RefOr<Schema>) {
             (`urn:reflectance:problem:<slug>`), `title`, `status`, `detail` and `request_id`. \
             Besides the statuses listed per operation, any request may be answered 404 \
             (`not-found`, unknown route), 405 (`method-not-allowed`), 408 (`timeout`), \
-            413 (`body-too-large`) or 500 (`internal`). Every response carries `x-request-id` \
+            413 (`body-too-large`, whose detail names the limit and the setting that raises \
+            it, --body-limit) or 500 (`internal`). Every response carries `x-request-id` \
             (the client's, when it sends 1–128 visible ASCII characters, else a new one).\n\n\
             The data plane listens on port 8080, the admin plane (`/admin/…`, bearer token) \
             on 127.0.0.1:8081.",
@@ -126,6 +127,7 @@ fn own_properties(schema: &mut RefOr<Schema>) {
     components(schemas(
         Problem,
         input::RawInput,
+        input::JsonInput,
         reflectance_core::inference::ClassifyResponse,
         locate::LocateForm,
         datasets::DatasetForm,

@@ -2,7 +2,7 @@
 //! request id, metrics, request log, problem+json normalization (outermost), then panic
 //! catching, the per-request timeout and the body limit.
 
-use super::error::{self, ApiError, Kind, OPEN_INFERENCE, REQUEST_ID};
+use super::error::{self, ApiError, BODY_LIMIT, Kind, OPEN_INFERENCE, REQUEST_ID};
 use super::handlers::{
     admin, classify, datasets, health, locate, material, models, preview, v2, web,
 };
@@ -60,7 +60,7 @@ impl Drop for InFlight {
     }
 }
 
-async fn observe(mut request: Request, next: Next) -> Response {
+async fn observe(State(state): State<SharedState>, mut request: Request, next: Next) -> Response {
     let started = Instant::now();
     let request_id = client_request_id(&request).unwrap_or_else(new_request_id);
     if let Ok(v) = HeaderValue::from_str(&request_id) {
@@ -75,13 +75,18 @@ async fn observe(mut request: Request, next: Next) -> Response {
     let _in_flight = InFlight::enter();
     let id = request_id.clone();
     let open_inference = path == "/v2" || path.starts_with("/v2/");
+    // Dataset uploads count their bytes against limits of their own.
+    let body_limit = (path != "/admin/v1/datasets").then_some(state.config.body_limit);
     let mut response = REQUEST_ID
         .scope(
             request_id.clone(),
-            OPEN_INFERENCE.scope(open_inference, async move {
-                let response = next.run(request).await;
-                error::normalize(response, &id).await
-            }),
+            OPEN_INFERENCE.scope(
+                open_inference,
+                BODY_LIMIT.scope(body_limit, async move {
+                    let response = next.run(request).await;
+                    error::normalize(response, &id).await
+                }),
+            ),
         )
         .await;
     if let Ok(v) = HeaderValue::from_str(&request_id) {
@@ -149,7 +154,7 @@ fn finish(
     }
     router
         .fallback(not_found)
-        .layer(middleware::from_fn(observe))
+        .layer(middleware::from_fn_with_state(state.clone(), observe))
         .with_state(state.clone())
 }
 

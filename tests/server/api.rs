@@ -424,8 +424,12 @@ async fn every_client_mistake_is_a_problem_document() {
         .await
         .problem(422, "invalid-field");
 
-    // Wrong content type, malformed multipart.
+    // Wrong content type (JSON has its own problems: tests/server/bodies.rs), malformed
+    // multipart.
     send(data, post_json("/v1/classify", &json!({"image": "x"})))
+        .await
+        .problem(422, "invalid-field");
+    send(data, post_json("/v1/locate", &json!({"image": "x"})))
         .await
         .problem(415, "unsupported-media-type");
     let broken = Request::post("/v1/classify")

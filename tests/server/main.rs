@@ -6,6 +6,7 @@ mod common;
 
 mod admin;
 mod api;
+mod bodies;
 mod datasets;
 mod faults;
 mod honest;

@@ -1,13 +1,12 @@
-//! `POST /v1/classify` and `POST /v1/models/{name}/classify`: multipart in, classification
-//! out. The CPU work (decode, locate, features, predict) runs on the CPU pool behind the
+//! `POST /v1/classify` and `POST /v1/models/{name}/classify`: a multipart form (or JSON with
+//! the files base64) in, classification out. The CPU work (decode, locate, features, predict) runs on the CPU pool behind the
 //! admission semaphore (429 when saturated); the async side only moves bytes.
 
-use super::input::{RawInput, read_form};
+use super::input::{Body, JsonInput, RawInput};
 use crate::server::error::{ApiError, ClassificationProblems, Kind, Problem};
 use crate::server::metrics;
 use crate::server::state::SharedState;
 use axum::Json;
-use axum::extract::multipart::{Multipart, MultipartRejection};
 use axum::extract::rejection::QueryRejection;
 use axum::extract::{Path, Query, State};
 use axum::http::{HeaderMap, HeaderValue};
@@ -71,12 +70,12 @@ async fn handle(
     state: SharedState,
     name: &str,
     version: Option<u32>,
-    multipart: Result<Multipart, MultipartRejection>,
+    body: Result<Body, ApiError>,
 ) -> Result<Response, ApiError> {
     let started = Instant::now();
     super::health::serving(&state)?;
     state.models.served(name)?;
-    let input = read_form(multipart?).await?.validate()?;
+    let input = body?.read().await?.validate()?;
     let classified = run(&state, name, version, input).await?;
     Ok(response(classified, started))
 }
@@ -98,19 +97,20 @@ pub enum MultipartClassification {
     Classified(ClassifyResponse),
 }
 
-/// What every multipart operation may answer about its body, for the OpenAPI document.
+/// What every operation that reads a form may answer about its body, for the OpenAPI
+/// document.
 #[derive(utoipa::IntoResponses)]
 #[allow(dead_code, reason = "a type for the OpenAPI document, never built")]
 pub enum MultipartProblems {
     #[response(
         status = 400,
-        description = "Malformed multipart body (`malformed-request`)",
+        description = "Malformed multipart or JSON body (`malformed-request`)",
         content_type = "application/problem+json"
     )]
     Malformed(Problem),
     #[response(
         status = 415,
-        description = "Not multipart/form-data (`unsupported-media-type`) or unknown image format (`unsupported-image-format`)",
+        description = "A body the route does not read (`unsupported-media-type`: the detail says what was sent and what to send) or an image format not read (`unsupported-image-format`: the detail names the format found and the formats read)",
         content_type = "application/problem+json"
     )]
     Unsupported(Problem),
@@ -121,7 +121,7 @@ pub enum MultipartProblems {
     post,
     operation_id = "classify", path = "/v1/classify",
     tag = "classification",
-    request_body(content = RawInput, content_type = "multipart/form-data"),
+    request_body(content((RawInput = "multipart/form-data"), (JsonInput = "application/json"))),
     responses(
         MultipartClassification,
         MultipartProblems,
@@ -132,10 +132,10 @@ pub enum MultipartProblems {
 )]
 pub async fn classify_default(
     State(state): State<SharedState>,
-    multipart: Result<Multipart, MultipartRejection>,
+    body: Result<Body, ApiError>,
 ) -> Result<Response, ApiError> {
     let name = state.config.default_model.clone();
-    handle(state, &name, None, multipart).await
+    handle(state, &name, None, body).await
 }
 
 /// Classify with a named model (its active version, or `?version=`).
@@ -144,7 +144,7 @@ pub async fn classify_default(
     operation_id = "classify_with_model", path = "/v1/models/{name}/classify",
     tag = "classification",
     params(("name" = String, Path, description = "Model name", example = "ward6"), VersionQuery),
-    request_body(content = RawInput, content_type = "multipart/form-data"),
+    request_body(content((RawInput = "multipart/form-data"), (JsonInput = "application/json"))),
     responses(
         MultipartClassification,
         MultipartProblems,
@@ -157,7 +157,7 @@ pub async fn classify_named(
     State(state): State<SharedState>,
     Path(name): Path<String>,
     query: Result<Query<VersionQuery>, QueryRejection>,
-    multipart: Result<Multipart, MultipartRejection>,
+    body: Result<Body, ApiError>,
 ) -> Result<Response, ApiError> {
     let Query(query) = query?;
     if query.version == Some(0) {
@@ -166,5 +166,5 @@ pub async fn classify_named(
             "version must be a positive integer",
         ));
     }
-    handle(state, &name, query.version, multipart).await
+    handle(state, &name, query.version, body).await
 }

@@ -3,11 +3,12 @@
 
 use super::admin::blocking;
 use super::classify::MultipartProblems;
+use super::input::Form;
 use crate::server::datasets::{DatasetDetail, DatasetInfo, DatasetList, DatasetStore, Incoming};
 use crate::server::error::{ApiError, Kind, Problem, Unauthorized};
 use crate::server::state::SharedState;
 use axum::Json;
-use axum::extract::multipart::{Field, Multipart, MultipartRejection};
+use axum::extract::multipart::Field;
 use axum::extract::{Path, State};
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
@@ -110,7 +111,7 @@ async fn receive(mut field: Field<'_>, incoming: &Incoming, limit: u64) -> Resul
 pub async fn upload(
     State(state): State<SharedState>,
     headers: HeaderMap,
-    multipart: Result<Multipart, MultipartRejection>,
+    multipart: Result<Form, ApiError>,
 ) -> Result<Response, ApiError> {
     let store = store(&state)?;
     let limit = store.limits().archive_bytes;
@@ -120,7 +121,7 @@ pub async fn upload(
     if declared.is_some_and(|n| n > limit.saturating_add(FORM_OVERHEAD)) {
         return Err(too_large(limit));
     }
-    let mut multipart = multipart?;
+    let mut multipart = multipart?.0;
     let (mut name, mut received) = (None, false);
     let worker = store.clone();
     let incoming = blocking(move || worker.incoming()).await?;

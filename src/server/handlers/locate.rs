@@ -7,7 +7,6 @@ use crate::server::error::{ApiError, ClassificationProblems, Kind, Problem};
 use crate::server::state::SharedState;
 use axum::Json;
 use axum::extract::State;
-use axum::extract::multipart::{Multipart, MultipartRejection};
 use reflectance_core::decode::{DecodeOptions, Encoding};
 use reflectance_core::inference::{self, LocateResponse};
 use serde::Deserialize;
@@ -18,7 +17,7 @@ use utoipa::ToSchema;
 #[serde(deny_unknown_fields)]
 #[allow(dead_code)]
 pub struct LocateForm {
-    /// The photograph (PNG, JPEG, TIFF, PNM, Radiance HDR, PFM or OpenEXR).
+    /// The photograph (PNG, JPEG, WebP, TIFF, PNM, Radiance HDR, PFM or OpenEXR).
     #[schema(value_type = String, format = Binary)]
     image: Vec<u8>,
     /// How integer samples are linearized: `srgb` (default), `linear` or `gamma:<g>`.
@@ -67,10 +66,10 @@ fn refuse_classification_fields(raw: &RawInput) -> Result<(), ApiError> {
 )]
 pub async fn locate(
     State(state): State<SharedState>,
-    multipart: Result<Multipart, MultipartRejection>,
+    form: Result<input::Form, ApiError>,
 ) -> Result<Json<LocateResponse>, ApiError> {
     super::health::serving(&state)?;
-    let raw = input::read_form(multipart?).await?;
+    let raw = input::read_form(form?.0).await?;
     refuse_classification_fields(&raw)?;
     let [preview] = input::includes(&raw.include, ["preview"])?;
     let image = raw

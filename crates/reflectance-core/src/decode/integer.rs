@@ -1,4 +1,4 @@
-//! PNG, JPEG, TIFF and PNM through the `image` crate: header check, EXIF orientation,
+//! PNG, JPEG, WebP, TIFF and PNM through the `image` crate: header check, EXIF orientation,
 //! then 8/16-bit samples through a transfer-function table (float TIFF stays linear).
 
 use super::{
@@ -13,13 +13,14 @@ use std::io::Cursor;
 pub(crate) fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<LinearImage, DecodeError> {
     let mut reader = ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
-        .map_err(|_| DecodeError::UnsupportedFormat)?;
+        .map_err(|_| super::unsupported(bytes))?;
     let format = match reader.format() {
         Some(ImageFormat::Png) => Format::Png,
         Some(ImageFormat::Jpeg) => Format::Jpeg,
         Some(ImageFormat::Tiff) => Format::Tiff,
         Some(ImageFormat::Pnm) => Format::Pnm,
-        _ => return Err(DecodeError::UnsupportedFormat),
+        Some(ImageFormat::WebP) => Format::WebP,
+        _ => return Err(super::unsupported(bytes)),
     };
     reader.limits(image_limits(&options.limits));
     let limits = &options.limits;

@@ -1,6 +1,6 @@
 //! Decoding: bytes → linear luminance plane (+ optional alpha mask), docs/design.md §3 "Pixels".
 //!
-//! Integer formats (PNG, JPEG, TIFF, PNM) go through the `image` crate; Radiance `.hdr`,
+//! Integer formats (PNG, JPEG, WebP, TIFF, PNM) go through the `image` crate; Radiance `.hdr`,
 //! PFM and OpenEXR are read here (RGBE and PFM by our own small parsers, EXR through the
 //! `exr` crate), because `image` has no PFM, no XYZE and no luminance-only EXR.
 //! Every path checks the header's dimensions against [`Limits`] before allocating pixels.
@@ -84,6 +84,8 @@ pub enum Format {
     Jpeg,
     /// TIFF, integer samples.
     Tiff,
+    /// WebP, lossy or lossless (8 bits).
+    WebP,
     /// Netpbm (PGM, PPM).
     Pnm,
     /// Radiance RGBE (`.hdr`), linear floats.
@@ -102,6 +104,7 @@ impl fmt::Display for Format {
             Format::Png => "PNG",
             Format::Jpeg => "JPEG",
             Format::Tiff => "TIFF",
+            Format::WebP => "WebP",
             Format::Pnm => "PNM",
             Format::Hdr => "Radiance HDR",
             Format::Pfm => "PFM",
@@ -149,11 +152,21 @@ pub enum DecodeError {
     /// The file could not be read.
     #[error("could not read the file: {0}")]
     Io(#[source] std::io::Error),
-    /// The bytes are none of the formats read.
+    /// The bytes are none of the formats read, nor one recognized.
     #[error(
-        "unsupported image format (expected PNG, JPEG, TIFF, PNM, Radiance HDR, PFM or OpenEXR)"
+        "unsupported image format: the bytes are not an image format known here (expected {READ_FORMATS})"
     )]
     UnsupportedFormat,
+    /// The bytes are a format recognized but not read ([`recognize`]).
+    #[error(
+        "unsupported image format: this is {name}, not read here (expected {READ_FORMATS}){advice}"
+    )]
+    NotRead {
+        /// The format found, in words ("a GIF image").
+        name: &'static str,
+        /// What to do instead, beginning with "; " (or empty).
+        advice: &'static str,
+    },
     /// A known format with content this decoder does not read (e.g. a colour type).
     #[error("unsupported {format} content: {detail}")]
     Unsupported {
@@ -240,6 +253,71 @@ impl FromStr for Encoding {
     type Err = DecodeError;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Encoding::parse(s).ok_or_else(|| DecodeError::BadEncoding(s.to_string()))
+    }
+}
+
+/// The formats read, in words.
+pub const READ_FORMATS: &str = "PNG, JPEG, WebP, TIFF, PNM, Radiance HDR, PFM or OpenEXR";
+
+/// How to turn an iPhone's photograph into one of the formats read.
+const HEIC_ADVICE: &str = "; HEIC/HEIF (an iPhone's default) is not read: share it as JPEG \
+     (iPhone: Settings › Camera › Formats › Most Compatible, or share it by mail or to a \
+     computer, which converts it), or convert it: `heif-convert photo.heic photo.jpg` \
+     (libheif), `sips -s format jpeg photo.heic --out photo.jpg` (macOS), or \
+     `magick photo.heic photo.jpg`";
+
+/// What to do with base64 text sent where a file's bytes belong.
+const BASE64_ADVICE: &str = "; a file field takes the file's own bytes (curl -F \
+     image=@photo.jpg): base64 belongs in a JSON body";
+
+/// A format that is not read, recognized by its first bytes: its name and what to do (an
+/// advice beginning with "; ", or empty).
+pub fn recognize(bytes: &[u8]) -> Option<(&'static str, &'static str)> {
+    const CONVERT: &str = "; convert it to PNG or JPEG";
+    // ISO base media files (HEIF, AVIF): a box `ftyp` whose major brand says which.
+    if let Some(brand) = bytes.get(4..12).filter(|b| b.starts_with(b"ftyp")) {
+        return match &brand[4..] {
+            b"avif" | b"avis" => Some(("an AVIF image", CONVERT)),
+            b"heic" | b"heix" | b"hevc" | b"hevx" | b"heim" | b"heis" | b"hevm" | b"hevs"
+            | b"mif1" | b"msf1" => Some(("a HEIC/HEIF image", HEIC_ADVICE)),
+            _ => Some((
+                "an ISO media file (MP4, MOV or similar), not a still image",
+                "",
+            )),
+        };
+    }
+    let known: [(&[u8], &str, &str); 17] = [
+        (b"GIF8", "a GIF image", CONVERT),
+        (b"BM", "a BMP image", CONVERT),
+        (&[0xff, 0x0a], "a JPEG XL image", CONVERT),
+        (b"\0\0\0\x0cJXL ", "a JPEG XL image", CONVERT),
+        (&[0, 0, 1, 0], "an ICO icon", CONVERT),
+        (b"qoif", "a QOI image", CONVERT),
+        (b"8BPS", "a Photoshop document", CONVERT),
+        (b"%PDF", "a PDF document", ""),
+        (b"<svg", "an SVG drawing", "; render it to PNG"),
+        (b"RIFF", "a RIFF file that is not WebP", ""),
+        (b"data:", "a data: URL (text)", BASE64_ADVICE),
+        // The base64 of the formats read: PNG, JPEG, WebP (RIFF), TIFF.
+        (b"iVBORw0KGgo", "base64 text of a PNG image", BASE64_ADVICE),
+        (b"/9j/", "base64 text of a JPEG image", BASE64_ADVICE),
+        (b"UklGR", "base64 text of a RIFF (WebP) file", BASE64_ADVICE),
+        (b"SUkq", "base64 text of a TIFF image", BASE64_ADVICE),
+        (b"<", "text (HTML or XML), not an image", ""),
+        (b"{", "text (JSON), not an image", ""),
+    ];
+    known
+        .iter()
+        .find(|(magic, ..)| bytes.starts_with(magic))
+        .map(|&(_, name, advice)| (name, advice))
+}
+
+/// [`DecodeError::NotRead`] for a format [`recognize`] names, else
+/// [`DecodeError::UnsupportedFormat`].
+pub(crate) fn unsupported(bytes: &[u8]) -> DecodeError {
+    match recognize(bytes) {
+        Some((name, advice)) => DecodeError::NotRead { name, advice },
+        None => DecodeError::UnsupportedFormat,
     }
 }
 
@@ -382,6 +460,30 @@ mod tests {
     fn unknown_bytes_are_unsupported() {
         let err = decode(b"hello world, not an image", &DecodeOptions::default()).unwrap_err();
         assert!(matches!(err, DecodeError::UnsupportedFormat), "{err}");
+    }
+
+    #[test]
+    fn formats_not_read_are_named_with_what_to_do() {
+        let options = DecodeOptions::default();
+        let heic = b"\0\0\0\x18ftypheic\0\0\0\0mif1heic";
+        let cases: [(&[u8], &str, &str); 5] = [
+            (b"GIF89a\x01\0\x01\0", "a GIF image", "PNG, JPEG, WebP"),
+            (b"BM\x3a\0\0\0\0\0", "a BMP image", "convert it"),
+            (heic, "HEIC/HEIF", "heif-convert"),
+            (b"\0\0\0\x1cftypavif", "an AVIF image", "convert it"),
+            (
+                b"iVBORw0KGgoAAAANSUhEUg",
+                "base64 text of a PNG",
+                "JSON body",
+            ),
+        ];
+        for (bytes, name, advice) in cases {
+            let err = decode(bytes, &options).unwrap_err();
+            assert!(matches!(err, DecodeError::NotRead { .. }), "{err}");
+            let text = err.to_string();
+            assert!(text.contains(name) && text.contains(advice), "{text}");
+            assert!(text.contains(READ_FORMATS), "{text}");
+        }
     }
 
     #[test]

@@ -352,10 +352,7 @@ fn body_bytes(headers: &HeaderMap, body: Bytes, limit: usize) -> Result<Bytes, A
         .read_to_end(&mut out)
         .map_err(|e| malformed(format!("the compressed body does not decompress: {e}")))?;
     if out.len() > limit {
-        return Err(ApiError::new(
-            Kind::BodyTooLarge,
-            format!("the decompressed body is over the {limit}-byte limit"),
-        ));
+        return Err(ApiError::over_body_limit("the decompressed body", limit));
     }
     Ok(out.into())
 }
