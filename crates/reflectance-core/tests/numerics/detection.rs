@@ -808,3 +808,85 @@ fn few_circles_are_chosen_in_scikit_image_samples() {
         paths.len()
     );
 }
+
+/// A shaded ball painted over `image` whose rim fades into the background (no edge) along
+/// `hidden` of its circumference, in six evenly spaced arcs: a mirror ball whose rim
+/// vanishes against what it reflects.
+fn partial_rim_ball(image: &mut Array2<f64>, ball: &Circle, hidden: f64) {
+    for ((y, x), v) in image.indexed_iter_mut() {
+        let (dx, dy) = ((x as f64 - ball.cx) / ball.r, (y as f64 - ball.cy) / ball.r);
+        let d2 = dx * dx + dy * dy;
+        if d2 > 1.0 {
+            continue;
+        }
+        let shade = 0.55 + 0.3 * (0.5 * (-dx - dy) + 0.7 * (1.0 - d2).sqrt()).max(0.0);
+        let turn = (dy.atan2(dx) / std::f64::consts::TAU + 1.0).fract();
+        let in_arc = (turn * 6.0).fract() < hidden;
+        *v = if in_arc {
+            let t = ((1.0 - d2.sqrt()) / 0.3).clamp(0.0, 1.0);
+            let smooth = t * t * (3.0 - 2.0 * t);
+            *v + (shade - *v) * smooth
+        } else {
+            shade
+        };
+    }
+}
+
+/// A `w`×`h` picture, background 0.4, of `balls` whose rims fade into it along `hidden` of
+/// their circumference.
+fn faint_balls((w, h): (usize, usize), balls: &[Circle], hidden: f64) -> Array2<f64> {
+    let mut image = Array2::from_elem((h, w), 0.4);
+    for ball in balls {
+        partial_rim_ball(&mut image, ball, hidden);
+    }
+    image
+}
+
+fn near(g: &locate::Geometry, c: &Circle) -> bool {
+    (g.cx - c.cx).hypot(g.cy - c.cy) <= 0.02 * c.r && (g.r - c.r).abs() <= 0.02 * c.r
+}
+
+/// The refusal of `detect_ranked`'s answer, and the alternatives it offers.
+fn refusal(image: &Array2<f64>) -> (String, Vec<locate::Geometry>) {
+    match locate::detect_ranked(image.view()) {
+        (Err(e @ GeometryError::DetectionFailed { .. }), offered) => (e.to_string(), offered),
+        (other, _) => panic!("not refused: {other:?}"),
+    }
+}
+
+#[test]
+fn a_ball_with_a_faint_rim_is_taken_only_alone_and_clear_enough() {
+    // Every refusal path of automatic location beyond texture and nothing round (above),
+    // each beside the answer it would become if its rule were loosened. The rules themselves,
+    // on both sides of each line: `locate::detect`'s unit tests.
+    let ball = Circle {
+        cx: 160.0,
+        cy: 150.0,
+        r: 90.0,
+    };
+    // Its rim clear along 44 % of it: under the line for any circle (0.5), over the lone
+    // ball's (0.4), and nothing else round: taken.
+    let alone = faint_balls((320, 300), &[ball], 0.55);
+    let g = locate::detect(alone.view()).unwrap();
+    assert!(near(&g, &ball), "{g:?}");
+    let confidence = g.confidence.unwrap();
+    assert!((0.4..0.5).contains(&confidence), "{confidence}");
+
+    // A little fainter (39 %): refused, saying how clear its rim is, and offered.
+    let (why, offered) = refusal(&faint_balls((320, 300), &[ball], 0.6));
+    assert!(why.contains("only 39 %"), "{why}");
+    assert!(offered.iter().any(|g| near(g, &ball)), "{offered:?}");
+
+    // Two such balls: neither stands alone, so neither is taken; both are offered.
+    let twin = Circle { cx: 480.0, ..ball };
+    let (why, offered) = refusal(&faint_balls((640, 300), &[ball, twin], 0.55));
+    assert!(why.contains("radius 90"), "{why}");
+    for b in [&ball, &twin] {
+        assert!(offered.iter().any(|g| near(g, b)), "{b:?}: {offered:?}");
+    }
+
+    // A small one (r 40) as faint: its rim is too short for 49 % to count as much.
+    let small = Circle { r: 40.0, ..ball };
+    let (why, _) = refusal(&faint_balls((320, 300), &[small], 0.55));
+    assert!(why.contains("only 49 %"), "{why}");
+}

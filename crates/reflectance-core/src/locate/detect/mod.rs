@@ -774,3 +774,114 @@ fn visible_rays(circle: &Circle, (h, w): (usize, usize)) -> usize {
         })
         .count()
 }
+
+#[cfg(test)]
+mod tests {
+    //! Each rule by which [`chosen`] refuses, pinned on both sides of its line: loosen one
+    //! (a threshold, the ball-likeness, the rival check, the short-rim discount) and a
+    //! refusal here becomes an answer.
+
+    use super::*;
+
+    fn found(cx: f64, r: f64, confidence: f64, ball_like: bool) -> Found {
+        let circle = Circle { cx, cy: 200.0, r };
+        Found {
+            circle,
+            confidence,
+            ball_like,
+        }
+    }
+
+    fn ball(cx: f64, r: f64, confidence: f64) -> Found {
+        found(cx, r, confidence, true)
+    }
+
+    fn refused(ranked: &[Found]) -> String {
+        match chosen(ranked) {
+            Ok(found) => panic!("{found:?} taken from {ranked:?}"),
+            Err(NotFound(reason)) => reason,
+        }
+    }
+
+    #[test]
+    fn nothing_found_is_refused() {
+        assert_eq!(refused(&[]), "no round edge stands out");
+    }
+
+    #[test]
+    fn a_confident_circle_is_taken_and_below_the_line_it_is_not() {
+        // A flat disc too: at MIN_CONFIDENCE any circle is clear enough.
+        let disc = found(200.0, 100.0, MIN_CONFIDENCE, false);
+        assert_eq!(chosen(&[disc]), Ok(disc));
+        let below = found(200.0, 100.0, MIN_CONFIDENCE - 0.01, false);
+        let reason = refused(&[below]);
+        assert!(
+            reason.contains("radius 100") && reason.contains("only 49 %"),
+            "{reason}"
+        );
+    }
+
+    #[test]
+    fn a_lone_ball_is_taken_from_its_own_line_and_not_below() {
+        let alone = ball(200.0, 100.0, MIN_CONFIDENCE_ALONE);
+        assert_eq!(chosen(&[alone]), Ok(alone));
+        let reason = refused(&[ball(200.0, 100.0, MIN_CONFIDENCE_ALONE - 0.01)]);
+        assert!(reason.contains("only 39 %"), "{reason}");
+        // Below it, a rival no stronger changes nothing.
+        refused(&[
+            ball(200.0, 100.0, MIN_CONFIDENCE_ALONE - 0.01),
+            ball(600.0, 100.0, 0.1),
+        ]);
+    }
+
+    #[test]
+    fn a_lone_flat_disc_is_not_taken_under_the_confidence() {
+        // Ranked first only because no ball was found: it is not a ball.
+        refused(&[found(200.0, 100.0, 0.49, false)]);
+    }
+
+    #[test]
+    fn a_short_rim_needs_more_evidence() {
+        // r 40: 251 px of rim for 360 rays, so 0.49 counts as 0.34.
+        let small = ball(200.0, 40.0, 0.49);
+        assert!(
+            evidence(&small) < MIN_CONFIDENCE_ALONE,
+            "{}",
+            evidence(&small)
+        );
+        refused(&[small]);
+        // From r 57.3 the rim is long enough to count whole.
+        let whole = ball(200.0, 58.0, 0.41);
+        assert_eq!(chosen(&[whole]), Ok(whole));
+    }
+
+    #[test]
+    fn a_lone_ball_with_a_rival_near_it_is_refused() {
+        let first = ball(200.0, 100.0, 0.48);
+        // A rival outside it, ball or not, over three quarters as confident: ambiguous.
+        for rival_is_a_ball in [true, false] {
+            let rival = found(600.0, 100.0, 0.37, rival_is_a_ball);
+            assert!(evidence(&rival) > RUNNER_UP_SHARE * evidence(&first));
+            refused(&[first, rival]);
+            // Any rival down the list counts, not only the runner-up.
+            refused(&[first, ball(900.0, 100.0, 0.1), rival]);
+        }
+        // Under three quarters, it is no rival.
+        let weak = ball(600.0, 100.0, 0.35);
+        assert_eq!(chosen(&[first, weak]), Ok(first));
+        // A rival with a short rim is weighed by its evidence: at r 50, 0.40 counts as 0.35
+        // and 0.45 as 0.39.
+        assert_eq!(chosen(&[first, ball(600.0, 50.0, 0.40)]), Ok(first));
+        refused(&[first, ball(600.0, 50.0, 0.45)]);
+    }
+
+    #[test]
+    fn circles_inside_the_ball_are_its_reflections_not_rivals() {
+        let first = ball(200.0, 100.0, 0.45);
+        // Entirely inside (centre 30 px off, r 60: 90 ≤ 110): a reflection.
+        let reflection = found(230.0, 60.0, 0.44, false);
+        assert_eq!(chosen(&[first, reflection]), Ok(first));
+        // Reaching beyond 1.1 r of the first (30 + 85 = 115): a rival.
+        refused(&[first, found(230.0, 85.0, 0.44, false)]);
+    }
+}
