@@ -20,9 +20,12 @@ pub fn fixtures() -> PathBuf {
     repository().join("tests/fixtures")
 }
 
-/// The project's development data, `../shared` beside the repository.
+/// The project's development data, `../shared` beside the repository (or where
+/// `REFLECTANCE_SHARED` says: a worktree kept elsewhere).
 pub fn shared() -> PathBuf {
-    repository().join("../shared")
+    std::env::var_os("REFLECTANCE_SHARED")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repository().join("../shared"))
 }
 
 /// Encode 8-bit samples as PNG (`channels` = 1, 2, 3 or 4).

@@ -10,6 +10,9 @@
 //! `REFLECTANCE_COMPOSITES=N cargo test --release --test numerics detection -- --nocapture`
 //! measures on N composites (default 36, cycling through the categories) and prints the
 //! rates per category; `REFLECTANCE_COMPOSITE_DUMP=DIR` writes the missed ones there.
+//! `REFLECTANCE_DETECT_LONG_SIDE=N` gives detection the picture area-reduced to a long side of
+//! N px (what a reduced decode hands it), the circle found scaled back (here and in
+//! `real_photos`).
 
 use ndarray::Array2;
 use reflectance_core::decode::{DecodeOptions, Limits, decode};
@@ -22,6 +25,39 @@ use reflectance_render::envmap::EnvMap;
 use reflectance_render::ward::Ward;
 use reflectance_render::{Lighting, Quality, View};
 use std::path::PathBuf;
+
+/// Detection as a reduced decode would give it the picture: area-reduced to a long side of
+/// `REFLECTANCE_DETECT_LONG_SIDE` px when it is longer, the circles scaled back to its own
+/// coordinates.
+pub(crate) fn detect_as_received(
+    luminance: ndarray::ArrayView2<f64>,
+) -> (
+    Result<locate::Geometry, GeometryError>,
+    Vec<locate::Geometry>,
+) {
+    let long = std::env::var("REFLECTANCE_DETECT_LONG_SIDE")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok());
+    let (h, w) = luminance.dim();
+    let Some(scale) = long
+        .filter(|&long| h.max(w) > long)
+        .map(|long| long as f64 / h.max(w) as f64)
+    else {
+        return locate::detect_ranked(luminance);
+    };
+    let reduced = reflectance_core::image::resample::downsample(luminance, scale);
+    let back = |g: locate::Geometry| {
+        let c = g.circle().enlarged(scale);
+        locate::Geometry {
+            cx: c.cx,
+            cy: c.cy,
+            r: c.r,
+            ..g
+        }
+    };
+    let (found, ranked) = locate::detect_ranked(reduced.view());
+    (found.map(back), ranked.into_iter().map(back).collect())
+}
 
 fn shared_probes() -> PathBuf {
     crate::common::shared().join("data/probes")
@@ -661,7 +697,7 @@ fn spheres_are_found_in_photograph_like_composites() {
         let (jpeg, quality) = photograph(&staged, &mut rng);
         drop(staged.scene);
         let image = decode(&jpeg, &options).unwrap();
-        let found = locate::detect(image.luminance.view());
+        let found = detect_as_received(image.luminance.view()).0;
         let good = found
             .as_ref()
             .is_ok_and(|g| staged.spheres.iter().any(|truth| matches(g, truth)));
