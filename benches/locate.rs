@@ -80,3 +80,34 @@ fn detect_dev_photograph_excluding_decode(bencher: Bencher, name: &str) {
     let luminance: Array2<f64> = image.luminance;
     bencher.bench(|| locate::detect(divan::black_box(luminance.view())).is_ok());
 }
+
+/// The copy a request would locate on with a located side of about 1200 px (issue 63): the
+/// photograph decoded at ½ in libjpeg-turbo's DCT domain (2000 × 1500 here).
+fn half_copy(bytes: &[u8]) -> Array2<f64> {
+    let photo = decode::Photo::open(bytes, &DecodeOptions::default()).expect("open");
+    let (width, height) = photo.size();
+    let d = decode::denominator_for(width, height, 1200);
+    let copy = photo.whole(d).expect("the reduced copy");
+    copy.image.luminance.clone()
+}
+
+/// Detection alone on the ½-scale copy of the 12 MP JPEG (target, issue 63: ≤ ~30 ms).
+#[divan::bench(sample_count = 10)]
+fn detect_12mp_half_copy_excluding_decode(bencher: Bencher) {
+    let luminance = half_copy(&jpeg_bytes());
+    bencher.bench(|| locate::detect(divan::black_box(luminance.view())).expect("the ball"));
+}
+
+/// Dev photographs on the copy a located side of 1200 px gives (4096 px → ½, 1280 px → 1):
+/// detection alone, whatever it finds or refuses.
+#[divan::bench(sample_count = 10, args = ["chrome_arhangoyal_grainger125_full.jpg", "chrome_bglogowski_scene_1-4.jpg", "other_husky_tennis0.jpg"])]
+fn detect_dev_photograph_half_copy_excluding_decode(bencher: Bencher, name: &str) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/photos/dev")
+        .join(name);
+    let Ok(bytes) = std::fs::read(&path) else {
+        return;
+    };
+    let luminance = half_copy(&bytes);
+    bencher.bench(|| locate::detect(divan::black_box(luminance.view())).is_ok());
+}
