@@ -69,6 +69,37 @@ fn classify_names_a_calibrated_set_of_two_labels() {
     assert_eq!(wide["domain"]["in_domain"], true, "{}", wide["domain"]);
 }
 
+/// ward6 on the README's sphere (chrome): with its white the set is {chrome}; without it the
+/// set also holds black_shiny, a dim mirror that only the brightness tells apart (issue #68),
+/// and the warning names the pair.
+#[test]
+fn without_white_a_mirror_shares_its_set_with_the_dim_mirror() {
+    let sphere = fixtures().join("features/sphere_rgb8.png");
+    let with = classify("models/ward6", &sphere, &[]);
+    assert_eq!(labels(&with), ["chrome"], "{with}");
+    let out = Command::new(env!("CARGO_BIN_EXE_reflectance"))
+        .args([
+            "classify",
+            sphere.to_str().unwrap(),
+            "--model",
+            "models/ward6",
+            "--json",
+        ])
+        .args(&README_SPHERE_FLAGS[2..])
+        .current_dir(ROOT)
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let without: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(without["label"], "chrome", "{without}");
+    assert_eq!(labels(&without), ["chrome", "black_shiny"], "{without}");
+    let warnings = without["warnings"].to_string();
+    assert!(
+        warnings.contains("a chrome mirror and a black glossy ball"),
+        "{warnings}"
+    );
+}
+
 /// A picture of nothing is out of domain in `classify --json` and in `predict`'s CSV, the
 /// README's sphere in domain.
 #[test]

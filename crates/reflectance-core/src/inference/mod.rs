@@ -528,8 +528,8 @@ pub fn estimate(file: &ModelFile, decision: &Decision, values: &[f64]) -> Option
 
 /// The prediction set of a classification: the head's calibrated set, and, when there is no
 /// white reference, every class that differs from a member mainly by a brightness scale
-/// ([`Ward::same_up_to_scale`]): the exposure of a photograph without a white
-/// card hides that difference, whatever the training captures' exposures taught.
+/// ([`Ward::same_up_to_scale`], [`Ward::mirror_alike`]): the exposure of a photograph without
+/// a white card hides that difference, whatever the training captures' exposures taught.
 fn prediction_set(
     file: &ModelFile,
     head: &Head,
@@ -541,13 +541,21 @@ fn prediction_set(
     if !white_given {
         let classes = &head.classifier.classes;
         let ward = |k: usize| file.ward_of(&classes[k]);
-        for k in 0..classes.len() {
-            let alike = set.iter().any(|&m| match (ward(m), ward(k)) {
-                (Some(a), Some(b)) => a.same_up_to_scale(&b),
+        let alike = |set: &[usize], k: usize, rule: fn(&Ward, &Ward) -> bool| {
+            set.iter().any(|&m| match (ward(m), ward(k)) {
+                (Some(a), Some(b)) => rule(&a, &b),
                 _ => false,
-            });
-            if alike && !set.contains(&k) {
-                set.push(k);
+            })
+        };
+        // Each rule looks at the calibrated set only: a class one rule adds does not bring in
+        // the classes alike to it by the other (a dim mirror's brightness twins, or chrome
+        // for a glossy class added as a twin).
+        let calibrated = set.clone();
+        for rule in [Ward::same_up_to_scale, Ward::mirror_alike] {
+            for k in 0..classes.len() {
+                if !set.contains(&k) && alike(&calibrated, k, rule) {
+                    set.push(k);
+                }
             }
         }
     }

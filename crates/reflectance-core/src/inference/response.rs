@@ -481,8 +481,8 @@ pub const NO_SETS_WARNING: &str = "this model version has no prediction-set cali
 /// The warning of an answer given without a white reference by the classifier without white.
 pub const WITHOUT_WHITE_WARNING: &str = "answered without a white reference: only features that \
     do not depend on the image's brightness were read, so classes that differ mainly in \
-    brightness (black, grey and white) may share the prediction set; a white card would tell them \
-    apart";
+    brightness (black, grey and white; a chrome mirror and a black glossy ball, a dim mirror) \
+    may share the prediction set; a white card would tell them apart";
 /// The warning heading an answer whose input is out of domain.
 pub const OUT_OF_DOMAIN_WARNING: &str =
     "out of domain: the class and its probabilities are unreliable";

@@ -70,6 +70,18 @@ impl Ward {
         kind(self) == kind(other) && (kind(self) == Kind::Matte || alpha_alike)
     }
 
+    /// Whether one is a sharp metal mirror (ρd < 0.02, α ≤ 0.01) and the other a dark glossy
+    /// surface with a sharp coat (ρd < 0.15, ρs > 0, α ≤ 0.01). A black billiard ball or
+    /// lacquer is a dim mirror whose Fresnel coat reflects ever more toward the rim: without a
+    /// white reference its image is a mirror's but for the brightness, which the exposure
+    /// hides (issue #68; docs/accuracy.md, "Real materials").
+    pub fn mirror_alike(&self, other: &Ward) -> bool {
+        const SHARP: f64 = 0.01;
+        let metal = |w: &Ward| w.rho_d < 0.02 && w.rho_s > 0.0 && w.alpha <= SHARP;
+        let dark_coat = |w: &Ward| !metal(w) && w.rho_d < 0.15 && w.rho_s > 0.0 && w.alpha <= SHARP;
+        (metal(self) && dark_coat(other)) || (dark_coat(self) && metal(other))
+    }
+
     /// The reflectance in words, for people: the tone of the diffuse part, and how much and
     /// how sharply the surface mirrors its surroundings.
     pub fn describe(&self) -> String {
@@ -171,5 +183,18 @@ mod tests {
         // The paper's E and G differ only in α.
         assert!(!ward(0.05, 0.05, 0.0).same_up_to_scale(&ward(0.05, 0.05, 0.02)));
         assert!(chrome.same_up_to_scale(&ward(0.0, 0.5, 0.0)));
+    }
+
+    #[test]
+    fn a_sharp_metal_and_a_dark_sharp_coat_are_mirrors_alike() {
+        let chrome = ward(0.0, 0.75, 0.0);
+        let black_shiny = ward(0.1, 0.1, 0.01);
+        assert!(chrome.mirror_alike(&black_shiny) && black_shiny.mirror_alike(&chrome));
+        // Not: two metals, a grey or white coat, a blurred coat, a matte, a blurred metal.
+        assert!(!chrome.mirror_alike(&ward(0.0, 0.5, 0.0)));
+        assert!(!chrome.mirror_alike(&ward(0.25, 0.05, 0.01)));
+        assert!(!chrome.mirror_alike(&ward(0.1, 0.1, 0.02)));
+        assert!(!chrome.mirror_alike(&ward(0.1, 0.0, 0.0)));
+        assert!(!ward(0.0, 0.75, 0.02).mirror_alike(&black_shiny));
     }
 }
