@@ -607,6 +607,7 @@ impl From<StoreError> for ApiError {
         match e {
             StoreError::Registry(e) => e.into(),
             StoreError::Model(e) => e.into(),
+            e @ StoreError::Unserved { .. } => ApiError::new(Kind::ModelNotFound, e.to_string()),
         }
     }
 }

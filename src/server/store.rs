@@ -19,6 +19,9 @@ pub enum StoreError {
     Registry(#[from] RegistryError),
     #[error(transparent)]
     Model(#[from] ModelError),
+    /// A name the server does not serve, with the names it does.
+    #[error("unknown model {name:?} (this server serves: {served})")]
+    Unserved { name: String, served: String },
 }
 
 /// Count and log a version refused for its files (schema, checksum, self-test, I/O); an
@@ -250,7 +253,20 @@ impl ModelStore {
     }
 
     fn missing(&self, name: &str) -> StoreError {
-        RegistryError::UnknownModel(name.to_string()).into()
+        let mut served: Vec<String> = self
+            .all_active()
+            .iter()
+            .map(|m| m.name().to_string())
+            .collect();
+        served.sort();
+        let served = match served.is_empty() {
+            true => "none".to_string(),
+            false => served.join(", "),
+        };
+        StoreError::Unserved {
+            name: name.to_string(),
+            served,
+        }
     }
 
     /// The active version of a served model; 404 (`model-not-found`) for any other name.

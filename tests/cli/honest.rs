@@ -100,6 +100,35 @@ fn without_white_a_mirror_shares_its_set_with_the_dim_mirror() {
     );
 }
 
+/// A white of 80 (a percentage) on the README's sphere: out of domain, and the first reason
+/// says what the value likely meant.
+#[test]
+fn a_white_given_as_a_percentage_is_named_first() {
+    let sphere = fixtures().join("features/sphere_rgb8.png");
+    let mut flags = README_SPHERE_FLAGS;
+    flags[1] = "80";
+    let out = Command::new(env!("CARGO_BIN_EXE_reflectance"))
+        .args([
+            "classify",
+            sphere.to_str().unwrap(),
+            "--model",
+            "models/ward6",
+            "--json",
+        ])
+        .args(flags)
+        .current_dir(ROOT)
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let answer: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(answer["domain"]["in_domain"], false, "{answer}");
+    let first = answer["domain"]["reasons"][0].as_str().unwrap();
+    assert!(
+        first.contains("Did you mean a percentage? 80.0 % is white=0.8"),
+        "{first}"
+    );
+}
+
 /// A picture of nothing is out of domain in `classify --json` and in `predict`'s CSV, the
 /// README's sphere in domain.
 #[test]

@@ -463,9 +463,13 @@ async fn every_client_mistake_is_a_problem_document() {
     let answer = send(data, get("/v1/classify")).await;
     answer.problem(405, "method-not-allowed");
     assert!(answer.header("allow").unwrap().contains("POST"));
-    send(data, get("/v1/models/nope"))
-        .await
-        .problem(404, "model-not-found");
+    let unknown = send(data, get("/v1/models/nope")).await;
+    let problem = unknown.problem(404, "model-not-found");
+    let detail = problem["detail"].as_str().unwrap_or_default();
+    assert!(
+        detail.contains("\"nope\"") && detail.contains("this server serves: ward6"),
+        "{detail}"
+    );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -119,6 +119,55 @@ impl Rect {
 pub const MISSING_WARNING: &str =
     "no white reference given: the image is assumed to be normalized already (white = 1)";
 
+/// How the warning of a white value far outside what a photograph can hold begins
+/// ([`implausible`]); the answer also gives it as a reason when the input is out of domain.
+pub const IMPLAUSIBLE: &str = "the white reference given, ";
+
+/// Above this a white value given for a photograph of integer samples (linear luminance
+/// in [0, 1], where a white card reads at most 1) is taken to be a mistake, not a card.
+pub const IMPLAUSIBLE_ABOVE: f64 = 2.0;
+
+/// A warning for a white value far outside what a photograph of integer samples can hold
+/// (its linear luminance is in [0, 1]), with what it likely meant: a percentage, or an 8-
+/// or 16-bit pixel value. `None` for a plausible value or a floating-point image (HDR
+/// units are the file's own).
+pub fn implausible(value: f64, is_float: bool) -> Option<String> {
+    if is_float || value <= IMPLAUSIBLE_ABOVE {
+        return None;
+    }
+    let short = |v: f64| crate::dataset::format_f64((v * 1e4).round() / 1e4);
+    let meant = if value <= 100.0 {
+        format!(
+            "a percentage? {} % is white={}",
+            short(value),
+            short(value / 100.0)
+        )
+    } else if value <= 255.0 {
+        let linear = crate::decode::srgb_to_linear(value / 255.0);
+        format!(
+            "an 8-bit pixel value? {} in sRGB is white={}",
+            short(value),
+            short(linear)
+        )
+    } else if value <= 65535.0 {
+        let linear = crate::decode::srgb_to_linear(value / 65535.0);
+        format!(
+            "a 16-bit pixel value? {} in sRGB is white={}",
+            short(value),
+            short(linear)
+        )
+    } else {
+        "a raw sensor value? give the white card's linear luminance in [0, 1]".to_string()
+    };
+    Some(format!(
+        "{IMPLAUSIBLE}{}, is far outside what is expected: this photograph's samples are linear \
+         luminance from 0 to 1, where a white card reads at most 1 (a well-exposed one about \
+         0.5 to 0.9), so the sphere reads as darker than any surface can be. Did you mean \
+         {meant}",
+        short(value)
+    ))
+}
+
 /// Validate a white value given as a number.
 pub fn given(value: f64) -> Result<White, WhiteError> {
     if value.is_finite() && value > 0.0 {
@@ -239,6 +288,35 @@ fn median(values: &mut [f64]) -> f64 {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn a_white_no_photograph_can_hold_is_named_with_what_it_likely_meant() {
+        assert_eq!(implausible(0.8, false), None);
+        assert_eq!(implausible(2.0, false), None);
+        assert_eq!(
+            implausible(80.0, true),
+            None,
+            "HDR units are the file's own"
+        );
+        let percent = implausible(80.0, false).unwrap();
+        assert!(percent.starts_with(IMPLAUSIBLE), "{percent}");
+        assert!(
+            percent.ends_with("a percentage? 80.0 % is white=0.8"),
+            "{percent}"
+        );
+        let byte = implausible(255.0, false).unwrap();
+        assert!(
+            byte.ends_with("an 8-bit pixel value? 255.0 in sRGB is white=1.0"),
+            "{byte}"
+        );
+        let word = implausible(65535.0, false).unwrap();
+        assert!(
+            word.ends_with("a 16-bit pixel value? 65535.0 in sRGB is white=1.0"),
+            "{word}"
+        );
+        let raw = implausible(1e6, false).unwrap();
+        assert!(raw.contains("a raw sensor value?"), "{raw}");
+    }
     use super::*;
     use crate::decode::Format;
     use ndarray::Array2;

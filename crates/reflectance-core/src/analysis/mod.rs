@@ -149,7 +149,7 @@ pub fn resolve_white(
     image: &LinearImage,
 ) -> Result<(White, Option<String>), WhiteError> {
     match input {
-        WhiteSpec::Value(v) => Ok((white::given(*v)?, None)),
+        WhiteSpec::Value(v) => Ok((white::given(*v)?, white::implausible(*v, image.is_float))),
         WhiteSpec::Card { image, reflectance } => {
             Ok((white::from_card(image, *reflectance)?, None))
         }

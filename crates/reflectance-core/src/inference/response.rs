@@ -644,6 +644,7 @@ impl Classified {
                 .warnings
                 .iter()
                 .filter(|w| !(d.without_white && *w == crate::white::MISSING_WARNING))
+                .filter(|w| !domain.reasons.contains(w))
                 .cloned(),
         );
         warnings
@@ -656,7 +657,13 @@ impl Classified {
         let classifier = head.name();
         let classes = &head.classifier.classes;
         let d = &self.decision;
-        let domain = d.domain();
+        let mut domain = d.domain();
+        // A white far outside what the photograph can hold is the likeliest reason first.
+        if !domain.in_domain {
+            let white = self.analysis.warnings.iter();
+            let white = white.filter(|w| w.starts_with(crate::white::IMPLAUSIBLE));
+            domain.reasons.splice(0..0, white.cloned());
+        }
         let equivalent = self.analysis.equivalent.as_ref();
         let warnings = self.warnings(&domain);
         let mut probabilities: Vec<LabelProbability> = classes
