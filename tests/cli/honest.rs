@@ -30,6 +30,11 @@ fn write_noise(path: &Path) {
 
 /// `classify --json` of `image` with the README's circle and white 0.8.
 fn classify(model: &str, image: &Path, extra: &[&str]) -> Value {
+    classify_with(model, image, &[&README_SPHERE_FLAGS, extra].concat())
+}
+
+/// `classify --json` of `image` with `flags`.
+fn classify_with(model: &str, image: &Path, flags: &[&str]) -> Value {
     let mut args = vec![
         "classify",
         image.to_str().unwrap(),
@@ -37,8 +42,7 @@ fn classify(model: &str, image: &Path, extra: &[&str]) -> Value {
         model,
         "--json",
     ];
-    args.extend_from_slice(&README_SPHERE_FLAGS);
-    args.extend_from_slice(extra);
+    args.extend_from_slice(flags);
     let out = Command::new(env!("CARGO_BIN_EXE_reflectance"))
         .args(&args)
         .current_dir(ROOT)
@@ -77,20 +81,7 @@ fn without_white_a_mirror_shares_its_set_with_the_dim_mirror() {
     let sphere = fixtures().join("features/sphere_rgb8.png");
     let with = classify("models/ward6", &sphere, &[]);
     assert_eq!(labels(&with), ["chrome"], "{with}");
-    let out = Command::new(env!("CARGO_BIN_EXE_reflectance"))
-        .args([
-            "classify",
-            sphere.to_str().unwrap(),
-            "--model",
-            "models/ward6",
-            "--json",
-        ])
-        .args(&README_SPHERE_FLAGS[2..])
-        .current_dir(ROOT)
-        .output()
-        .unwrap();
-    assert_success(&out);
-    let without: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let without = classify_with("models/ward6", &sphere, &README_SPHERE_FLAGS[2..]);
     assert_eq!(without["label"], "chrome", "{without}");
     assert_eq!(labels(&without), ["chrome", "black_shiny"], "{without}");
     let warnings = without["warnings"].to_string();
@@ -107,20 +98,7 @@ fn a_white_given_as_a_percentage_is_named_first() {
     let sphere = fixtures().join("features/sphere_rgb8.png");
     let mut flags = README_SPHERE_FLAGS;
     flags[1] = "80";
-    let out = Command::new(env!("CARGO_BIN_EXE_reflectance"))
-        .args([
-            "classify",
-            sphere.to_str().unwrap(),
-            "--model",
-            "models/ward6",
-            "--json",
-        ])
-        .args(flags)
-        .current_dir(ROOT)
-        .output()
-        .unwrap();
-    assert_success(&out);
-    let answer: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let answer = classify_with("models/ward6", &sphere, &flags);
     assert_eq!(answer["domain"]["in_domain"], false, "{answer}");
     let first = answer["domain"]["reasons"][0].as_str().unwrap();
     assert!(

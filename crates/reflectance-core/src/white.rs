@@ -142,17 +142,13 @@ pub fn implausible(value: f64, is_float: bool) -> Option<String> {
             short(value),
             short(value / 100.0)
         )
-    } else if value <= 255.0 {
-        let linear = crate::decode::srgb_to_linear(value / 255.0);
+    } else if let Some((bits, full)) = [("an 8", 255.0), ("a 16", 65535.0)]
+        .into_iter()
+        .find(|&(_, full)| value <= full)
+    {
+        let linear = crate::decode::srgb_to_linear(value / full);
         format!(
-            "an 8-bit pixel value? {} in sRGB is white={}",
-            short(value),
-            short(linear)
-        )
-    } else if value <= 65535.0 {
-        let linear = crate::decode::srgb_to_linear(value / 65535.0);
-        format!(
-            "a 16-bit pixel value? {} in sRGB is white={}",
+            "{bits}-bit pixel value? {} in sRGB is white={}",
             short(value),
             short(linear)
         )

@@ -87,6 +87,22 @@ pub struct RawInput {
 }
 
 impl RawInput {
+    /// The numeric fields' wire names.
+    pub const NUMBERS: [&'static str; 6] =
+        ["white", "white_reflectance", "cx", "cy", "r", "coverage"];
+
+    /// The text of the numeric field `name`, one of [`Self::NUMBERS`] (any other: `coverage`).
+    pub fn number_mut(&mut self, name: &str) -> &mut Option<String> {
+        match name {
+            "white" => &mut self.white,
+            "white_reflectance" => &mut self.white_reflectance,
+            "cx" => &mut self.cx,
+            "cy" => &mut self.cy,
+            "r" => &mut self.r,
+            _ => &mut self.coverage,
+        }
+    }
+
     /// Parse the fields' text and check the request's rules ([`Input::new`]), before any
     /// decoding.
     pub fn validate(self) -> Result<Input, ApiError> {
@@ -354,7 +370,7 @@ fn from_json(body: &[u8]) -> Result<RawInput, ApiError> {
                     _ => raw.mask = bytes,
                 }
             }
-            "white" | "white_reflectance" | "cx" | "cy" | "r" | "coverage" => {
+            n if RawInput::NUMBERS.contains(&n) => {
                 let text = match value {
                     Value::Number(n) => n.to_string(),
                     Value::String(text) => short_text(&name, text)?,
@@ -365,14 +381,7 @@ fn from_json(body: &[u8]) -> Result<RawInput, ApiError> {
                         )));
                     }
                 };
-                *match name.as_str() {
-                    "white" => &mut raw.white,
-                    "white_reflectance" => &mut raw.white_reflectance,
-                    "cx" => &mut raw.cx,
-                    "cy" => &mut raw.cy,
-                    "r" => &mut raw.r,
-                    _ => &mut raw.coverage,
-                } = Some(text);
+                *raw.number_mut(&name) = Some(text);
             }
             "white_rect" => {
                 let text = match value {

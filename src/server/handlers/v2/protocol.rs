@@ -153,17 +153,9 @@ pub fn raw_input(tensors: Vec<Tensor>) -> Result<RawInput, ApiError> {
                 raw.encoding.replace(text).is_some()
             }
             "white_rect" => raw.white_rect.replace(rect_text(tensor)?).is_some(),
-            "white" | "white_reflectance" | "cx" | "cy" | "r" | "coverage" => {
+            n if RawInput::NUMBERS.contains(&n) => {
                 let value = single(&name, numbers(tensor)?)?.to_string();
-                let slot = match name.as_str() {
-                    "white" => &mut raw.white,
-                    "white_reflectance" => &mut raw.white_reflectance,
-                    "cx" => &mut raw.cx,
-                    "cy" => &mut raw.cy,
-                    "r" => &mut raw.r,
-                    _ => &mut raw.coverage,
-                };
-                slot.replace(value).is_some()
+                raw.number_mut(&name).replace(value).is_some()
             }
             other => {
                 let known: Vec<String> = inputs().into_iter().map(|t| t.name).collect();
