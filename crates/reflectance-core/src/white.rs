@@ -135,7 +135,7 @@ pub fn implausible(value: f64, is_float: bool) -> Option<String> {
     if is_float || value <= IMPLAUSIBLE_ABOVE {
         return None;
     }
-    let short = |v: f64| crate::dataset::format_f64((v * 1e4).round() / 1e4);
+    let short = |v: f64| format!("{:?}", (v * 1e4).round() / 1e4);
     let meant = if value <= 100.0 {
         format!(
             "a percentage? {} % is white={}",
