@@ -20,6 +20,7 @@
 //! | model file refused (schema, checksum, self-test) | 422 | `invalid-model` |
 //! | deleting the active version | 409 | `version-active` |
 //! | KServe V2 health "false" (loading, draining) | 400 | `v2-not-ready` |
+//! | KServe V2 batch: one image refused (its index and its own problem in the detail) | 400 | `batch-item` |
 //! | dataset archive: not tar/tar.gz/zip, unreadable | 422 | `invalid-archive` |
 //! | dataset archive: over a size or member limit | 413 | `archive-too-large` |
 //! | dataset: no usable image, too few illuminations | 422 | `unusable-dataset` |
@@ -143,11 +144,12 @@ pub enum Kind {
     DatasetExists,
     DatasetNotFound,
     DatasetInUse,
+    BatchItem,
     Internal,
 }
 
 impl Kind {
-    pub const ALL: [Kind; 37] = [
+    pub const ALL: [Kind; 38] = [
         Kind::MalformedRequest,
         Kind::UnsupportedMediaType,
         Kind::MissingField,
@@ -184,6 +186,7 @@ impl Kind {
         Kind::DatasetExists,
         Kind::DatasetNotFound,
         Kind::DatasetInUse,
+        Kind::BatchItem,
         Kind::Internal,
     ];
 
@@ -297,6 +300,13 @@ impl Kind {
             Kind::DatasetExists => ("dataset-exists", "Dataset name taken", S::CONFLICT),
             Kind::DatasetNotFound => ("dataset-not-found", "Unknown dataset", S::NOT_FOUND),
             Kind::DatasetInUse => ("dataset-in-use", "Dataset in use by a job", S::CONFLICT),
+            // The protocol has no partial success: one image fails the whole batch, as a
+            // client's mistake (Triton's status for a failed inference).
+            Kind::BatchItem => (
+                "batch-item",
+                "An image of the batch is refused",
+                S::BAD_REQUEST,
+            ),
             Kind::Internal => (
                 "internal",
                 "Internal server error",
@@ -391,6 +401,23 @@ impl ApiError {
         ApiError {
             kind,
             detail: detail.into(),
+            retry_after: None,
+        }
+    }
+
+    /// This error, of image `index` (from 0) of a batch of `n`: a client's mistake becomes
+    /// a 400 naming the image and what was wrong; the server's own failures stay as they are.
+    pub fn in_batch(self, index: usize, n: usize) -> ApiError {
+        if !self.kind.status().is_client_error() || self.kind == Kind::Overloaded {
+            return self;
+        }
+        let (slug, ..) = self.kind.describe();
+        ApiError {
+            kind: Kind::BatchItem,
+            detail: format!(
+                "image {index} of the batch of {n} (from 0): {} ({slug})",
+                self.detail
+            ),
             retry_after: None,
         }
     }

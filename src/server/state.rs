@@ -59,14 +59,23 @@ impl CpuPool {
 
     /// A place in the pool's queue, or 429 when the service is saturated.
     pub fn admit(&self) -> Result<OwnedSemaphorePermit, ApiError> {
-        self.admission.clone().try_acquire_owned().map_err(|_| {
-            metrics::shed();
-            ApiError::new(
-                Kind::Overloaded,
-                "too many requests in progress; retry shortly",
-            )
-            .retry_after(1)
-        })
+        self.admit_many(1)
+    }
+
+    /// `n` places at once (a batch counts as `n` requests), or 429.
+    pub fn admit_many(&self, n: usize) -> Result<OwnedSemaphorePermit, ApiError> {
+        let n = u32::try_from(n).unwrap_or(u32::MAX);
+        self.admission
+            .clone()
+            .try_acquire_many_owned(n)
+            .map_err(|_| {
+                metrics::shed();
+                ApiError::new(
+                    Kind::Overloaded,
+                    "too many requests in progress; retry shortly",
+                )
+                .retry_after(1)
+            })
     }
 
     /// Requests admitted now.
@@ -80,6 +89,19 @@ impl CpuPool {
         permit: OwnedSemaphorePermit,
         work: impl FnOnce() -> Result<T, ApiError> + Send + 'static,
     ) -> Result<T, ApiError> {
+        self.spawn(permit, work).await
+    }
+
+    /// Queue `work` on the pool now; its result when awaited.
+    pub fn spawn<T, F>(
+        &self,
+        permit: OwnedSemaphorePermit,
+        work: F,
+    ) -> impl Future<Output = Result<T, ApiError>> + use<T, F>
+    where
+        T: Send + 'static,
+        F: FnOnce() -> Result<T, ApiError> + Send + 'static,
+    {
         let (tx, rx) = tokio::sync::oneshot::channel();
         self.pool.spawn_fifo(move || {
             let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work))
@@ -94,8 +116,10 @@ impl CpuPool {
             drop(permit);
             let _ = tx.send(result);
         });
-        rx.await
-            .unwrap_or_else(|_| Err(ApiError::internal("CPU task lost")))
+        async move {
+            rx.await
+                .unwrap_or_else(|_| Err(ApiError::internal("CPU task lost")))
+        }
     }
 }
 

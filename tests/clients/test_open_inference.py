@@ -179,6 +179,55 @@ def test_errors_carry_the_message(server, transport):
         assert words in raised.value.message(), raised.value.message()
 
 
+def batch_inputs(module, images, whites, circles):
+    """A batch as tritonclient users send one: every per-image input of shape [N]."""
+    arrays = [("image", np.array(images, dtype=np.object_), "BYTES"),
+              ("white", np.array(whites, dtype=np.float64), "FP64")]
+    arrays += [(k, np.array([c[j] for c in circles], dtype=np.float64), "FP64")
+               for j, k in enumerate(("cx", "cy", "r"))]
+    built = []
+    for name, array, datatype in arrays:
+        tensor = module.InferInput(name, list(array.shape), datatype)
+        tensor.set_data_from_numpy(array)
+        built.append(tensor)
+    return built
+
+
+# Eight different requests from the committed fixtures: a sphere under whites that move its
+# brightness, and another sphere (tests/fixtures/features/manifest.csv).
+BATCH_WHITES = [0.8, 0.4, 1.6, 0.2, 3.2, 1.0, 1.0, 0.6]
+OTHER = (FIXTURE.parent / "sphere_gray8.png", (52.35, 48.7, 40.3))
+
+
+@pytest.mark.parametrize("transport", ["http", "grpc"])
+def test_a_batch_answers_what_single_requests_answer(server, transport):
+    module = httpclient if transport == "http" else grpcclient
+    client = server[transport]
+    images = [FIXTURE.read_bytes()] * 8
+    circles = [(CIRCLE["cx"], CIRCLE["cy"], CIRCLE["r"])] * 8
+    images[5], circles[5] = OTHER[0].read_bytes(), OTHER[1]
+    result = client.infer("ward6", batch_inputs(module, images, BATCH_WHITES, circles))
+    labels = result.as_numpy("label")
+    probabilities = result.as_numpy("probabilities")
+    assert labels.shape == (8, 1) and probabilities.shape == (8, 6)
+    assert result.as_numpy("ward").shape == (8, 3, 3)
+    for i, (image, white, circle) in enumerate(zip(images, BATCH_WHITES, circles)):
+        single = client.infer("ward6", batch_inputs(module, [image], [white], [circle]))
+        assert labels[i].tolist() == single.as_numpy("label").tolist(), i
+        assert np.array_equal(probabilities[i], single.as_numpy("probabilities")), i
+    assert len({tuple(p) for p in probabilities}) > 1, "the batch's images differ"
+
+    images[3] = b"not an image"
+    with pytest.raises(InferenceServerException) as raised:
+        client.infer("ward6", batch_inputs(module, images, BATCH_WHITES, circles))
+    message = raised.value.message()
+    assert "image 3 of the batch of 8" in message, message
+    if transport == "http":
+        assert raised.value.status() == "400"
+    else:
+        assert "INVALID_ARGUMENT" in str(raised.value.status()), raised.value.status()
+
+
 def activate(server, version):
     request = urllib.request.Request(
         f"{server['admin']}/admin/v1/models/demo/versions/{version}/activate", method="POST",

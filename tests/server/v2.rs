@@ -473,3 +473,105 @@ async fn every_version_has_its_routes() {
         .problem(404, "model-not-found");
     assert!(doc.get("error").is_none(), "{doc}");
 }
+
+/// The elements of output `name` of an answer, with its shape.
+fn output<'a>(doc: &'a Value, name: &str) -> (&'a Value, &'a Vec<Value>) {
+    let output = doc["outputs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|o| o["name"] == name)
+        .unwrap_or_else(|| panic!("no output {name} in {doc}"));
+    (&output["shape"], output["data"].as_array().unwrap())
+}
+
+/// A batch (an image input of shape [N]) answers what N single requests answer, in order,
+/// every output led by N; per-image inputs hold one value each or one for all; one bad
+/// image fails the batch with a 400 that names it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn batches_answer_each_image_in_order() {
+    let server = start(config(&models_copy("v2-batch")));
+    let data = &server.data;
+    let meta = send(data, get("/v2/models/ward6")).await.json();
+    assert!(meta["max_batch_size"].as_u64().unwrap() >= 8, "{meta}");
+    let held_out = &fixture().held_out;
+    let n = held_out.len().min(6);
+    assert!(
+        n >= 3,
+        "the fixture holds {} held-out images",
+        held_out.len()
+    );
+    let b64 = |image: &[u8]| base64::engine::general_purpose::STANDARD.encode(image);
+    let images: Vec<String> = held_out[..n].iter().map(|(i, ..)| b64(i)).collect();
+    let whites: Vec<f64> = held_out[..n].iter().map(|(_, _, w)| *w).collect();
+    let circle = [
+        fp64("cx", 47.5),
+        fp64("cy", 47.5),
+        fp64("r", 43.63636363636363),
+    ];
+    let infer = |images: &[String], whites: &[f64]| {
+        let mut inputs = vec![
+            json!({"name": "image", "datatype": "BYTES", "shape": [images.len()], "data": images}),
+            json!({"name": "white", "datatype": "FP64", "shape": [whites.len()], "data": whites}),
+        ];
+        inputs.extend(circle.iter().cloned());
+        post_json("/v2/models/ward6/infer", &json!({ "inputs": inputs }))
+    };
+
+    let batch = send(data, infer(&images, &whites)).await.json_of(200);
+    let (shape, labels) = output(&batch, "label");
+    assert_eq!(shape, &json!([n, 1]));
+    let (shape, p) = output(&batch, "probabilities");
+    assert_eq!(shape, &json!([n, 3]));
+    let (shape, _) = output(&batch, "ward");
+    assert_eq!(shape, &json!([n, 3, 3]));
+    let (set_shape, sets) = output(&batch, "prediction_set");
+    let width = set_shape[1].as_u64().unwrap() as usize;
+    for i in 0..n {
+        let single = send(data, infer(&images[i..=i], &whites[i..=i]))
+            .await
+            .json_of(200);
+        assert_eq!(labels[i], output(&single, "label").1[0], "image {i}");
+        assert_eq!(
+            &p[3 * i..3 * i + 3],
+            output(&single, "probabilities").1.as_slice()
+        );
+        // Sets padded with empty names to the longest.
+        let set = output(&single, "prediction_set").1;
+        assert_eq!(&sets[width * i..width * i + set.len()], set.as_slice());
+        assert!(
+            sets[width * i + set.len()..width * (i + 1)]
+                .iter()
+                .all(|s| s == "")
+        );
+    }
+
+    // One white for all images.
+    let one_white = send(data, infer(&images, &whites[..1])).await.json_of(200);
+    assert_eq!(output(&one_white, "label").1.len(), n);
+    // Neither one per image nor one for all.
+    let doc = send(data, infer(&images, &whites[..2]))
+        .await
+        .problem(422, "invalid-field");
+    assert!(
+        doc["detail"].as_str().unwrap().contains("\"white\""),
+        "{doc}"
+    );
+    // One bad image: the batch fails, naming it.
+    let mut bad = images.clone();
+    bad[2] = b64(b"not an image");
+    let doc = send(data, infer(&bad, &whites))
+        .await
+        .problem(400, "batch-item");
+    let detail = doc["detail"].as_str().unwrap();
+    assert!(
+        detail.starts_with(&format!("image 2 of the batch of {n}")),
+        "{doc}"
+    );
+    assert!(detail.contains("unsupported-image-format"), "{doc}");
+    // More than the largest batch.
+    let many = vec![images[0].clone(); meta["max_batch_size"].as_u64().unwrap() as usize + 1];
+    send(data, infer(&many, &whites[..1]))
+        .await
+        .problem(422, "invalid-field");
+}

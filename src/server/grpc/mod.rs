@@ -296,7 +296,9 @@ pub async fn serve(
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<(), tonic::transport::Error> {
     let timeout = state.config.request_timeout;
-    let incoming = tonic::transport::server::TcpIncoming::from(listener);
+    // Without TCP_NODELAY a small answer waits for the client's delayed ACK: about 40 ms a
+    // request, unary calls one after another.
+    let incoming = tonic::transport::server::TcpIncoming::from(listener).with_nodelay(Some(true));
     tonic::transport::Server::builder()
         .timeout(timeout)
         .serve_with_incoming_shutdown(InferenceService::new(state), incoming, shutdown)

@@ -33,20 +33,56 @@ pub async fn run(
 ) -> Result<Classified, ApiError> {
     state.models.served(name)?;
     let permit = state.cpu.admit()?;
-    let limits = state.config.limits;
-    let worker_state = state.clone();
-    let name = name.to_string();
     state
         .cpu
-        .run(permit, move || {
-            let model = worker_state.models.get(&name, version)?;
-            let classified = inference::classify(model, input, limits)?;
-            metrics::stage("decode", classified.decode_ms / 1e3);
-            metrics::stage("features", classified.features_ms / 1e3);
-            metrics::stage("predict", classified.predict_ms / 1e3);
-            Ok(classified)
-        })
+        .run(permit, work(state, name, version, input))
         .await
+}
+
+/// Classify a batch, its images queued on the CPU pool at once and admitted together (a
+/// batch counts as as many requests as it holds images). The first image that fails fails
+/// the batch, named by its index.
+pub async fn run_batch(
+    state: &SharedState,
+    name: &str,
+    version: Option<u32>,
+    inputs: Vec<Input>,
+) -> Result<Vec<Classified>, ApiError> {
+    state.models.served(name)?;
+    let n = inputs.len();
+    let mut all = state.cpu.admit_many(n)?;
+    let mut permits: Vec<_> = (1..n).filter_map(|_| all.split(1)).collect();
+    permits.push(all);
+    let queued: Vec<_> = inputs
+        .into_iter()
+        .zip(permits)
+        .map(|(input, permit)| state.cpu.spawn(permit, work(state, name, version, input)))
+        .collect();
+    let mut classified = Vec::with_capacity(n);
+    for (i, answer) in queued.into_iter().enumerate() {
+        classified.push(answer.await.map_err(|e| e.in_batch(i, n))?);
+    }
+    Ok(classified)
+}
+
+/// The CPU work of one request: the model, then decode, locate, features and predict.
+fn work(
+    state: &SharedState,
+    name: &str,
+    version: Option<u32>,
+    input: Input,
+) -> impl FnOnce() -> Result<Classified, ApiError> + Send + 'static {
+    let limits = state.config.limits;
+    let state = state.clone();
+    let name = name.to_string();
+    move || {
+        let model = state.models.get(&name, version)?;
+        let classified = inference::classify(model, input, limits)?;
+        metrics::stage("decode", classified.decode_ms / 1e3);
+        metrics::stage("features", classified.features_ms / 1e3);
+        metrics::stage("predict", classified.predict_ms / 1e3);
+        Ok(classified)
+    }
 }
 
 fn response(c: Classified, started: Instant) -> Response {

@@ -62,6 +62,9 @@ pub struct ModelMetadata {
     pub platform: String,
     pub inputs: Vec<TensorMetadata>,
     pub outputs: Vec<TensorMetadata>,
+    /// The most images one infer request may hold: an `image` input of shape [N] or
+    /// [N, 1] (N > 1) is a batch, answered with every output's shape led by N.
+    pub max_batch_size: usize,
 }
 
 /// One input tensor.
@@ -244,6 +247,7 @@ async fn metadata(
         platform: "reflectance".into(),
         inputs: protocol::inputs(),
         outputs: protocol::outputs(&model),
+        max_batch_size: protocol::max_batch(state.config.max_inflight),
     }))
 }
 
@@ -599,7 +603,8 @@ async fn infer_with(
     Ok(response)
 }
 
-/// Classify one image with the model's active version. The body is JSON, or with the
+/// Classify one image, or a batch (an `image` input of shape [N]), with the model's active
+/// version. The body is JSON, or with the
 /// binary tensor data extension the JSON (its length in the `Inference-Header-Content-Length`
 /// header) followed by the inputs' bytes; gzip or deflate (`Content-Encoding`) bodies are
 /// read too.
@@ -615,7 +620,7 @@ async fn infer_with(
             (BinaryTensorData = "application/octet-stream")),
          headers(("x-model-version" = u32, description = "The model version that answered"),
                  ("inference-header-content-length" = Option<u64>, description = "With binary outputs: the length of the JSON part"))),
-        (status = 400, description = "Malformed JSON or binary data (`malformed-request`)", body = V2Problem, content_type = "application/problem+json"),
+        (status = 400, description = "Malformed JSON or binary data (`malformed-request`), or an image of a batch refused (`batch-item`: its index and its own problem in the detail)", body = V2Problem, content_type = "application/problem+json"),
         (status = 404, description = "Unknown model (`model-not-found`)", body = V2Problem, content_type = "application/problem+json"),
         (status = 415, description = "Neither JSON nor binary tensor data (`unsupported-media-type`), or unknown image format (`unsupported-image-format`)", body = V2Problem, content_type = "application/problem+json"),
         (status = 422, description = "Missing image, unknown or invalid inputs or outputs, corrupt or unusable image, bad circle or white (`missing-field`, `unknown-field`, `invalid-field`, `corrupt-image`, `invalid-image`, `bad-geometry`, `bad-white`)", body = V2Problem, content_type = "application/problem+json"),
@@ -630,7 +635,7 @@ pub async fn infer(
     infer_with(state, name, None, headers, body).await
 }
 
-/// Classify one image with a version the registry holds.
+/// Classify one image, or a batch, with a version the registry holds.
 #[utoipa::path(post, operation_id = "v2_infer_version", path = "/v2/models/{name}/versions/{version}/infer", tag = "kserve-v2",
     params(("name" = String, Path, description = "Model name", example = "ward6"),
            ("version" = String, Path, description = "A version the registry holds", example = "1", pattern = "^[1-9][0-9]{0,8}$")),
@@ -644,7 +649,7 @@ pub async fn infer(
             (BinaryTensorData = "application/octet-stream")),
          headers(("x-model-version" = u32, description = "The model version that answered"),
                  ("inference-header-content-length" = Option<u64>, description = "With binary outputs: the length of the JSON part"))),
-        (status = 400, description = "Malformed JSON or binary data (`malformed-request`)", body = V2Problem, content_type = "application/problem+json"),
+        (status = 400, description = "Malformed JSON or binary data (`malformed-request`), or an image of a batch refused (`batch-item`)", body = V2Problem, content_type = "application/problem+json"),
         (status = 404, description = "Unknown model or version (`model-not-found`, `version-not-found`)", body = V2Problem, content_type = "application/problem+json"),
         (status = 415, description = "Neither JSON nor binary tensor data (`unsupported-media-type`), or unknown image format (`unsupported-image-format`)", body = V2Problem, content_type = "application/problem+json"),
         (status = 422, description = "As for the active version, and a refused model file (`invalid-model`)", body = V2Problem, content_type = "application/problem+json"),
@@ -670,8 +675,23 @@ pub async fn classify_tensors(
 ) -> Result<(Arc<LoadedModel>, Vec<Tensor>), ApiError> {
     super::health::serving(state)?;
     let model = model(state, name, version).await?;
-    let input = protocol::raw_input(inputs)?.validate()?;
-    let c = classify::run(state, name, Some(model.version()), input).await?;
-    let selected = protocol::select(&c.model, protocol::answer(&c), requested)?;
-    Ok((c.model.clone(), selected))
+    let (raw, batched) =
+        protocol::raw_inputs(inputs, protocol::max_batch(state.config.max_inflight))?;
+    let version = Some(model.version());
+    if !batched {
+        let input = raw.into_iter().next().unwrap_or_default().validate()?;
+        let c = classify::run(state, name, version, input).await?;
+        let selected = protocol::select(&c.model, protocol::answer(&c), requested)?;
+        return Ok((c.model.clone(), selected));
+    }
+    let n = raw.len();
+    let inputs = raw
+        .into_iter()
+        .enumerate()
+        .map(|(i, r)| r.validate().map_err(|e| e.in_batch(i, n)))
+        .collect::<Result<Vec<_>, _>>()?;
+    let classified = classify::run_batch(state, name, version, inputs).await?;
+    let answers: Vec<_> = classified.iter().map(protocol::answer).collect();
+    let selected = protocol::select(&model, protocol::stack(&model, &answers), requested)?;
+    Ok((model, selected))
 }

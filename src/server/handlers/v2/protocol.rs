@@ -172,6 +172,124 @@ pub fn raw_input(tensors: Vec<Tensor>) -> Result<RawInput, ApiError> {
     Ok(raw)
 }
 
+/// The most images one infer request may hold (the model metadata's `max_batch_size`),
+/// when the server admits as many requests at once (`--max-inflight`).
+pub const MAX_BATCH: usize = 32;
+
+/// The most images one infer request may hold on a server admitting `max_inflight`.
+pub fn max_batch(max_inflight: usize) -> usize {
+    MAX_BATCH.min(max_inflight)
+}
+
+/// How many images a request's `image` input holds when it is a batch: shape [N] or
+/// [N, 1] with N > 1. One image (whatever its shape) is answered as today's single image.
+fn batch_size(tensors: &[Tensor]) -> Option<i64> {
+    let image = tensors.iter().find(|t| t.name == "image")?;
+    match image.shape.as_slice() {
+        &[n] | &[n, 1] if n > 1 => Some(n),
+        _ => None,
+    }
+}
+
+/// A request's inputs, one [`RawInput`] per image, and whether they came as a batch. In a
+/// batch every other input holds one value per image, or one value for all of them.
+pub fn raw_inputs(tensors: Vec<Tensor>, max: usize) -> Result<(Vec<RawInput>, bool), ApiError> {
+    let Some(n) = batch_size(&tensors) else {
+        return Ok((vec![raw_input(tensors)?], false));
+    };
+    let n = usize::try_from(n)
+        .ok()
+        .filter(|n| (1..=max).contains(n))
+        .ok_or_else(|| {
+            invalid(format!(
+                "a batch holds 1 to {max} images (the model metadata's max_batch_size), not {n}"
+            ))
+        })?;
+    let mut items: Vec<Vec<Tensor>> = vec![Vec::with_capacity(tensors.len()); n];
+    for tensor in tensors {
+        let per = if tensor.name == "white_rect" && tensor.datatype != Datatype::Bytes {
+            4
+        } else {
+            1
+        };
+        let count = tensor.elements.len();
+        let start = |i: usize| match count {
+            c if c == per => Some(0),
+            c if c == per * n => Some(i * per),
+            _ => None,
+        };
+        if start(0).is_none() {
+            return Err(invalid(format!(
+                "input {:?} holds {count} elements; in a batch of {n} images it holds {per} \
+                 (for every image) or {} (one for each)",
+                tensor.name,
+                per * n
+            )));
+        }
+        for (i, item) in items.iter_mut().enumerate() {
+            let from = start(i).unwrap_or(0);
+            item.push(Tensor {
+                name: tensor.name.clone(),
+                datatype: tensor.datatype,
+                shape: vec![per as i64],
+                elements: tensor.elements.range(from, per),
+            });
+        }
+    }
+    items
+        .into_iter()
+        .enumerate()
+        .map(|(i, item)| raw_input(item).map_err(|e| e.in_batch(i, n)))
+        .collect::<Result<_, _>>()
+        .map(|inputs| (inputs, true))
+}
+
+/// A batch's answers as one answer: every output with the batch's dimension in front of one
+/// image's shape. `prediction_set`s are padded with empty names to the longest; an output
+/// some images lack (`ward` without their white, `colour`) holds NaN for them.
+pub fn stack(model: &LoadedModel, answers: &[Vec<Tensor>]) -> Vec<Tensor> {
+    let n = answers.len() as i64;
+    let mut stacked = Vec::new();
+    for meta in outputs(model) {
+        let parts: Vec<Option<&Tensor>> = answers
+            .iter()
+            .map(|a| a.iter().find(|t| t.name == meta.name))
+            .collect();
+        let Some(first) = parts.iter().flatten().next() else {
+            continue;
+        };
+        let width = parts.iter().flatten().map(|t| t.elements.len()).max();
+        let width = width.unwrap_or(0);
+        let mut shape = vec![n];
+        if meta.name == "prediction_set" {
+            shape.push(width as i64);
+        } else {
+            shape.extend(&first.shape);
+        }
+        let padded = |t: &Option<&Tensor>| -> Elements {
+            let mut e = t.map_or_else(|| first.elements.range(0, 0), |t| t.elements.clone());
+            match &mut e {
+                Elements::Text(v) => v.resize(width, String::new()),
+                Elements::Bytes(v) => v.resize(width, bytes::Bytes::new()),
+                Elements::Numbers(v) => v.resize(width, f64::NAN),
+                Elements::Bool(v) => v.resize(width, false),
+            }
+            e
+        };
+        let mut elements = padded(&parts[0]);
+        for part in &parts[1..] {
+            elements.append(padded(part));
+        }
+        stacked.push(Tensor {
+            name: meta.name,
+            datatype: first.datatype,
+            shape,
+            elements,
+        });
+    }
+    stacked
+}
+
 /// The answer as output tensors, in the order of [`outputs`].
 pub fn answer(c: &Classified) -> Vec<Tensor> {
     let classes = c.model.file().classifier.classes();

@@ -88,6 +88,28 @@ impl Elements {
         }
     }
 
+    /// `len` elements from `start` (the caller keeps within [`Elements::len`]).
+    pub fn range(&self, start: usize, len: usize) -> Elements {
+        let r = start..start + len;
+        match self {
+            Elements::Bytes(v) => Elements::Bytes(v[r].to_vec()),
+            Elements::Text(v) => Elements::Text(v[r].to_vec()),
+            Elements::Numbers(v) => Elements::Numbers(v[r].to_vec()),
+            Elements::Bool(v) => Elements::Bool(v[r].to_vec()),
+        }
+    }
+
+    /// `other`'s elements after these (of the same kind; another kind is left out).
+    pub fn append(&mut self, other: Elements) {
+        match (self, other) {
+            (Elements::Bytes(v), Elements::Bytes(o)) => v.extend(o),
+            (Elements::Text(v), Elements::Text(o)) => v.extend(o),
+            (Elements::Numbers(v), Elements::Numbers(o)) => v.extend(o),
+            (Elements::Bool(v), Elements::Bool(o)) => v.extend(o),
+            _ => {}
+        }
+    }
+
     /// The elements in the protocol's raw form of `datatype`: little-endian values, BOOL
     /// as one byte, BYTES as a 4-byte little-endian length before each element.
     pub fn to_raw(&self, datatype: Datatype) -> Vec<u8> {
