@@ -1,4 +1,4 @@
-//! `reflectance classify IMAGE --model DIR/NAME[/VERSION] [--white W | --white-image F]
+//! `reflectance classify IMAGE [--model NAME | DIR/NAME[/VERSION]] [--white W | --white-image F]
 //! [--cx X --cy Y --r R | --mask F | --normals N [--mask M]] [--json]`: one photograph, without a server or a
 //! manifest; the same pipeline and, with `--json`, the same JSON as `POST /v1/classify`.
 
@@ -8,10 +8,21 @@ use reflectance_core::decode::Encoding;
 use reflectance_core::inference::{
     self, Answer, ClassifyResponse, InferenceError, Input, LoadedModel,
 };
-use reflectance_core::model::registry;
+use reflectance_core::white::Method as WhiteMethod;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
+
+/// `reflectance help classify`'s examples.
+pub const EXAMPLES: &str = "Examples:
+  # the shipped ward6, the sphere found in the photograph, no white card (a set of classes)
+  reflectance classify photo.jpg
+  # the circle given, and a white card whose linear luminance is 0.8 of full scale
+  reflectance classify photo.jpg --cx 96.5 --cy 94.25 --r 85 --white 0.8
+  # the white card drawn as a rectangle of the photograph; the eleven classes; JSON
+  reflectance classify photo.jpg --white-rect 10,10,40,30 --model ward11 --json
+  # the material as glTF, for a renderer
+  reflectance classify photo.jpg --white 0.8 --gltf ball.glb";
 
 /// Which material `classify --gltf` writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -25,8 +36,9 @@ pub enum GltfMaterial {
 pub struct ClassifyArgs {
     /// The photograph or rendering (PNG, JPEG, WebP, TIFF, PNM, Radiance HDR, PFM or OpenEXR).
     image: PathBuf,
-    /// The model: `DIR/NAME` (its active version) or `DIR/NAME/VERSION`, e.g. `models/ward6`.
-    #[arg(long)]
+    /// The model: a name (looked for in $REFLECTANCE_MODELS, ./models and the models beside
+    /// the binary), `DIR/NAME` (its active version) or `DIR/NAME/VERSION`.
+    #[arg(long, default_value = super::DEFAULT_MODEL)]
     model: PathBuf,
     #[command(flatten)]
     sphere: SphereArgs,
@@ -60,8 +72,7 @@ pub struct ClassifyArgs {
 }
 
 fn load_model(path: &Path) -> CliResult<LoadedModel> {
-    let file = registry::load_path(path)?;
-    Ok(LoadedModel::new(file)?)
+    Ok(LoadedModel::new(super::load_model_file(path)?)?)
 }
 
 fn input(args: &ClassifyArgs) -> CliResult<Input> {
@@ -114,11 +125,24 @@ fn write_gltf(path: &Path, answer: &ClassifyResponse, which: GltfMaterial) -> Cl
             .find(|m| m.source == "estimate"),
     };
     let Some(chosen) = chosen else {
+        let model = &answer.model.name;
         let why = match which {
-            GltfMaterial::Estimate => {
-                "no whole estimate (the model has no estimator, or no white reference was given)"
+            GltfMaterial::Estimate if answer.ward.is_none() => {
+                format!(
+                    "model {model} has no estimator of the Ward parameters; try --gltf-material class"
+                )
             }
-            _ => "the model does not know the class's parameters",
+            GltfMaterial::Estimate if answer.white.method == WhiteMethod::None => {
+                "no white reference was given, so the estimate has no rho_d and rho_s: give \
+                 --white (the linear luminance of a white card at the sphere, a fraction of \
+                 full scale: 0.8 for a card at 80 %), --white-image or --white-rect"
+                    .to_string()
+            }
+            GltfMaterial::Estimate => "the estimate is not whole".to_string(),
+            _ => format!(
+                "model {model} does not know the parameters of class {}",
+                answer.label
+            ),
         };
         return Err(CliError::Invalid(format!("--gltf-material: {why}")));
     };

@@ -76,7 +76,12 @@ pub fn run(args: GltfArgs) -> CliResult {
             for material in &materials {
                 let label = material.label();
                 let path = args.out.join(format!("{label}.{extension}"));
-                let about = json!({"source": format!("class {label:?} of {}", classes.display())});
+                // The file's name, not its path: no machine's folders in files people share.
+                let file = classes
+                    .file_name()
+                    .unwrap_or(classes.as_os_str())
+                    .to_string_lossy();
+                let about = json!({"source": format!("class {label:?} of {file}")});
                 write(&path, material, args.colour, about)?;
                 println!("{}", path.display());
             }

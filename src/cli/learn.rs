@@ -423,7 +423,8 @@ fn publish(
 
 #[derive(Args, Debug)]
 pub struct TrainObjectsArgs {
-    /// The model to extend: DIR/NAME (the active version), or DIR/NAME/VERSION.
+    /// The model to extend: DIR/NAME (the active version), DIR/NAME/VERSION, or a name (as
+    /// `classify --model`).
     #[arg(long)]
     model: PathBuf,
     /// Spheres and objects (manifests with a `normals` column), extracted with the model's
@@ -450,7 +451,7 @@ pub struct TrainObjectsArgs {
 }
 
 pub fn train_objects(args: TrainObjectsArgs) -> CliResult {
-    let base = registry::load_path(&args.model)?;
+    let base = super::load_model_file(&args.model)?;
     let (table, label) = args.data.load(&args.limits, base.features.config)?;
     let mut trained = progress::observed("train", |bar| {
         train::add_objects(
@@ -466,7 +467,7 @@ pub fn train_objects(args: TrainObjectsArgs) -> CliResult {
 
 #[derive(Args, Debug)]
 pub struct PredictArgs {
-    /// DIR/NAME (the active version) or DIR/NAME/VERSION.
+    /// DIR/NAME (the active version), DIR/NAME/VERSION, or a name (as `classify --model`).
     #[arg(long)]
     model: PathBuf,
     #[arg(long)]
@@ -493,7 +494,7 @@ pub struct PredictArgs {
 }
 
 pub fn predict(args: PredictArgs) -> CliResult {
-    let model = registry::load_path(&args.model)?;
+    let model = super::load_model_file(&args.model)?;
     let (name, version) = (model.name.clone(), model.version);
     let extractor = Extractor::new(model.features.config)?;
     let manifest = dataset::read_manifest(&args.manifest)?;

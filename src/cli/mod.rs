@@ -18,6 +18,7 @@ pub use error::{CliError, CliResult};
 use bytes::Bytes;
 use clap::{Args, Parser, Subcommand};
 use reflectance_core::analysis::{Placement, WhiteSpec};
+use reflectance_core::model::registry;
 use reflectance_core::white::Rect;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -55,6 +56,7 @@ enum Command {
     /// Classify the images of a manifest with a trained model.
     Predict(learn::PredictArgs),
     /// Classify one photograph with a trained model (the answer of `POST /v1/classify`).
+    #[command(after_help = classify::EXAMPLES)]
     Classify(classify::ClassifyArgs),
     /// Ward materials as glTF 2.0 assets (a sphere with the material): every class of a
     /// class file, or one (ρd, ρs, α).
@@ -141,7 +143,8 @@ pub struct SphereArgs {
     /// gives the object's pixels.
     #[arg(long, conflicts_with_all = ["cx", "cy", "r"])]
     pub normals: Option<std::path::PathBuf>,
-    /// Linear luminance of an ideal white surface facing the viewer at the sphere.
+    /// Linear luminance of an ideal white surface facing the viewer at the sphere: for 8- and
+    /// 16-bit images a fraction of full scale (a white card at 80 % of full scale: 0.8).
     #[arg(long, allow_negative_numbers = true, conflicts_with = "card")]
     pub white: Option<f64>,
     /// A crop of a white card photographed with the sphere: its median luminance is the
@@ -176,6 +179,45 @@ impl SphereArgs {
             .with_normals(file(&self.normals, "normals")?)?;
         Ok((placement, white))
     }
+}
+
+/// The model `reflectance classify` uses when none is named: the server's default.
+pub const DEFAULT_MODEL: &str = "ward6";
+
+/// Where a `--model` argument points. A path (`DIR/NAME`, `DIR/NAME/VERSION`, or a folder
+/// here) is taken as given; a bare name (`ward6`) is looked for in the registries a user has
+/// at hand: `$REFLECTANCE_MODELS`, `./models`, and `models` beside the binary or in the
+/// repository it was built in (`target/release/../../models`).
+fn model_path(arg: &Path) -> CliResult<PathBuf> {
+    let name = arg.to_str().unwrap_or_default();
+    if arg.components().count() != 1 || arg.is_dir() || !registry::valid_name(name) {
+        return Ok(arg.to_path_buf());
+    }
+    let mut registries: Vec<PathBuf> = std::env::var_os("REFLECTANCE_MODELS")
+        .map(PathBuf::from)
+        .into_iter()
+        .chain([PathBuf::from("models")])
+        .collect();
+    if let Some(bin) = std::env::current_exe()
+        .ok()
+        .and_then(|e| e.parent().map(Path::to_path_buf))
+    {
+        registries.push(bin.join("models"));
+        registries.push(bin.join("../../models"));
+    }
+    if let Some(found) = registries.iter().map(|r| r.join(name)).find(|p| p.is_dir()) {
+        return Ok(found);
+    }
+    let looked: Vec<String> = registries.iter().map(|r| r.display().to_string()).collect();
+    Err(CliError::Invalid(format!(
+        "no model {name:?} in {} (give its folder: --model DIR/{name}, or set REFLECTANCE_MODELS)",
+        looked.join(", ")
+    )))
+}
+
+/// The model a command line names ([`model_path`]), loaded and verified.
+fn load_model_file(arg: &Path) -> CliResult<reflectance_core::model::ModelFile> {
+    Ok(registry::load_path(&model_path(arg)?)?)
 }
 
 /// A file the command reads whole; `what` names it in the error.

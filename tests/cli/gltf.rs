@@ -211,6 +211,39 @@ fn every_class_of_a_class_file_as_gltf() {
     assert_eq!(glossy["extras"]["ward"]["rho_s"], 0.1);
     let pbr = &glossy["materials"][0]["pbrMetallicRoughness"];
     assert!((number(&pbr["baseColorFactor"][0]) - 0.25 / (1.0 - 0.07993)).abs() < 1e-3);
+    // The class file by its name: no machine's folders in a file people share.
+    let text = std::fs::read_to_string(out.join("glossy.gltf")).unwrap();
+    assert!(!text.contains(dir.to_str().unwrap()), "{text}");
+    assert_eq!(
+        glossy["extras"]["about"]["source"],
+        "class \"glossy\" of classes.json"
+    );
+}
+
+/// `classify --gltf-material estimate` says why there is no estimate: here, no white.
+#[test]
+fn an_estimate_without_white_names_the_missing_white() {
+    let out = temp("no-white").join("ball.glb");
+    let image = fixtures().join("features/sphere_rgb8.png");
+    let answer = reflectance(&[
+        "classify",
+        image.to_str().unwrap(),
+        "--cx",
+        "96.5",
+        "--cy",
+        "94.25",
+        "--r",
+        "85",
+        "--gltf",
+        out.to_str().unwrap(),
+        "--gltf-material",
+        "estimate",
+    ]);
+    assert!(!answer.status.success());
+    let err = String::from_utf8_lossy(&answer.stderr);
+    assert!(err.contains("no white reference was given"), "{err}");
+    assert!(err.contains("--white"), "{err}");
+    assert!(!out.exists());
 }
 
 /// A flat RGB "sphere" of linear (0.5, 0.25, 0.125) beside a white card of 0.8: the colour

@@ -550,3 +550,34 @@ fn a_classifier_for_objects_answers_objects_and_spheres_stay_as_they_were() {
         .any(|(a, b)| (a - b).abs() > 1e-6);
     assert!(differs, "{expected:?} {as_sphere:?}");
 }
+
+/// `classify` on the shipped default without naming it, a model by name from any folder
+/// (found beside the binary's repository), and an unknown name that says where it looked.
+#[test]
+fn classify_finds_models_by_name() {
+    let image = common::fixtures().join("features/sphere_rgb8.png");
+    let elsewhere = temp_dir("by-name");
+    let classify = |extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_reflectance"))
+            .current_dir(&elsewhere)
+            .env_remove("REFLECTANCE_MODELS")
+            .arg("classify")
+            .arg(&image)
+            .args(common::README_SPHERE_FLAGS)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    for extra in [&[][..], &["--model", "ward6"], &["--model", "ward11"]] {
+        let out = classify(extra);
+        common::assert_success(&out);
+        let text = String::from_utf8_lossy(&out.stdout);
+        let name = extra.get(1).copied().unwrap_or("ward6");
+        assert!(text.contains(&format!("model {name} version")), "{text}");
+    }
+    let out = classify(&["--model", "ward7"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no model \"ward7\" in models, "), "{err}");
+    assert!(err.contains("REFLECTANCE_MODELS"), "{err}");
+}

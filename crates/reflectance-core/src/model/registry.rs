@@ -394,13 +394,18 @@ pub fn parse_model_path(path: &Path) -> Result<(Registry, String, Option<u32>), 
         .file_name()
         .and_then(|n| n.to_str())
         .unwrap_or_default();
-    let parent = path.parent().unwrap_or(Path::new("."));
+    // `ward6` alone: a folder here (its parent is the empty path).
+    let here = |p: &Path| p.as_os_str().is_empty();
+    let parent = path.parent().filter(|p| !here(p)).unwrap_or(Path::new("."));
     if let Ok(version) = last.parse::<u32>() {
         let name = parent
             .file_name()
             .and_then(|n| n.to_str())
             .unwrap_or_default();
-        let root = parent.parent().unwrap_or(Path::new("."));
+        let root = parent
+            .parent()
+            .filter(|p| !here(p))
+            .unwrap_or(Path::new("."));
         if valid_name(name) {
             return Ok((Registry::new(root), name.to_string(), Some(version)));
         }
