@@ -29,6 +29,7 @@ pub use server::metrics::render as metrics_text;
 pub use server::openapi::{ApiDoc, yaml as openapi_yaml};
 pub use server::router::{admin_router, data_router};
 pub use server::state::{Phase, SharedState};
+pub use server::trace::one_request_encoded as trace_one_request;
 pub use server::{StartError, build_state, load_models};
 
 // Dataset archives (`reflectance dataset pack`, `POST /admin/v1/datasets`).

@@ -103,6 +103,14 @@ fn describe() {
         "reflectance_job_queue_depth",
         "Admin jobs waiting for a worker"
     );
+    describe_counter!(
+        "reflectance_trace_spans_exported_total",
+        "Spans the OTLP collector took (OTEL_EXPORTER_OTLP_ENDPOINT)"
+    );
+    describe_counter!(
+        "reflectance_trace_spans_dropped_total",
+        "Spans dropped: the export queue was full, or the collector did not take them"
+    );
 }
 
 /// Every family whose labels are known in advance is exported from the start, at zero, so
@@ -113,6 +121,8 @@ fn register_at_zero() {
     counter!("reflectance_job_record_write_failures_total").increment(0);
     counter!("reflectance_registry_polls_total").increment(0);
     counter!("reflectance_registry_poll_failures_total").increment(0);
+    counter!("reflectance_trace_spans_exported_total").increment(0);
+    counter!("reflectance_trace_spans_dropped_total").increment(0);
     gauge!("reflectance_http_requests_in_flight").increment(0.0);
     gauge!("reflectance_job_queue_depth").increment(0.0);
     for state in JOB_STATES {
@@ -144,6 +154,14 @@ pub fn in_flight(delta: f64) {
 
 pub fn stage(stage: &'static str, seconds: f64) {
     histogram!("reflectance_stage_duration_seconds", "stage" => stage).record(seconds);
+}
+
+pub fn spans_exported(n: u64) {
+    counter!("reflectance_trace_spans_exported_total").increment(n);
+}
+
+pub fn spans_dropped(n: u64) {
+    counter!("reflectance_trace_spans_dropped_total").increment(n);
 }
 
 pub fn shed() {

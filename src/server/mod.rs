@@ -8,6 +8,7 @@
 //! * [`listener`] — the accept loop and its header deadline;
 //! * [`datasets`] — uploaded datasets under the data directory;
 //! * [`grpc`] — the Open Inference Protocol's gRPC service, on its own port;
+//! * [`trace`] — W3C Trace Context and OpenTelemetry spans over OTLP;
 //! * [`auth`], [`metrics`], [`jobs`], [`openapi`].
 
 pub(crate) mod auth;
@@ -23,6 +24,7 @@ pub mod openapi;
 pub mod router;
 pub mod state;
 pub(crate) mod store;
+pub mod trace;
 
 use config::{Config, LogFormat};
 use state::{AppState, CpuPool, ModelStore, Phase, Readiness, SharedState};
@@ -313,6 +315,7 @@ async fn watch_registry(
 /// (The binary has already tuned the heap for repeated requests: `reflectance_core::util::heap`.)
 pub fn run(config: Config) -> Result<(), StartError> {
     init_logging(&config);
+    trace::init_from_env();
     // Before claiming to listen: the registry is there and holds the default model (its
     // file is verified while the server already answers, as loading takes a while).
     let registry = reflectance_core::model::registry::Registry::new(&config.models);

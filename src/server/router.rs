@@ -1,5 +1,5 @@
 //! Routers of the two planes and the middleware every request passes through:
-//! request id, metrics, request log, problem+json normalization (outermost), then panic
+//! request id, trace context (and its span), metrics, request log, problem+json normalization (outermost), then panic
 //! catching, the per-request timeout and the body limit.
 
 use super::error::{self, ApiError, BODY_LIMIT, Kind, OPEN_INFERENCE, REQUEST_ID};
@@ -8,6 +8,7 @@ use super::handlers::{
 };
 use super::metrics;
 use super::state::SharedState;
+use super::trace;
 use axum::Router;
 use axum::extract::{DefaultBodyLimit, MatchedPath, Request, State};
 use axum::http::{HeaderValue, StatusCode};
@@ -62,6 +63,8 @@ impl Drop for InFlight {
 
 async fn observe(State(state): State<SharedState>, mut request: Request, next: Next) -> Response {
     let started = Instant::now();
+    let wall_start = std::time::SystemTime::now();
+    let context = trace::Context::of_request(request.headers());
     let request_id = client_request_id(&request).unwrap_or_else(new_request_id);
     if let Ok(v) = HeaderValue::from_str(&request_id) {
         request.headers_mut().insert(REQUEST_ID_HEADER, v);
@@ -77,20 +80,26 @@ async fn observe(State(state): State<SharedState>, mut request: Request, next: N
     let open_inference = path == "/v2" || path.starts_with("/v2/");
     // Dataset uploads count their bytes against limits of their own.
     let body_limit = (path != "/admin/v1/datasets").then_some(state.config.body_limit);
-    let mut response = REQUEST_ID
+    let mut response = trace::CURRENT
         .scope(
-            request_id.clone(),
-            OPEN_INFERENCE.scope(
-                open_inference,
-                BODY_LIMIT.scope(body_limit, async move {
-                    let response = next.run(request).await;
-                    error::normalize(response, &id).await
-                }),
+            context.clone(),
+            REQUEST_ID.scope(
+                request_id.clone(),
+                OPEN_INFERENCE.scope(
+                    open_inference,
+                    BODY_LIMIT.scope(body_limit, async move {
+                        let response = next.run(request).await;
+                        error::normalize(response, &id).await
+                    }),
+                ),
             ),
         )
         .await;
     if let Ok(v) = HeaderValue::from_str(&request_id) {
         response.headers_mut().insert(REQUEST_ID_HEADER, v);
+    }
+    if let Ok(v) = HeaderValue::from_str(&context.traceparent()) {
+        response.headers_mut().insert("traceresponse", v);
     }
     let status = response.status().as_u16();
     let seconds = started.elapsed().as_secs_f64();
@@ -99,10 +108,32 @@ async fn observe(State(state): State<SharedState>, mut request: Request, next: N
     let ms = seconds * 1e3;
     let quiet =
         route.starts_with("/health/") || route.starts_with("/v2/health/") || route == "/metrics";
+    let trace_id = context.trace_id_hex();
     match (status >= 500, quiet) {
-        (true, _) => tracing::warn!(%request_id, %method, %path, status, ms, "request"),
-        (false, false) => tracing::info!(%request_id, %method, %path, status, ms, "request"),
-        (false, true) => tracing::debug!(%request_id, %method, %path, status, ms, "request"),
+        (true, _) => tracing::warn!(%request_id, %trace_id, %method, %path, status, ms, "request"),
+        (false, false) => {
+            tracing::info!(%request_id, %trace_id, %method, %path, status, ms, "request")
+        }
+        (false, true) => {
+            tracing::debug!(%request_id, %trace_id, %method, %path, status, ms, "request")
+        }
+    }
+    if !quiet {
+        let attributes = vec![
+            (
+                "http.request.method",
+                trace::Value::Text(method.to_string()),
+            ),
+            ("http.route", trace::Value::Text(route.clone())),
+            ("url.path", trace::Value::Text(path)),
+            (
+                "http.response.status_code",
+                trace::Value::Int(i64::from(status)),
+            ),
+            ("request_id", trace::Value::Text(request_id)),
+        ];
+        let name = format!("{method} {route}");
+        trace::request_span(&context, name, wall_start, attributes, status >= 500);
     }
     response
 }

@@ -6,6 +6,7 @@ use super::input::{Body, JsonInput, RawInput};
 use crate::server::error::{ApiError, ClassificationProblems, Kind, Problem};
 use crate::server::metrics;
 use crate::server::state::SharedState;
+use crate::server::trace;
 use axum::Json;
 use axum::extract::rejection::QueryRejection;
 use axum::extract::{Path, Query, State};
@@ -75,12 +76,29 @@ fn work(
     let limits = state.config.limits;
     let state = state.clone();
     let name = name.to_string();
+    let context = trace::current().filter(|_| trace::enabled());
     move || {
+        let started = std::time::SystemTime::now();
         let model = state.models.get(&name, version)?;
         let classified = inference::classify(model, input, limits)?;
         metrics::stage("decode", classified.decode_ms / 1e3);
         metrics::stage("features", classified.features_ms / 1e3);
         metrics::stage("predict", classified.predict_ms / 1e3);
+        if let Some(context) = context {
+            let c = &classified;
+            let locate = c.analysis.locate_ms;
+            trace::stage_spans(
+                &context,
+                started,
+                &[
+                    ("decode", c.decode_ms),
+                    ("locate", locate),
+                    ("features", c.features_ms - locate),
+                    ("classify", c.predict_ms - c.estimate_ms),
+                    ("estimate", c.estimate_ms),
+                ],
+            );
+        }
         Ok(classified)
     }
 }

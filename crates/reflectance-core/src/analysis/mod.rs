@@ -89,6 +89,9 @@ pub struct Analysis {
     /// with their colour.
     #[serde(skip)]
     pub appearance: Option<Rgb>,
+    /// Milliseconds spent finding the sphere (0 when the caller placed it).
+    #[serde(skip)]
+    pub locate_ms: f64,
 }
 
 /// Find the sphere and check it fits the image and the extractor's annulus.
@@ -210,6 +213,8 @@ pub struct Placed {
     pub white: White,
     /// Warnings so far.
     pub warnings: Vec<String>,
+    /// Milliseconds spent finding the sphere (0 when the caller placed it).
+    pub locate_ms: f64,
 }
 
 /// The front half of [`analyze`]: the white reference resolved and checked against the
@@ -223,13 +228,16 @@ pub fn place(
     let mut warnings = image.warnings.clone();
     let (white, white_warning) = resolve_white(white_input, image)?;
     check_scale(image, white.value)?;
+    let started = std::time::Instant::now();
     let (geometry, geometry_warnings) = locate(image, how, extractor)?;
+    let locate_ms = started.elapsed().as_secs_f64() * 1e3;
     warnings.extend(geometry_warnings);
     warnings.extend(white_warning);
     Ok(Placed {
         geometry,
         white,
         warnings,
+        locate_ms,
     })
 }
 
@@ -267,6 +275,7 @@ pub fn analyze_subset(
         geometry,
         white,
         warnings,
+        locate_ms,
     } = place(extractor, image, how, white_input)?;
     let (luminance, circle) = (image.luminance.view(), geometry.circle());
     // Integer samples clip at 1 once decoded; floating-point ones do not clip.
@@ -292,6 +301,7 @@ pub fn analyze_subset(
         observed: None,
         equivalent: None,
         appearance,
+        locate_ms,
     })
 }
 
@@ -343,6 +353,7 @@ fn analyze_object(
         observed: observed.map(|o| o.fraction),
         equivalent: Some(sphere),
         appearance: None,
+        locate_ms: 0.0,
     })
 }
 

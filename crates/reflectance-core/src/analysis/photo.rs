@@ -55,6 +55,7 @@ pub fn analyze_photo<'p>(
         let circle = analysis.geometry.circle();
         return Ok((analysis, Read { copy, circle }));
     }
+    let started = std::time::Instant::now();
     let (geometry, located) = match how {
         Placement::Circle(c) => (given(c)?, None),
         _ => {
@@ -62,6 +63,7 @@ pub fn analyze_photo<'p>(
             (detect_on(&copy)?, Some(copy))
         }
     };
+    let locate_ms = started.elapsed().as_secs_f64() * 1e3;
     let (width, height) = photo.size();
     let unwrap = &extractor.config().unwrap;
     let mut warnings = photo.warnings().to_vec();
@@ -107,6 +109,7 @@ pub fn analyze_photo<'p>(
         observed: None,
         equivalent: None,
         appearance,
+        locate_ms,
     };
     Ok((analysis, Read { copy, circle }))
 }

@@ -266,6 +266,8 @@ pub struct Classified {
     pub features_ms: f64,
     /// Classification, estimation and explanation time (ms).
     pub predict_ms: f64,
+    /// Of `predict_ms`, the Ward estimate's (ms).
+    pub estimate_ms: f64,
 }
 
 fn ms(since: Instant) -> f64 {
@@ -492,7 +494,9 @@ pub fn classify_photo(
     } else {
         None
     };
+    let t_estimate = Instant::now();
     let ward = estimate(&model.file, &decision, &analysis.values);
+    let estimate_ms = ms(t_estimate);
     let predict_ms = ms(t);
     Ok(Classified {
         decision,
@@ -505,6 +509,7 @@ pub fn classify_photo(
         decode_ms,
         features_ms,
         predict_ms,
+        estimate_ms,
         model,
     })
 }
