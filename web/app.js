@@ -36,6 +36,8 @@ function showError(title, detail) {
   $("error-title").textContent = title;
   $("error-detail").textContent = text;
   $("error").hidden = false;
+  // Where the user looks: the error, wherever the page was scrolled to.
+  $("error").scrollIntoView({ block: "nearest" });
 }
 
 /** What locating the sphere said: stays until another photograph is chosen. */
@@ -121,6 +123,20 @@ function loadDataUrl(url) {
   });
 }
 
+/** One of the page's example photographs, chosen as if it were the user's own. */
+async function chooseExample(button) {
+  try {
+    const response = await fetch(button.dataset.example);
+    if (!response.ok) {
+      await fail(response);
+    }
+    const blob = await response.blob();
+    await choose(new File([blob], button.dataset.name, { type: blob.type }));
+  } catch (problem) {
+    showError(problem.title || "Example", problem.detail || String(problem));
+  }
+}
+
 async function choose(file) {
   if (!file) {
     return;
@@ -177,7 +193,9 @@ async function choose(file) {
     if (located.warnings.length) {
       showNote(`Note: ${located.warnings.join(" ")}`);
     }
-    $("classify").focus();
+    // What the status asks to check, on screen: the status, then the picture and its circle.
+    $("classify").focus({ preventScroll: true });
+    $("status").scrollIntoView({ block: "start" });
   } catch (problem) {
     if (ticket === state.chosen) {
       status("");
@@ -387,9 +405,11 @@ async function classify() {
     if (normals) {
       form.append("normals", normals);
     } else {
-      form.append("cx", $("cx").value);
-      form.append("cy", $("cy").value);
-      form.append("r", $("r").value);
+      // The circle itself, not its rounded display: the page answers as the API does.
+      const c = state.circle || { cx: $("cx").value, cy: $("cy").value, r: $("r").value };
+      form.append("cx", String(c.cx));
+      form.append("cy", String(c.cy));
+      form.append("r", String(c.r));
     }
     whiteFields(form);
     form.append("include", "explain,images");
@@ -399,6 +419,8 @@ async function classify() {
     status(`Classified in ${answer.timing_ms.total.toFixed(0)} ms by ${answer.model.name} v${answer.model.version}.`);
   } catch (problem) {
     status("");
+    // No answer stays beside an error: it was for other inputs.
+    $("result").hidden = true;
     showError(problem.title || "Error", problem.detail || String(problem));
   } finally {
     button.disabled = false;
@@ -491,15 +513,14 @@ function showEstimate(ward) {
     ["α (roughness; 0 is a mirror)", "alpha"],
     ["ρs / (ρd + ρs)", "specular_fraction"],
   ];
-  for (const [name, key] of parameters) {
+  // A parameter the answer does not state (ρd and ρs without white) is left out: the note
+  // under the table says why, once.
+  for (const [name, key] of parameters.filter(([, key]) => ward[key])) {
     const i = ward[key];
     const row = element("tr");
     const head = element("th", name);
     head.scope = "row";
-    const cells = i
-      ? [element("td", format(i.value)), element("td", `${format(i.low)} – ${format(i.high)}`)]
-      : [element("td", "unknown"), element("td", "needs a white reference")];
-    row.append(head, ...cells);
+    row.append(head, element("td", format(i.value)), element("td", `${format(i.low)} – ${format(i.high)}`));
     rows.append(row);
   }
   $("estimate-note").textContent = ward.unknown || "";
@@ -579,7 +600,12 @@ function show(answer) {
   $("label").textContent = answer.label;
   showDomain(answer.domain);
   showSet(answer.prediction_set, answer.label);
-  $("description").textContent = answer.class.description;
+  // The description without the class's name again ("white shiny: …" after white_shiny).
+  const named = answer.label.replace(/_/g, " ").toLowerCase();
+  const description = answer.class.description;
+  $("description").textContent = description.toLowerCase().startsWith(named)
+    ? description.slice(named.length).replace(/^[\s:;,—-]+/, "")
+    : description;
   const w = answer.class.ward;
   $("ward").textContent = w
     ? `Ward parameters: ρd = ${w.rho_d}, ρs = ${w.rho_s}, α = ${w.alpha}`
@@ -657,6 +683,9 @@ function wire() {
         $("white-value").focus();
       }
     });
+  }
+  for (const button of document.querySelectorAll("[data-example]")) {
+    button.addEventListener("click", () => chooseExample(button));
   }
   $("classify").addEventListener("click", classify);
   $("next-candidate").addEventListener("click", nextCandidate);

@@ -82,9 +82,12 @@ fn own_properties(schema: &mut RefOr<Schema>) {
             (`not-found`, unknown route), 405 (`method-not-allowed`), 408 (`timeout`), \
             413 (`body-too-large`, whose detail names the limit and the setting that raises \
             it, --body-limit) or 500 (`internal`). Every response carries `x-request-id` \
-            (the client's, when it sends 1–128 visible ASCII characters, else a new one).\n\n\
-            The data plane listens on port 8080, the admin plane (`/admin/…`, bearer token) \
-            on 127.0.0.1:8081.",
+            (the client's, when it sends 1–128 visible ASCII characters, else a new one) \
+            and `traceresponse` (its W3C trace context: the client's `traceparent` trace, \
+            else a new one).\n\n\
+            The data plane is the server that serves this document (by default port 8080, \
+            `--listen`); the admin plane (`/admin/…`, bearer token) listens on its own \
+            address (by default 127.0.0.1:8081, `--admin-listen`).",
         license(name = "MIT OR Apache-2.0", identifier = "MIT OR Apache-2.0")
     ),
     servers((url = "/", description = "data plane (this server)")),

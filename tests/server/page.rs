@@ -400,7 +400,14 @@ fn classify_and_read_the_answer(browser: &Browser) {
         shown["ward"].as_str().unwrap().contains("ρs = 0.25"),
         "{shown}"
     );
-    assert!(!shown["description"].as_str().unwrap().is_empty());
+    // The headline names the class once (its description, "white shiny", adds nothing).
+    assert!(
+        !shown["description"]
+            .as_str()
+            .unwrap()
+            .starts_with("white shiny"),
+        "{shown}"
+    );
     // The prediction set as chips, the label first; a photograph of a sphere is in domain.
     let honest = browser.script(
         "return { chips: [...document.querySelectorAll('#set li')].map(li => li.textContent), \
@@ -504,6 +511,7 @@ fn the_page_classifies_a_photograph_in_a_real_browser() {
         "document.querySelectorAll('#model option').length",
     );
     let (cx, _, r) = upload_and_detect(&browser);
+    the_circle_to_check_is_on_screen(&browser);
     adjust_the_circle(&browser, (cx, r));
     outline_the_white_card(&browser);
     classify_and_read_the_answer(&browser);
@@ -516,9 +524,25 @@ fn the_page_classifies_a_photograph_in_a_real_browser() {
     // A phone's width: nothing wider than the screen.
     browser.call("POST", "/window/rect", json!({"width": 390, "height": 844}));
     browser.open(&page);
-    upload_and_detect(&browser);
+    // The example photograph, one tap: the same render as the fixture.
+    browser.call(
+        "POST",
+        &format!(
+            "/element/{}/click",
+            browser.find("[data-name='white-shiny-ball.jpg']")
+        ),
+        json!({}),
+    );
+    browser.wait_for(
+        "the example's circle",
+        "!document.getElementById('stage').hidden && document.getElementById('r').value",
+    );
+    assert!((browser.number("r") - 290.9).abs() < 3.0);
+    the_circle_to_check_is_on_screen(&browser);
     classify_and_read_the_answer_on_a_phone(&browser);
+    without_white_the_page_says_it_once(&browser);
     the_icon_loads_and_the_model_names_are_whole(&browser);
+    an_error_replaces_the_answer(&browser);
 
     // The API reference, rendered offline by the vendored viewer.
     browser.open(&format!("http://127.0.0.1:{}/docs", server.port));
@@ -576,6 +600,84 @@ fn an_object_shows_its_equivalent_sphere(browser: &Browser, dir: &Path) {
             .starts_with("Read by the model's classifier"),
         "{read_by}"
     );
+}
+
+/// Without a white reference: the estimate's table lists what it states, the note says
+/// once why ρd and ρs are not there, and no empty colour swatch shows.
+fn without_white_the_page_says_it_once(browser: &Browser) {
+    let shown = browser.script(
+        "return { rows: [...document.querySelectorAll('#estimate th')].map(th => th.textContent), \
+                  table: document.getElementById('estimate').textContent, \
+                  note: document.getElementById('estimate-note').textContent, \
+                  swatch: document.getElementById('swatch').getClientRects().length };",
+    );
+    let rows: Vec<&str> = shown["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert!(
+        rows.iter()
+            .all(|r| !r.starts_with("ρd") && !r.starts_with("ρs (")),
+        "{shown}"
+    );
+    assert!(rows.iter().any(|r| r.starts_with("α")), "{shown}");
+    assert!(
+        !shown["table"].as_str().unwrap().contains("unknown"),
+        "{shown}"
+    );
+    assert!(shown["note"].as_str().unwrap().contains("white"), "{shown}");
+    assert_eq!(shown["swatch"], 0, "an empty swatch shows: {shown}");
+}
+
+/// Whether element `id` shows at least partly inside the window.
+fn on_screen(browser: &Browser, id: &str) -> bool {
+    browser
+        .script(&format!(
+            "const b = document.getElementById('{id}').getBoundingClientRect(); \
+             return b.bottom > 0 && b.top < window.innerHeight && b.height > 0;"
+        ))
+        .as_bool()
+        .unwrap()
+}
+
+/// After detection the status and the circle it asks to check are on screen.
+fn the_circle_to_check_is_on_screen(browser: &Browser) {
+    assert!(on_screen(browser, "status"), "the status is off screen");
+    assert!(on_screen(browser, "canvas"), "the picture is off screen");
+}
+
+/// An error after an answer: the error on screen, the stale answer gone; and the circle
+/// posted as the page holds it, not as its inputs round it.
+fn an_error_replaces_the_answer(browser: &Browser) {
+    browser.script(
+        "document.querySelector(\"input[name='white-mode'][value='value']\").click(); \
+         document.getElementById('white-value').value = '0'; \
+         window.posted = null; \
+         const fetched = window.fetch; \
+         window.fetch = (url, options) => { \
+           if (options && options.body instanceof FormData && options.body.has('cx')) { \
+             window.posted = ['cx', 'cy', 'r'].map(k => options.body.get(k)); } \
+           return fetched(url, options); };",
+    );
+    browser.script("window.scrollTo(0, 0);");
+    browser.call(
+        "POST",
+        &format!("/element/{}/click", browser.find("#classify")),
+        json!({}),
+    );
+    browser.wait_for(
+        "the error",
+        "!document.getElementById('error').hidden && document.getElementById('error-title').textContent",
+    );
+    assert!(on_screen(browser, "error"), "the error is off screen");
+    let stale = browser.script("return document.getElementById('result').hidden;");
+    assert_eq!(stale, true, "the previous answer stays beside the error");
+    let posted = browser.script(
+        "return [window.posted, [state.circle.cx, state.circle.cy, state.circle.r].map(String)];",
+    );
+    assert_eq!(posted[0], posted[1], "the circle posted is not the page's");
 }
 
 fn classify_and_read_the_answer_on_a_phone(browser: &Browser) {

@@ -20,18 +20,21 @@ const JS: &str = "text/javascript; charset=utf-8";
 const CSS: &str = "text/css; charset=utf-8";
 const TEXT: &str = "text/plain; charset=utf-8";
 
-/// An asset of `web/`, embedded.
+/// An asset of `web/` (or, with `repository`, another file of the repository), embedded.
 macro_rules! asset {
     ($name:literal, $file:literal, $content_type:expr) => {
+        asset!($name, repository concat!("web/", $file), $content_type)
+    };
+    ($name:literal, repository $path:expr, $content_type:expr) => {
         Asset {
             name: $name,
-            bytes: include_bytes!(concat!("../../../web/", $file)),
+            bytes: include_bytes!(concat!("../../../", $path)),
             content_type: $content_type,
         }
     };
 }
 
-static ASSETS: [Asset; 8] = [
+static ASSETS: [Asset; 10] = [
     asset!("app.js", "app.js", JS),
     asset!("app.css", "app.css", CSS),
     asset!("docs.js", "docs.js", JS),
@@ -47,6 +50,17 @@ static ASSETS: [Asset; 8] = [
         "swagger-ui-bundle-LICENSE.txt",
         "vendor/swagger-ui/swagger-ui-bundle.js.LICENSE.txt",
         TEXT
+    ),
+    // The page's examples: the project's own renders, also its tests' fixtures.
+    asset!(
+        "example-white-shiny.jpg",
+        repository "tests/fixtures/page/phone.jpg",
+        "image/jpeg"
+    ),
+    asset!(
+        "example-chrome.png",
+        repository "tests/fixtures/features/sphere_rgb8.png",
+        "image/png"
     ),
 ];
 
