@@ -225,20 +225,17 @@ fn every_class_of_a_class_file_as_gltf() {
 fn an_estimate_without_white_names_the_missing_white() {
     let out = temp("no-white").join("ball.glb");
     let image = fixtures().join("features/sphere_rgb8.png");
-    let answer = reflectance(&[
-        "classify",
-        image.to_str().unwrap(),
-        "--cx",
-        "96.5",
-        "--cy",
-        "94.25",
-        "--r",
-        "85",
+    // The README's circle without its white.
+    let circle = &README_SPHERE_FLAGS[2..];
+    let mut args = vec!["classify", image.to_str().unwrap()];
+    args.extend(circle);
+    args.extend([
         "--gltf",
         out.to_str().unwrap(),
         "--gltf-material",
         "estimate",
     ]);
+    let answer = reflectance(&args);
     assert!(!answer.status.success());
     let err = String::from_utf8_lossy(&answer.stderr);
     assert!(err.contains("no white reference was given"), "{err}");

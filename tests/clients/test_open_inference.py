@@ -83,15 +83,20 @@ def inputs(module, binary=True, image=None):
         image = base64.b64encode(image)
     tensors = [("image", np.array([image], dtype=np.object_), "BYTES")]
     tensors += [(k, np.array([v], dtype=np.float64), "FP64") for k, v in CIRCLE.items()]
-    built = []
+    return built(module, tensors, binary)
+
+
+def built(module, tensors, binary=True):
+    """(name, array, datatype) as the client's InferInputs."""
+    out = []
     for name, array, datatype in tensors:
         tensor = module.InferInput(name, list(array.shape), datatype)
         if module is httpclient:
             tensor.set_data_from_numpy(array, binary_data=binary)
         else:
             tensor.set_data_from_numpy(array)
-        built.append(tensor)
-    return built
+        out.append(tensor)
+    return out
 
 
 def check_answer(result):
@@ -185,12 +190,7 @@ def batch_inputs(module, images, whites, circles):
               ("white", np.array(whites, dtype=np.float64), "FP64")]
     arrays += [(k, np.array([c[j] for c in circles], dtype=np.float64), "FP64")
                for j, k in enumerate(("cx", "cy", "r"))]
-    built = []
-    for name, array, datatype in arrays:
-        tensor = module.InferInput(name, list(array.shape), datatype)
-        tensor.set_data_from_numpy(array)
-        built.append(tensor)
-    return built
+    return built(module, arrays)
 
 
 # Eight different requests from the committed fixtures: a sphere under whites that move its
