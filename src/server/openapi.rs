@@ -115,6 +115,7 @@ fn own_properties(schema: &mut RefOr<Schema>) {
         admin::submit,
         admin::list,
         admin::get,
+        admin::events,
         admin::cancel,
         admin::versions,
         admin::activate,

@@ -236,6 +236,7 @@ pub fn admin_router(state: SharedState) -> Router {
     let router = Router::new()
         .route("/admin/v1/jobs", post(admin::submit).get(admin::list))
         .route("/admin/v1/jobs/{id}", get(admin::get))
+        .route("/admin/v1/jobs/{id}/events", get(admin::events))
         .route("/admin/v1/jobs/{id}/cancel", post(admin::cancel))
         .route("/admin/v1/models/{name}/versions", get(admin::versions))
         .route(

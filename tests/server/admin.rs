@@ -961,3 +961,91 @@ fn refuses_a_public_admin_address_without_a_token() {
         assert!(!stderr.contains("listening"), "{stderr}");
     }
 }
+
+/// A train job's progress as server-sent events: its real stages with their units (the
+/// classifier's calibration folds, the prediction sets, the cross-validation's folds), each
+/// event a job record, ending with `end` and the finished job.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_jobs_progress_streams_as_server_sent_events() {
+    let (server, data) = admin_server("job-events", 1, 4);
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    std::fs::copy(
+        root.join("tests/fixtures/learn/table.csv"),
+        data.join("table.csv"),
+    )
+    .unwrap();
+    let job = submit(
+        &server,
+        json!({"type": "train", "name": "streamed", "table": "table.csv", "features": "hand6"}),
+    )
+    .await;
+    let id = job["id"].as_str().unwrap();
+    let answer = send(
+        &server.admin,
+        authed(get(&format!("/admin/v1/jobs/{id}/events"))),
+    )
+    .await;
+    assert_eq!(answer.status, 200);
+    assert_eq!(answer.header("content-type"), Some("text/event-stream"));
+    let text = String::from_utf8(answer.body.clone()).unwrap();
+    let mut events: Vec<(String, Value)> = Vec::new();
+    for block in text.split("\n\n").filter(|b| b.contains("data:")) {
+        let field = |name: &str| {
+            block
+                .lines()
+                .find_map(|l| l.strip_prefix(name))
+                .map(|v| v.trim().to_string())
+        };
+        let data = serde_json::from_str(&field("data:").unwrap()).unwrap();
+        events.push((field("event:").unwrap(), data));
+    }
+    let (last, done) = events.last().unwrap();
+    assert_eq!(last, "end", "{text}");
+    assert_eq!(done["state"], "succeeded", "{done}");
+    assert!(
+        events[..events.len() - 1]
+            .iter()
+            .all(|(e, _)| e == "progress")
+    );
+    // The stages in order, each counting real units (a stage is "0 of 0" only as it begins).
+    let stages: Vec<&str> = events
+        .iter()
+        .map(|(_, r)| r["progress"]["stage"].as_str().unwrap())
+        .collect();
+    let first = |stage: &str| stages.iter().position(|s| *s == stage);
+    let (fit, sets, cv) = (
+        first("fit"),
+        first("prediction_sets"),
+        first("cross_validate"),
+    );
+    assert!(fit < sets && sets < cv && fit.is_some(), "{stages:?}");
+    for (_, record) in &events {
+        let p = &record["progress"];
+        assert!(
+            p["done"].as_u64().unwrap() <= p["total"].as_u64().unwrap(),
+            "{p}"
+        );
+    }
+    let fit: Vec<&Value> = events
+        .iter()
+        .map(|(_, r)| &r["progress"])
+        .filter(|p| p["stage"] == "fit")
+        .collect();
+    let last = fit.last().unwrap();
+    assert!(
+        last["total"].as_u64().unwrap() >= 2,
+        "the fit counts its folds: {fit:?}"
+    );
+    assert_eq!(last["done"], last["total"], "{fit:?}");
+    assert!(fit.len() >= 3, "the fit's folds one by one: {fit:?}");
+    // A finished job's stream: its end at once. An unknown job: 404.
+    let again = send(
+        &server.admin,
+        authed(get(&format!("/admin/v1/jobs/{id}/events"))),
+    )
+    .await;
+    assert!(String::from_utf8_lossy(&again.body).starts_with("event: end"));
+    send(&server.admin, authed(get("/admin/v1/jobs/nope/events")))
+        .await
+        .problem(404, "job-not-found");
+}

@@ -958,12 +958,25 @@ async fn serves_the_page_and_the_api_reference_with_their_assets() {
     let policy = page.header("content-security-policy").unwrap();
     assert!(policy.starts_with("default-src 'self'"), "{policy}");
     let html = String::from_utf8(page.body.clone()).unwrap();
-    let assets: Vec<&str> = html
+    let linked: Vec<&str> = html
         .split("\"/assets/")
         .skip(1)
         .filter_map(|rest| rest.split('"').next())
         .collect();
+    // What the page loads (its script and style); the example photographs only on a click.
+    let (assets, examples): (Vec<&str>, Vec<&str>) = linked
+        .iter()
+        .partition(|a| a.ends_with(".js") || a.ends_with(".css"));
     assert_eq!(assets.len(), 2, "{html}");
+    assert_eq!(examples.len(), 2, "{html}");
+    for example in &examples {
+        let answer = send(&server.data, get(&format!("/assets/{example}"))).await;
+        let kind = answer
+            .header("content-type")
+            .unwrap_or_default()
+            .to_string();
+        assert!(kind.starts_with("image/"), "{example}: {kind}");
+    }
     let mut weight = html.len();
     for asset in &assets {
         let answer = send(&server.data, get(&format!("/assets/{asset}"))).await;
@@ -1002,6 +1015,43 @@ async fn serves_the_page_and_the_api_reference_with_their_assets() {
                 .status,
             200
         );
+    }
+    // The viewer's bundle travels gzipped to a client that takes gzip, plain to one that
+    // does not: the vendored file either way.
+    let bundle = html
+        .split("\"/assets/")
+        .filter_map(|rest| rest.split('"').next())
+        .find(|a| a.starts_with("swagger-ui-bundle."))
+        .unwrap();
+    let vendored = std::fs::read(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("web/vendor/swagger-ui/swagger-ui-bundle.js"),
+    )
+    .unwrap();
+    let asking = |encoding: &'static str| {
+        Request::get(format!("/assets/{bundle}"))
+            .header("accept-encoding", encoding)
+            .body(Body::empty())
+            .unwrap()
+    };
+    let gzipped = send(&server.data, asking("gzip, deflate, br")).await;
+    assert_eq!(gzipped.header("content-encoding"), Some("gzip"));
+    assert_eq!(gzipped.header("vary"), Some("accept-encoding"));
+    assert!(gzipped.body.len() < vendored.len() / 3);
+    let mut unzipped = Vec::new();
+    std::io::Read::read_to_end(
+        &mut flate2::read::GzDecoder::new(&gzipped.body[..]),
+        &mut unzipped,
+    )
+    .unwrap();
+    assert!(
+        unzipped == vendored,
+        "the gzipped bundle is not the vendored file"
+    );
+    for refusing in ["identity", "gzip;q=0, identity"] {
+        let plain = send(&server.data, asking(refusing)).await;
+        assert_eq!(plain.header("content-encoding"), None, "{refusing}");
+        assert!(plain.body == vendored, "{refusing}");
     }
 }
 

@@ -188,6 +188,60 @@ pub async fn get(
     Ok(Json(blocking(move || Ok(manager.get(&id)?)).await?))
 }
 
+/// A job as it goes, as server-sent events (`text/event-stream`): `progress` with the job's
+/// record at once and at every change of its state, stage or progress, then `end` with its
+/// final record, and the stream closes.
+#[utoipa::path(
+    get,
+    operation_id = "job_events", path = "/admin/v1/jobs/{id}/events",
+    tag = "admin",
+    security(("bearer" = [])),
+    params(("id" = String, Path, description = "Job id")),
+    responses(
+        (status = 200, description = "Server-sent events: `event: progress` (then `event: end`), each `data:` a job record (JobRecord) as JSON", body = String, content_type = "text/event-stream"),
+        Unauthorized,
+        (status = 404, description = "Unknown job (`job-not-found`)", body = Problem, content_type = "application/problem+json"),
+    )
+)]
+pub async fn events(
+    State(state): State<SharedState>,
+    Path(id): Path<String>,
+) -> Result<Response, ApiError> {
+    use axum::response::sse::{Event, KeepAlive, Sse};
+    use tokio::sync::broadcast::error::RecvError;
+    let manager = jobs(&state)?;
+    // Listening before the first look: no change falls between the two.
+    let changes = manager.subscribe();
+    let first = manager.get(&id)?;
+    let start = (changes, manager, Some(first), false);
+    let stream =
+        futures_util::stream::unfold(start, move |(mut changes, manager, mut next, ended)| {
+            let id = id.clone();
+            async move {
+                loop {
+                    if ended {
+                        return None;
+                    }
+                    if let Some(record) = next.take() {
+                        let end = record.state.is_terminal();
+                        let name = if end { "end" } else { "progress" };
+                        let event = Event::default().event(name).json_data(&record);
+                        return Some((event, (changes, manager, None, end)));
+                    }
+                    next = match changes.recv().await {
+                        Ok(record) => Some(record).filter(|r| r.id == id),
+                        // Fallen behind: the record as it is now.
+                        Err(RecvError::Lagged(_)) => Some(manager.get(&id).ok()?),
+                        Err(RecvError::Closed) => return None,
+                    };
+                }
+            }
+        });
+    Ok(Sse::new(stream)
+        .keep_alive(KeepAlive::default())
+        .into_response())
+}
+
 /// Cancel a job: a queued job at once, a running one between images or folds.
 #[utoipa::path(
     post,

@@ -14,6 +14,8 @@ struct Asset {
     name: &'static str,
     bytes: &'static [u8],
     content_type: &'static str,
+    /// `bytes` are gzipped (build.rs): served as they are to clients that take gzip.
+    gzipped: bool,
 }
 
 const JS: &str = "text/javascript; charset=utf-8";
@@ -30,6 +32,15 @@ macro_rules! asset {
             name: $name,
             bytes: include_bytes!(concat!("../../../", $path)),
             content_type: $content_type,
+            gzipped: false,
+        }
+    };
+    ($name:literal, gzipped $file:literal, $content_type:expr) => {
+        Asset {
+            name: $name,
+            bytes: include_bytes!(concat!(env!("OUT_DIR"), "/", $file, ".gz")),
+            content_type: $content_type,
+            gzipped: true,
         }
     };
 }
@@ -38,12 +49,8 @@ static ASSETS: [Asset; 10] = [
     asset!("app.js", "app.js", JS),
     asset!("app.css", "app.css", CSS),
     asset!("docs.js", "docs.js", JS),
-    asset!(
-        "swagger-ui-bundle.js",
-        "vendor/swagger-ui/swagger-ui-bundle.js",
-        JS
-    ),
-    asset!("swagger-ui.css", "vendor/swagger-ui/swagger-ui.css", CSS),
+    asset!("swagger-ui-bundle.js", gzipped "swagger-ui-bundle.js", JS),
+    asset!("swagger-ui.css", gzipped "swagger-ui.css", CSS),
     asset!("swagger-ui-LICENSE.txt", "vendor/swagger-ui/LICENSE", TEXT),
     asset!("swagger-ui-NOTICE.txt", "vendor/swagger-ui/NOTICE", TEXT),
     asset!(
@@ -150,7 +157,10 @@ pub async fn docs() -> Response {
         (status = 404, description = "No such asset (`not-found`)", body = crate::server::error::Problem, content_type = "application/problem+json"),
     )
 )]
-pub async fn asset(Path(file): Path<String>) -> Result<Response, ApiError> {
+pub async fn asset(
+    Path(file): Path<String>,
+    request_headers: axum::http::HeaderMap,
+) -> Result<Response, ApiError> {
     let (hashed, asset) = served()
         .iter()
         .find(|(hashed, _)| *hashed == file)
@@ -172,12 +182,50 @@ pub async fn asset(Path(file): Path<String>) -> Result<Response, ApiError> {
             HeaderValue::from_static("nosniff"),
         ),
     ];
-    Ok((headers, asset.bytes).into_response())
+    if !asset.gzipped {
+        return Ok((headers, asset.bytes).into_response());
+    }
+    let vary = [(header::VARY, HeaderValue::from_static("accept-encoding"))];
+    if takes_gzip(&request_headers) {
+        let encoding = [(header::CONTENT_ENCODING, HeaderValue::from_static("gzip"))];
+        return Ok((headers, vary, encoding, asset.bytes).into_response());
+    }
+    let mut plain = Vec::new();
+    std::io::Read::read_to_end(&mut flate2::read::GzDecoder::new(asset.bytes), &mut plain)
+        .map_err(|e| ApiError::internal(format!("asset {file}: {e}")))?;
+    Ok((headers, vary, plain).into_response())
+}
+
+/// Whether a request's `Accept-Encoding` takes gzip (and does not refuse it with `q=0`).
+fn takes_gzip(headers: &axum::http::HeaderMap) -> bool {
+    headers
+        .get_all(header::ACCEPT_ENCODING)
+        .iter()
+        .filter_map(|v| v.to_str().ok())
+        .flat_map(|v| v.split(','))
+        .any(|coding| {
+            let mut parts = coding.split(';').map(str::trim);
+            let name = parts.next().unwrap_or_default();
+            let refused = parts.any(|p| p.replace(' ', "") == "q=0" || p == "q=0.0");
+            (name.eq_ignore_ascii_case("gzip") || name == "*") && !refused
+        })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn gzip_is_taken_unless_refused() {
+        let with = |value: &'static str| {
+            let mut headers = axum::http::HeaderMap::new();
+            headers.insert(header::ACCEPT_ENCODING, HeaderValue::from_static(value));
+            takes_gzip(&headers)
+        };
+        assert!(with("gzip, deflate, br, zstd") && with("*") && with("GZIP;q=0.5"));
+        assert!(!with("identity") && !with("gzip;q=0") && !with("br, gzip; q=0"));
+        assert!(!takes_gzip(&axum::http::HeaderMap::new()));
+    }
 
     #[test]
     fn the_pages_link_their_assets_by_hashed_name() {
@@ -207,6 +255,7 @@ mod tests {
             name: "x.js",
             bytes: b"one",
             content_type: JS,
+            gzipped: false,
         };
         let b = Asset { bytes: b"two", ..a };
         let (ha, hb) = (hashed(&a), hashed(&b));

@@ -105,7 +105,12 @@ pub struct JobManager {
     wake: Condvar,
     disk: Mutex<()>,
     workers: Mutex<Vec<std::thread::JoinHandle<()>>>,
+    /// Every change of a record, for the job's event streams (sent only while one listens).
+    changes: tokio::sync::broadcast::Sender<JobRecord>,
 }
+
+/// Changes a slow event stream may fall behind by before it reads the record afresh.
+const CHANGES_BUFFERED: usize = 1024;
 
 /// Why the job system refuses a request (`server::error` maps it to HTTP).
 #[derive(Debug, thiserror::Error)]
@@ -176,6 +181,7 @@ impl JobManager {
                 open: true,
             }),
             wake: Condvar::new(),
+            changes: tokio::sync::broadcast::channel(CHANGES_BUFFERED).0,
             disk: Mutex::new(()),
             workers: Mutex::new(Vec::new()),
         });
@@ -352,6 +358,7 @@ impl JobManager {
                 record.error = Some("cancelled before it started".into());
             }
             let record = record.clone();
+            self.announce(&record);
             if let Some(flag) = jobs.cancel.get(id) {
                 flag.store(true, Ordering::SeqCst);
             }
@@ -420,6 +427,7 @@ impl JobManager {
                 record.state = JobState::Running;
                 record.started = Some(reflectance_core::model::now_rfc3339());
                 record.progress.stage = "starting".into();
+                self.announce(record);
                 return Some((id, record.request.clone(), flag));
             }
             jobs = self.wake.wait(jobs).unwrap_or_else(|e| e.into_inner());
@@ -496,6 +504,17 @@ impl JobManager {
     }
 
     /// Update a record in memory (and on disk when `persist`).
+    /// Every change of a record from now on (what `GET /admin/v1/jobs/{id}/events` reads).
+    pub fn subscribe(&self) -> tokio::sync::broadcast::Receiver<JobRecord> {
+        self.changes.subscribe()
+    }
+
+    fn announce(&self, record: &JobRecord) {
+        if self.changes.receiver_count() > 0 {
+            let _ = self.changes.send(record.clone());
+        }
+    }
+
     fn update(&self, id: &str, persist: bool, f: impl FnOnce(&mut JobRecord)) {
         {
             let mut jobs = self.lock();
@@ -503,6 +522,7 @@ impl JobManager {
                 return;
             };
             f(record);
+            self.announce(record);
         }
         if persist {
             self.save(id);
@@ -558,6 +578,7 @@ impl JobManager {
                 // A cancellation may have been asked for meanwhile.
                 latest.cancel_requested |= current.cancel_requested;
                 *current = latest.clone();
+                self.announce(&latest);
                 latest
             });
             (jobs.retire(id, self.history), latest)

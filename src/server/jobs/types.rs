@@ -201,8 +201,9 @@ impl JobState {
 }
 
 /// How far a job is: `done` of `total` units (images or folds) of its current stage
-/// (`queued`, `starting`, `features`, `fit`, `cross_validate`, `publish`, `activate`,
-/// `render`, `done`).
+/// (`queued`, `starting`, `features`, `fit` (the classifier's calibration folds, then its
+/// calibration), `prediction_sets`, `fit_without_white`, `cross_validate`, `estimate`,
+/// `publish`, `activate`, `render`, `done`). A stage is 0 of 0 only as it begins.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct JobProgress {
     pub stage: String,

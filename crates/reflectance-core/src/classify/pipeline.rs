@@ -14,6 +14,7 @@ use super::svm::{self, Gram, SolverParams, SvmModel};
 use crate::learn::error::LearnError;
 use crate::learn::matrix::Dataset;
 use crate::learn::scaler::Scaler;
+use crate::util::progress::{Counter, Observer, Silent};
 use crate::util::rng::Rng;
 use ndarray::{Array2, ArrayView2};
 use rayon::prelude::*;
@@ -109,14 +110,15 @@ fn held_out_decisions(
     gram: &Gram<f64>,
     labels: &[usize],
     fold: Vec<Option<usize>>,
-    k: usize,
-    n_classes: usize,
+    (k, n_classes): (usize, usize),
     params: &SolverParams,
+    counter: &Counter,
 ) -> Vec<Vec<f64>> {
     let n = labels.len();
     let per_fold: Vec<Vec<(usize, Vec<f64>)>> = (0..k)
         .into_par_iter()
         .map(|f| {
+            let _tick = counter.ticks_when_dropped();
             let train: Vec<usize> = (0..n).filter(|&i| fold[i] != Some(f)).collect();
             let test: Vec<usize> = (0..n).filter(|&i| fold[i] == Some(f)).collect();
             let train_labels: Vec<usize> = train.iter().map(|&i| labels[i]).collect();
@@ -191,13 +193,16 @@ fn calibrate(
     params: &SolverParams,
     spec: &TrainSpec,
     rng: &mut Rng,
+    observer: &dyn Observer,
 ) -> (Calibration, HeldOut) {
     let labels = rows.labels;
     let n = labels.len();
     let kind = spec.calibration;
     let (fold, k, by_illumination) =
         calibration_folds(rows, n_classes, kind, spec.calibration_folds, rng);
-    let decision = held_out_decisions(gram, labels, fold.clone(), k, n_classes, params);
+    // Its folds, then the calibration's fit.
+    let counter = Counter::new(observer, k + 1);
+    let decision = held_out_decisions(gram, labels, fold.clone(), (k, n_classes), params, &counter);
     let calibration = match kind {
         CalibrationKind::Softmax => {
             let rows: Vec<usize> = (0..n).filter(|&i| fold[i].is_some()).collect();
@@ -217,6 +222,7 @@ fn calibrate(
                 .collect(),
         },
     };
+    counter.tick();
     let held_out = HeldOut {
         fold,
         decision,
@@ -249,6 +255,18 @@ pub fn fit_rows_held_out(
     rows: &[usize],
     spec: &TrainSpec,
     seed: u64,
+) -> Result<(Classifier, Option<HeldOut>), LearnError> {
+    fit_rows_observed(ds, rows, spec, seed, &Silent)
+}
+
+/// [`fit_rows_held_out`], reporting an SVM's calibration folds and calibration fit to
+/// `observer` as they finish (the units of the current stage).
+pub fn fit_rows_observed(
+    ds: &Dataset,
+    rows: &[usize],
+    spec: &TrainSpec,
+    seed: u64,
+    observer: &dyn Observer,
 ) -> Result<(Classifier, Option<HeldOut>), LearnError> {
     if rows.is_empty() {
         return Err(LearnError::NoRows);
@@ -298,7 +316,8 @@ pub fn fit_rows_held_out(
                 groups: &groups,
                 augmented: &augmented,
             };
-            let (fitted, values) = calibrate(&gram, &fit_rows, k, &params, spec, &mut rng);
+            let (fitted, values) =
+                calibrate(&gram, &fit_rows, k, &params, spec, &mut rng, observer);
             calibration = Some(fitted);
             held_out = Some(values);
             Model::Svm(SvmModel::from_solutions(

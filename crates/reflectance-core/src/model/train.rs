@@ -3,7 +3,7 @@
 
 use crate::classify::conformal::PredictionSets;
 use crate::classify::domain::{self, DomainCheck};
-use crate::classify::pipeline::{HeldOut, fit_rows_held_out};
+use crate::classify::pipeline::{HeldOut, fit_rows_observed};
 use crate::classify::{self, Classifier, CvReport, TrainSpec};
 use crate::dataset::{Entry, FeatureTable, Manifest, Sample};
 use crate::decode::{self, DecodeOptions};
@@ -224,8 +224,8 @@ pub fn train_with(
     let no_white = match (&options.images, config.families.contains(&LOG)) {
         (Some(manifest), true) => {
             let table = without_white(manifest, config, &options.decode, observer)?;
-            observer.stage("fit");
-            fit_no_white(&Dataset::from_table(&table)?, options, &column)?
+            observer.stage("fit_without_white");
+            fit_no_white(&Dataset::from_table(&table)?, options, &column, observer)?
         }
         _ => None,
     };
@@ -295,17 +295,18 @@ fn fit_classifier(
     if observer.cancelled() {
         return Err(LearnError::Cancelled.into());
     }
+    // The classifier: its calibration folds and calibration, as units that finish.
     observer.stage("fit");
-    observer.progress(0, 2);
     let rows: Vec<usize> = (0..ds.n_rows()).collect();
-    let (classifier, held_out) = fit_rows_held_out(ds, &rows, spec, seed)?;
-    let (prediction_sets, domain) =
-        reliability(ds, &rows, &classifier, held_out.as_ref(), column, seed)?;
-    observer.progress(1, 2);
+    let (classifier, held_out) = fit_rows_observed(ds, &rows, spec, seed, observer)?;
     if observer.cancelled() {
         return Err(LearnError::Cancelled.into());
     }
-    observer.progress(2, 2);
+    observer.stage("prediction_sets");
+    observer.progress(0, 1);
+    let (prediction_sets, domain) =
+        reliability(ds, &rows, &classifier, held_out.as_ref(), column, seed)?;
+    observer.progress(1, 1);
     Ok((classifier, prediction_sets, domain))
 }
 
@@ -464,6 +465,7 @@ fn fit_no_white(
     ds: &Dataset,
     options: &TrainOptions,
     column: &dyn Fn(&str) -> Option<usize>,
+    observer: &dyn Observer,
 ) -> Result<Option<StoredHead>, LearnError> {
     let names = crate::features::named_set("scale_free").unwrap_or_default();
     if options.spec.classifier != classify::ClassifierKind::Svm
@@ -481,7 +483,7 @@ fn fit_no_white(
     // support vectors: every k-th row keeps its cost per request near the classifier's.
     let k = ds.n_rows().div_ceil(NO_WHITE_ROWS).max(1);
     let rows: Vec<usize> = (0..ds.n_rows()).step_by(k).collect();
-    let (classifier, held_out) = fit_rows_held_out(ds, &rows, &spec, options.seed)?;
+    let (classifier, held_out) = fit_rows_observed(ds, &rows, &spec, options.seed, observer)?;
     let without_brightness = |name: &str| column(name).filter(|_| name != "ctr.mean");
     let (prediction_sets, domain) = reliability(
         ds,

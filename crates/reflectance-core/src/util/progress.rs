@@ -46,8 +46,23 @@ impl<'a> Counter<'a> {
         self.observer.progress(done, self.total);
     }
 
+    /// A guard that counts one unit when it goes out of scope (also when a unit panics
+    /// through it, so the count never stalls below a finished run).
+    pub fn ticks_when_dropped(&self) -> Tick<'_, 'a> {
+        Tick(self)
+    }
+
     /// Whether the observer asked to stop.
     pub fn cancelled(&self) -> bool {
         self.observer.cancelled()
+    }
+}
+
+/// Counts one unit of its [`Counter`] when dropped.
+pub struct Tick<'c, 'a>(&'c Counter<'a>);
+
+impl Drop for Tick<'_, '_> {
+    fn drop(&mut self) {
+        self.0.tick();
     }
 }
