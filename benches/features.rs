@@ -6,6 +6,7 @@ use ndarray::Array2;
 use reflectance_core::analysis::{self, Placement, WhiteSpec};
 use reflectance_core::decode::{self, DecodeOptions, LinearImage};
 use reflectance_core::features::families::{CENTRE, DOMAIN};
+use reflectance_core::features::lighting;
 use reflectance_core::features::pyramid::{self, Edge};
 use reflectance_core::features::spectrum::SpectrumPlan;
 use reflectance_core::features::{Extractor, Families, FeatureConfig, Preprocessing};
@@ -195,6 +196,16 @@ fn stage_reduce_and_unwrap(bencher: Bencher) {
     let extractor = Extractor::new(config).expect("config");
     let c = circle();
     bencher.bench(|| extractor.unwrap(divan::black_box(image.luminance.view()), &c, 1.0));
+}
+
+/// The lighting check's fit of the shading (on the sphere as given; a request fits it at the
+/// working radius, where the disc holds about a quarter of these pixels and the sample count
+/// is the same).
+#[divan::bench]
+fn stage_lighting_fit(bencher: Bencher) {
+    let image = decoded();
+    let c = circle();
+    bencher.bench(|| lighting::shading(divan::black_box(image.luminance.view()), &c));
 }
 
 fn unwrapped() -> Array2<f64> {

@@ -499,8 +499,9 @@ pub fn predict(args: PredictArgs) -> CliResult {
     let extractor = Extractor::new(model.features.config)?;
     let manifest = dataset::read_manifest(&args.manifest)?;
     let options = args.limits.decode_options();
-    let table = progress::observed("features", |bar| {
-        dataset::extract_manifest_with(&extractor, &manifest, &options, bar)
+    // Measured as the service measures a request: the lighting check reads the shading.
+    let (table, shading) = progress::observed("features", |bar| {
+        dataset::extract_manifest_measured(&extractor, &manifest, &options, bar, true)
     })?;
     let classes = model.classifier.classes();
     let estimator = model.estimator.as_ref();
@@ -522,9 +523,14 @@ pub fn predict(args: PredictArgs) -> CliResult {
         .unwrap_or(reflectance_core::classify::conformal::DEFAULT_COVERAGE);
     let layout = model.features.config.layout();
     let mut tally = Tally::default();
-    for (sample, entry) in table.samples.iter().zip(&manifest.entries) {
+    let rows = table.samples.iter().zip(&manifest.entries).zip(shading);
+    for ((sample, entry), measurements) in rows {
         // As the service would: no white is no white, not white = 1.
-        let measured = CaptureMeasurements::of_row(&layout, &sample.values);
+        let measured =
+            CaptureMeasurements::of_row(&layout, &sample.values).map(|m| CaptureMeasurements {
+                shading: measurements.and_then(|m| m.shading),
+                ..m
+            });
         let context = inference::Context {
             request: Request {
                 white_given: entry.white.is_some(),
@@ -553,6 +559,9 @@ pub fn predict(args: PredictArgs) -> CliResult {
             .flat_map(|v| v.failed())
             .map(|k| inference::wire_name(&k))
             .collect();
+        if decision.beyond_any_light() {
+            failed.push("lighting".into());
+        }
         if !decision.envelope.is_empty() {
             failed.push("envelope".into());
         }

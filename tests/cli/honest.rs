@@ -174,3 +174,68 @@ fn a_picture_of_nothing_is_out_of_domain_in_classify_and_predict() {
     );
     assert_eq!(rows[2][failed], "outline typicality", "{csv}");
 }
+
+/// A pale glossy ball lit by one lamp beside the camera, stored as linear 8-bit values (as a
+/// photometric-stereo set's copies are): read as sRGB, its shading falls to black toward the
+/// rim faster than any light makes it, and the lighting check flags it, in `classify --json`
+/// and `predict`'s CSV; read as linear (`--encoding linear`), that check passes.
+#[test]
+fn a_lamp_in_the_dark_on_linear_pixels_is_out_of_domain() {
+    let dir = temp("lamp");
+    let ball = dir.join("ball.png");
+    let (c, r) = (119.0f64, 100.0f64);
+    let norm = |v: [f64; 3]| {
+        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        v.map(|x| x / n)
+    };
+    let lamp = norm([0.15, -0.3, 1.0]);
+    let half = norm([lamp[0], lamp[1], lamp[2] + 1.0]);
+    let dot = |a: [f64; 3], b: [f64; 3]| (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).max(0.0);
+    let image = image::GrayImage::from_fn(240, 240, |col, row| {
+        let (x, y) = ((col as f64 - c) / r, (c - row as f64) / r);
+        let rho2 = x * x + y * y;
+        let v = if rho2 < 1.0 {
+            let n = [x, y, (1.0 - rho2).sqrt()];
+            0.7 * dot(n, lamp) + 2.0 * dot(n, half).powi(300)
+        } else {
+            0.0
+        };
+        image::Luma([(255.0 * v.min(1.0)).round() as u8])
+    });
+    image.save(&ball).unwrap();
+    let circle = ["--cx", "119", "--cy", "119", "--r", "100"];
+    let misread = classify_with("models/ward6", &ball, &circle);
+    assert_eq!(
+        misread["domain"]["in_domain"], false,
+        "{}",
+        misread["domain"]
+    );
+    let reasons = misread["domain"]["reasons"].to_string();
+    assert!(reasons.contains("encoding=linear"), "{reasons}");
+    let checks = misread["domain"]["checks"].as_array().unwrap();
+    let lighting = checks.iter().find(|c| c["check"] == "lighting").unwrap();
+    assert!(lighting["value"].as_f64().unwrap() < lighting["limit"].as_f64().unwrap());
+    let linear = classify_with(
+        "models/ward6",
+        &ball,
+        &[&circle[..], &["--encoding", "linear"]].concat(),
+    );
+    let reasons = linear["domain"]["reasons"].to_string();
+    assert!(!reasons.contains("encoding=linear"), "{reasons}");
+    let manifest = dir.join("manifest.csv");
+    std::fs::write(
+        &manifest,
+        "path,class,illumination,cx,cy,r\nball.png,white_shiny,lamp,119,119,100\n",
+    )
+    .unwrap();
+    let out_csv = dir.join("p.csv");
+    let out = Command::new(env!("CARGO_BIN_EXE_reflectance"))
+        .args(["predict", "--model", "models/ward6", "--manifest"])
+        .args([manifest.as_os_str(), "--out".as_ref(), out_csv.as_os_str()])
+        .current_dir(ROOT)
+        .output()
+        .unwrap();
+    assert_success(&out);
+    let csv = std::fs::read_to_string(&out_csv).unwrap();
+    assert!(csv.lines().nth(1).unwrap().contains("lighting"), "{csv}");
+}

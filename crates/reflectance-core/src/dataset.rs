@@ -4,7 +4,7 @@
 
 use crate::analysis::{self, AnalysisError, Placement, WhiteSpec};
 use crate::decode::{self, DecodeOptions};
-use crate::features::Extractor;
+use crate::features::{CaptureMeasurements, Extractor};
 use crate::locate::Circle;
 use crate::util::progress;
 use crate::util::shard::Shard;
@@ -357,6 +357,17 @@ pub fn extract_entry(
     entry: &Entry,
     options: &DecodeOptions,
 ) -> Result<Vec<f64>, AnalysisError> {
+    Ok(extract_entry_measured(extractor, entry, options, false)?.0)
+}
+
+/// [`extract_entry`], with the capture measurements when `measure` (a photographed sphere's:
+/// `None` for an object).
+pub fn extract_entry_measured(
+    extractor: &Extractor,
+    entry: &Entry,
+    options: &DecodeOptions,
+    measure: bool,
+) -> Result<(Vec<f64>, Option<CaptureMeasurements>), AnalysisError> {
     let options = DecodeOptions {
         encoding: entry.encoding.or(options.encoding),
         ..*options
@@ -368,8 +379,8 @@ pub fn extract_entry(
     let placement = entry.placement(&options)?;
     let white = entry.white.map_or(WhiteSpec::Missing, WhiteSpec::Value);
     let (analysis, _) =
-        analysis::analyze_photo(extractor, &photo, &placement, &white, None, false)?;
-    Ok(analysis.values)
+        analysis::analyze_photo(extractor, &photo, &placement, &white, None, measure)?;
+    Ok((analysis.values, analysis.measured))
 }
 
 /// `work` on every entry, in parallel, results in manifest order, each finished entry
@@ -417,12 +428,25 @@ pub fn extract_manifest_with(
     options: &DecodeOptions,
     observer: &dyn progress::Observer,
 ) -> Result<FeatureTable, DatasetError> {
+    Ok(extract_manifest_measured(extractor, manifest, options, observer, false)?.0)
+}
+
+/// [`extract_manifest_with`], with each entry's capture measurements when `measure` (as
+/// the service measures a request: `predict`).
+pub fn extract_manifest_measured(
+    extractor: &Extractor,
+    manifest: &Manifest,
+    options: &DecodeOptions,
+    observer: &dyn progress::Observer,
+    measure: bool,
+) -> Result<(FeatureTable, Vec<Option<CaptureMeasurements>>), DatasetError> {
     let results = for_each_entry(manifest, observer, |entry| {
-        extract_entry(extractor, entry, options)
+        extract_entry_measured(extractor, entry, options, measure)
     })?;
     let mut samples = Vec::with_capacity(manifest.entries.len());
+    let mut measured = Vec::with_capacity(manifest.entries.len());
     for (entry, result) in manifest.entries.iter().zip(results) {
-        let values = result.map_err(|source| DatasetError::Image {
+        let (values, measurements) = result.map_err(|source| DatasetError::Image {
             path: display(&manifest.source),
             line: entry.line,
             image: entry.path.clone(),
@@ -434,11 +458,13 @@ pub fn extract_manifest_with(
             illumination: entry.illumination.clone().unwrap_or_default(),
             values,
         });
+        measured.push(measurements);
     }
-    Ok(FeatureTable {
+    let table = FeatureTable {
         names: extractor.config().names(),
         samples,
-    })
+    };
+    Ok((table, measured))
 }
 
 /// Shortest representation that reads back to the same f64.

@@ -3,6 +3,7 @@
 //! the default configuration, docs/design.md §3), the optional families (§8: [`families`],
 //! each declared once in its own module there) and the named feature sets.
 //!
+//! [`lighting`] tells a sphere under one lamp in the dark by its shading (a domain check).
 //! [`layout`] fixes where every feature sits; [`config`] is what a model file records;
 //! [`extract`] computes the vectors, of a photographed sphere or of an object's equivalent
 //! sphere, by one path.
@@ -12,6 +13,7 @@ pub(crate) mod config;
 pub(crate) mod extract;
 pub mod families;
 pub(crate) mod layout;
+pub mod lighting;
 pub(crate) mod log10;
 pub mod observed;
 pub(crate) mod polar;

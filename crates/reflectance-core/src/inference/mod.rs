@@ -8,6 +8,7 @@ use crate::classify::domain::Verdict;
 use crate::decode::{self, DecodeError, DecodeOptions, Photo};
 use crate::estimate::WardEstimate;
 use crate::features::Extractor;
+use crate::features::lighting::Shading;
 use crate::image::display;
 use crate::learn::LearnError;
 use crate::locate;
@@ -171,6 +172,9 @@ pub struct Decision {
     /// Why the input is outside the capture envelope the model was trained for, whatever
     /// its class.
     pub envelope: Vec<String>,
+    /// The sphere's shading fitted by one light, when the capture was measured (the lighting
+    /// check: [`Decision::beyond_any_light`]).
+    pub shading: Option<Shading>,
     /// The classifier's standardized inputs.
     pub z: Vec<f64>,
 }
@@ -185,7 +189,15 @@ impl Decision {
     /// source of the verdict: every surface (`/v1`'s [`Decision::domain`], V2 and gRPC's
     /// `in_domain`, `reflectance predict`'s CSV, the command line and Python) reads it here.
     pub fn in_domain(&self) -> bool {
-        self.verdict.as_ref().is_none_or(Verdict::in_domain) && self.envelope.is_empty()
+        self.verdict.as_ref().is_none_or(Verdict::in_domain)
+            && self.envelope.is_empty()
+            && !self.beyond_any_light()
+    }
+
+    /// The lighting check: shading that only one small lamp in the dark makes, on pixels
+    /// steeper than sRGB ([`Shading::beyond_any_light`]).
+    pub fn beyond_any_light(&self) -> bool {
+        self.shading.is_some_and(|s| s.beyond_any_light())
     }
 }
 
@@ -238,6 +250,7 @@ pub fn decide(model: &ModelFile, values: &[f64], context: Context) -> Result<Dec
         coverage: context.coverage,
         verdict,
         envelope,
+        shading: context.measured.and_then(|m| m.shading),
         z,
     })
 }

@@ -5,6 +5,7 @@ use super::{Classified, Decision, LoadedModel};
 use crate::analysis::{Analysis, Read};
 use crate::estimate::{StatedEstimate, WardEstimate};
 use crate::features::Extractor;
+use crate::features::lighting::{AMBIENT_LIMIT, MIN_FIT};
 use crate::image::colour::{self, Rgb};
 use crate::image::display;
 use crate::locate::{self, Method as GeometryMethod};
@@ -440,16 +441,19 @@ pub struct PredictionSetOut {
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct DomainCheckOut {
     /// `typicality` (distance to the training images), `outline` (how well the circle
-    /// follows a sphere's outline) or `brightness` (log10 of the centre over white).
+    /// follows a sphere's outline), `brightness` (log10 of the centre over white) or
+    /// `lighting` (the ambient share of one light's fit to the shading, listed when that
+    /// fit explains at least 90 % of it).
     #[cfg_attr(feature = "openapi", schema(example = "outline"))]
     pub check: String,
-    /// The measured value (`typicality`: a distance; `outline`: a fit; `brightness`: log10).
+    /// The measured value (`typicality`: a distance; `outline`: a fit; `brightness`: log10;
+    /// `lighting`: the dimmest side's share of the brightest).
     pub value: f64,
     /// Statistical checks: how often an image of a sphere under held-out light is at least
     /// this unusual.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub p_value: Option<f64>,
-    /// Bounds (`brightness`): the largest value that passes.
+    /// Bounds: the largest value that passes (`brightness`), the smallest (`lighting`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub limit: Option<f64>,
 }
@@ -601,6 +605,11 @@ impl Decision {
         if let Some(v) = &self.verdict {
             reasons.extend(v.failed().into_iter().map(|k| k.reason().to_string()));
         }
+        reasons.extend(
+            self.shading
+                .filter(|_| self.beyond_any_light())
+                .map(|s| s.reason()),
+        );
         reasons.extend(self.envelope.iter().cloned());
         DomainOut {
             in_domain: self.in_domain(),
@@ -617,6 +626,16 @@ impl Decision {
                     p_value: c.p_value,
                     limit: c.limit,
                 })
+                .chain(
+                    self.shading
+                        .filter(|s| s.fit >= MIN_FIT)
+                        .map(|s| DomainCheckOut {
+                            check: "lighting".into(),
+                            value: s.ambient,
+                            p_value: None,
+                            limit: Some(AMBIENT_LIMIT),
+                        }),
+                )
                 .collect(),
         }
     }

@@ -185,6 +185,7 @@ mod tests {
         let clean = CaptureMeasurements {
             noise: Some(0.01),
             clipped: 0.0,
+            shading: None,
         };
         let outside = |radius, working_radius, m: &CaptureMeasurements| {
             envelope.outside(radius, working_radius, "matte", m)
@@ -194,6 +195,7 @@ mod tests {
         let near = CaptureMeasurements {
             noise: Some(0.037),
             clipped: 0.069,
+            shading: None,
         };
         assert!(outside(57.5, None, &near).is_empty());
         let small = outside(50.0, Some(116.0), &clean);
@@ -205,6 +207,7 @@ mod tests {
         let noisy = CaptureMeasurements {
             noise: Some(0.05),
             clipped: 0.0,
+            shading: None,
         };
         let said = outside(100.0, None, &noisy);
         assert!(
@@ -214,6 +217,7 @@ mod tests {
         let clipped = CaptureMeasurements {
             noise: None,
             clipped: 0.2,
+            shading: None,
         };
         let said = outside(100.0, None, &clipped);
         assert!(said.len() == 1 && said[0].contains("20.0 %"), "{said:?}");

@@ -22,6 +22,7 @@
 
 use super::{Family, Kind, OfSphere, Seen};
 use crate::features::layout::Layout;
+use crate::features::lighting::{self, Shading};
 use crate::features::observed::kept;
 use crate::image::circle::Circle;
 use crate::locate::detect::{RIM_STEP, RimSlopes, rim_slopes};
@@ -100,13 +101,16 @@ fn of_object(sphere: &Seen<'_>, object: &EquivalentSphere) -> Vec<f64> {
     vec![noise, clipped as f64 / kept.len().max(1) as f64, floor]
 }
 
-/// What the capture measurements found on one sphere.
+/// What the capture measurements found on one sphere, and how it is lit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CaptureMeasurements {
     /// Noise at white as a fraction of white (`None`: no block of the annulus to read it).
     pub noise: Option<f64>,
     /// Fraction of the annulus's pixels at full scale (0 for floating-point images).
     pub clipped: f64,
+    /// How the sphere is lit: one light's clamped-cosine fit of its shading (`None`: from a
+    /// feature row, or nothing to fit).
+    pub shading: Option<Shading>,
 }
 
 impl CaptureMeasurements {
@@ -119,12 +123,14 @@ impl CaptureMeasurements {
         Some(CaptureMeasurements {
             noise: (*noise > NOISE_FLOOR.log10()).then(|| 10f64.powf(*noise)),
             clipped: *clipped,
+            shading: None,
         })
     }
 }
 
-/// A photographed sphere's measurements, measured once: the noise at white as the features
-/// see the sphere (at the working radius), the clipped fraction of the image as given.
+/// A photographed sphere's measurements, measured once: the noise at white and the shading
+/// as the features see the sphere (at the working radius), the clipped fraction of the image
+/// as given.
 pub(crate) fn measurements(sphere: &Seen<'_>) -> CaptureMeasurements {
     *sphere.capture.get_or_init(|| {
         let (seen, circle) = sphere.seen();
@@ -139,6 +145,7 @@ pub(crate) fn measurements(sphere: &Seen<'_>) -> CaptureMeasurements {
             clipped: full_scale.map_or(0.0, |f| {
                 clipped_fraction(sphere.given.view(), &sphere.circle, f)
             }),
+            shading: lighting::shading(seen, circle),
         }
     })
 }
