@@ -17,9 +17,13 @@ const state = {
   chosen: 0, // counts photos chosen, so that a late answer for an earlier one is dropped
   candidates: [], // the circles detection found, most confident first (POST /v1/locate)
   candidate: 0, // which of them is shown
+  view: null, // the part of the photograph shown {x, y, w, h} (pixel edges); null: all of it
 };
 
 const MIN_RADIUS = 32;
+// A circle drawn smaller than this many CSS pixels across is zoomed to: its handles would
+// almost touch.
+const SMALL_CIRCLE_CSS = 120;
 
 // ---- messages -------------------------------------------------------------------------
 
@@ -149,6 +153,7 @@ async function choose(file) {
   const ticket = ++state.chosen;
   state.file = file;
   state.rect = null;
+  state.view = null;
   $("white-rect").value = "";
   $("normals").value = "";
   if (whiteMode() === "rect") {
@@ -185,11 +190,13 @@ async function choose(file) {
         };
     $("stage").hidden = false;
     syncInputs();
-    draw();
+    // A small ball is shown zoomed, so that its handles can be told apart.
+    const small = g && circleCssWidthWhole() < SMALL_CIRCLE_CSS;
+    zoom(small);
     const found = g
       ? `Sphere found (confidence ${g.confidence !== undefined ? g.confidence.toFixed(2) : "n/a"}). Check the circle, then Classify.`
       : "No sphere found automatically: drag the circle onto the sphere (by its centre dot or its rim), then Classify.";
-    status(found);
+    status(small ? `${found} Zoomed to the circle: it is small in the photograph.` : found);
     if (located.warnings.length) {
       showNote(`Note: ${located.warnings.join(" ")}`);
     }
@@ -206,11 +213,40 @@ async function choose(file) {
 
 // ---- drawing --------------------------------------------------------------------------
 
-/** Image pixels per canvas pixel, and the canvas's CSS pixels per canvas pixel. */
+/** Canvas pixels per image pixel, and the canvas's CSS pixels per canvas pixel. */
 function scales() {
   const canvas = $("canvas");
   const box = canvas.getBoundingClientRect();
-  return { toCanvas: canvas.width / state.width, cssPerCanvas: box.width / canvas.width };
+  return { toCanvas: canvas.width / view().w, cssPerCanvas: box.width / canvas.width };
+}
+
+/** The part of the photograph on the canvas, in image pixels (edges: pixel 0 spans 0…1). */
+function view() {
+  return state.view || { x: 0, y: 0, w: state.width, h: state.height };
+}
+
+/** A square around the circle, four radii wide, inside the photograph. */
+function viewAround({ cx, cy, r }) {
+  const side = Math.min(Math.max(4 * r, 64), state.width, state.height);
+  const place = (c, n) => Math.min(Math.max(c + 0.5 - side / 2, 0), n - side);
+  return { x: place(cx, state.width), y: place(cy, state.height), w: side, h: side };
+}
+
+/** Zoom to the circle, or back to the whole photograph. */
+function zoom(on) {
+  state.view = on && state.circle ? viewAround(state.circle) : null;
+  const button = $("zoom");
+  button.setAttribute("aria-pressed", String(Boolean(state.view)));
+  button.textContent = state.view ? "Show the whole photograph" : "Zoom to the circle";
+  draw();
+}
+
+/** How many CSS pixels across the circle is drawn with the whole photograph shown. */
+function circleCssWidthWhole() {
+  const canvas = $("canvas");
+  const cssWidth = canvas.parentElement.clientWidth || 600;
+  const cssScale = Math.min(cssWidth / state.width, (window.innerHeight * 0.7) / state.height);
+  return 2 * state.circle.r * cssScale;
 }
 
 function draw() {
@@ -218,35 +254,39 @@ function draw() {
   const ratio = window.devicePixelRatio || 1;
   const cssWidth = canvas.parentElement.clientWidth || 600;
   const maxHeight = window.innerHeight * 0.7;
-  const cssScale = Math.min(cssWidth / state.width, maxHeight / state.height);
-  canvas.width = Math.max(1, Math.round(state.width * cssScale * ratio));
-  canvas.height = Math.max(1, Math.round(state.height * cssScale * ratio));
-  canvas.style.width = `${Math.round(state.width * cssScale)}px`;
+  const v = view();
+  const cssScale = Math.min(cssWidth / v.w, maxHeight / v.h);
+  canvas.width = Math.max(1, Math.round(v.w * cssScale * ratio));
+  canvas.height = Math.max(1, Math.round(v.h * cssScale * ratio));
+  canvas.style.width = `${Math.round(v.w * cssScale)}px`;
   const ctx = canvas.getContext("2d");
-  const k = canvas.width / state.width;
+  const k = canvas.width / v.w;
   ctx.clearRect(0, 0, canvas.width, canvas.height);
-  ctx.drawImage(state.picture, 0, 0, canvas.width, canvas.height);
+  // The picture may be the server's smaller preview: its own pixels per image pixel.
+  const s = (state.picture.naturalWidth || state.picture.width) / state.width;
+  ctx.drawImage(state.picture, v.x * s, v.y * s, v.w * s, v.h * s, 0, 0, canvas.width, canvas.height);
   const line = Math.max(2, 2 * ratio);
   if (state.rect) {
     const { x, y, w, h } = state.rect;
     ctx.lineWidth = line;
     ctx.setLineDash([6 * ratio, 4 * ratio]);
     ctx.strokeStyle = "#ffd400";
-    ctx.strokeRect(x * k, y * k, w * k, h * k);
+    ctx.strokeRect((x - v.x) * k, (y - v.y) * k, w * k, h * k);
     ctx.setLineDash([]);
   }
   const { cx, cy, r } = state.circle;
   // Pixel centres are at integer coordinates: pixel (0, 0) spans −½…½.
-  const px = (v) => (v + 0.5) * k;
+  const px = (c) => (c + 0.5 - v.x) * k;
+  const py = (c) => (c + 0.5 - v.y) * k;
   ctx.lineWidth = line;
   ctx.strokeStyle = "#00e0ff";
   ctx.beginPath();
-  ctx.arc(px(cx), px(cy), r * k, 0, 2 * Math.PI);
+  ctx.arc(px(cx), py(cy), r * k, 0, 2 * Math.PI);
   ctx.stroke();
   for (const [x, y] of [[cx, cy], [cx + r, cy]]) {
     ctx.fillStyle = "#00e0ff";
     ctx.beginPath();
-    ctx.arc(px(x), px(y), 6 * ratio, 0, 2 * Math.PI);
+    ctx.arc(px(x), py(y), 6 * ratio, 0, 2 * Math.PI);
     ctx.fill();
     ctx.strokeStyle = "#003040";
     ctx.stroke();
@@ -272,6 +312,9 @@ function nextCandidate() {
   state.candidate = (state.candidate + 1) % state.candidates.length;
   const c = state.candidates[state.candidate];
   setCircle(c.cx, c.cy, c.r);
+  if (state.view) {
+    zoom(true);
+  }
   const seen = c.rim_visible < 0.999 ? `, ${Math.round(100 * c.rim_visible)} % of its rim in the picture` : "";
   status(`Circle ${state.candidate + 1} of ${state.candidates.length} (confidence ${c.confidence.toFixed(2)}${seen}). Check it, then Classify.`);
 }
@@ -290,8 +333,9 @@ function setCircle(cx, cy, r) {
 function imagePoint(event) {
   const canvas = $("canvas");
   const box = canvas.getBoundingClientRect();
-  const x = ((event.clientX - box.left) / box.width) * state.width - 0.5;
-  const y = ((event.clientY - box.top) / box.height) * state.height - 0.5;
+  const v = view();
+  const x = v.x + ((event.clientX - box.left) / box.width) * v.w - 0.5;
+  const y = v.y + ((event.clientY - box.top) / box.height) * v.h - 0.5;
   return { x, y };
 }
 
@@ -689,6 +733,7 @@ function wire() {
   }
   $("classify").addEventListener("click", classify);
   $("next-candidate").addEventListener("click", nextCandidate);
+  $("zoom").addEventListener("click", () => zoom(!state.view));
   window.addEventListener("resize", () => state.picture && draw());
   loadModels();
 }

@@ -520,6 +520,7 @@ fn the_page_classifies_a_photograph_in_a_real_browser() {
     keep_the_screenshot(&browser.screenshot());
     a_non_image_shows_the_problem(&browser);
     an_object_shows_its_equivalent_sphere(&browser, &base);
+    a_small_ball_is_zoomed_to(&browser, &base);
 
     // A phone's width: nothing wider than the screen.
     browser.call("POST", "/window/rect", json!({"width": 390, "height": 844}));
@@ -599,6 +600,85 @@ fn an_object_shows_its_equivalent_sphere(browser: &Browser, dir: &Path) {
             .unwrap()
             .starts_with("Read by the model's classifier"),
         "{read_by}"
+    );
+}
+
+/// The fixture a quarter of its size in a 2048 × 1536 grey scene: a ball of radius 72.7 px
+/// (about 90 CSS pixels across on a 1280 px window), its centre near (1574.6, 417.4).
+fn write_small_ball(dir: &Path) -> PathBuf {
+    let photo = image::open(root().join(PHOTO)).unwrap().to_rgb8();
+    let small = image::imageops::resize(&photo, 320, 240, image::imageops::FilterType::Triangle);
+    let mut scene = image::RgbImage::from_pixel(2048, 1536, image::Rgb([90, 90, 90]));
+    image::imageops::overlay(&mut scene, &small, 1400, 300);
+    let path = dir.join("small-ball.png");
+    scene.save(&path).unwrap();
+    path
+}
+
+/// A small ball is shown zoomed to its circle: drawn large, its rim handle dragged by the
+/// pointer moves the rim by the image pixels the zoomed picture shows; the button goes back
+/// to the whole photograph.
+fn a_small_ball_is_zoomed_to(browser: &Browser, dir: &Path) {
+    browser.upload(&write_small_ball(dir));
+    browser.wait_for(
+        "the small ball's circle",
+        "!document.getElementById('stage').hidden && document.getElementById('r').value",
+    );
+    let (cx, cy, r) = (
+        browser.number("cx"),
+        browser.number("cy"),
+        browser.number("r"),
+    );
+    assert!(
+        (cx - 1574.6).abs() < 3.0 && (cy - 417.4).abs() < 3.0 && (r - 72.7).abs() < 3.0,
+        "detected ({cx}, {cy}, {r})"
+    );
+    let pressed =
+        browser.script("return document.getElementById('zoom').getAttribute('aria-pressed');");
+    assert_eq!(pressed, "true", "a small ball is not zoomed to");
+    let status = browser.script("return document.getElementById('status').textContent;");
+    assert!(status.as_str().unwrap().contains("Zoomed"), "{status}");
+    // Viewport CSS pixels of an image point, through the zoomed view.
+    let at = |x: f64, y: f64| {
+        let m = browser.script(
+            "const b = document.getElementById('canvas').getBoundingClientRect();              const v = state.view; return [b.left, b.top, b.width / v.w, v.x, v.y];",
+        );
+        let m: Vec<f64> = m
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        (
+            m[0] + (x + 0.5 - m[3]) * m[2],
+            m[1] + (y + 0.5 - m[4]) * m[2],
+        )
+    };
+    let (left, _) = at(cx - r, cy);
+    let (right, _) = at(cx + r, cy);
+    assert!(
+        right - left > 250.0,
+        "the circle is {} CSS px across",
+        right - left
+    );
+    browser.drag(at(cx + r, cy), at(cx + r + 10.0, cy));
+    let grown = browser.number("r");
+    assert!(
+        (grown - (r + 10.0)).abs() < 1.0,
+        "radius {r} dragged to {grown}"
+    );
+    browser.call(
+        "POST",
+        &format!("/element/{}/click", browser.find("#zoom")),
+        json!({}),
+    );
+    let whole = browser.script(
+        "return [state.view, document.getElementById('zoom').getAttribute('aria-pressed')];",
+    );
+    assert_eq!(
+        whole,
+        json!([null, "false"]),
+        "the whole photograph is not shown"
     );
 }
 
