@@ -175,14 +175,11 @@ fn a_picture_of_nothing_is_out_of_domain_in_classify_and_predict() {
     assert_eq!(rows[2][failed], "outline typicality", "{csv}");
 }
 
-/// A pale glossy ball lit by one lamp beside the camera, stored as linear 8-bit values (as a
-/// photometric-stereo set's copies are): read as sRGB, its shading falls to black toward the
-/// rim faster than any light makes it, and the lighting check flags it, in `classify --json`
-/// and `predict`'s CSV; read as linear (`--encoding linear`), that check passes.
-#[test]
-fn a_lamp_in_the_dark_on_linear_pixels_is_out_of_domain() {
-    let dir = temp("lamp");
-    let ball = dir.join("ball.png");
+/// A pale glossy ball of radius 100 centred at (119, 119) in a 240² 8-bit grey PNG, lit by
+/// one lamp beside the camera in a dark room: its diffuse part `diffuse` times the lamp's
+/// cosine plus 0.02, and a sharp highlight of `spot`, on 0.01; the values stored as they are
+/// (linear) or sRGB-encoded.
+fn write_lamp_ball(path: &Path, diffuse: f64, spot: f64, srgb: bool) {
     let (c, r) = (119.0f64, 100.0f64);
     let norm = |v: [f64; 3]| {
         let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
@@ -191,19 +188,37 @@ fn a_lamp_in_the_dark_on_linear_pixels_is_out_of_domain() {
     let lamp = norm([0.15, -0.3, 1.0]);
     let half = norm([lamp[0], lamp[1], lamp[2] + 1.0]);
     let dot = |a: [f64; 3], b: [f64; 3]| (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).max(0.0);
+    let encode = |v: f64| match srgb {
+        true if v <= 0.0031308 => 12.92 * v,
+        true => 1.055 * v.powf(1.0 / 2.4) - 0.055,
+        false => v,
+    };
     let image = image::GrayImage::from_fn(240, 240, |col, row| {
         let (x, y) = ((col as f64 - c) / r, (c - row as f64) / r);
         let rho2 = x * x + y * y;
         let v = if rho2 < 1.0 {
             let n = [x, y, (1.0 - rho2).sqrt()];
-            0.7 * dot(n, lamp) + 2.0 * dot(n, half).powi(300)
+            0.02 + diffuse * dot(n, lamp) + spot * dot(n, half).powi(300)
         } else {
-            0.0
+            0.01
         };
-        image::Luma([(255.0 * v.min(1.0)).round() as u8])
+        image::Luma([(255.0 * encode(v.min(1.0))).round() as u8])
     });
-    image.save(&ball).unwrap();
-    let circle = ["--cx", "119", "--cy", "119", "--r", "100"];
+    image.save(path).unwrap();
+}
+
+const LAMP_BALL_CIRCLE: [&str; 6] = ["--cx", "119", "--cy", "119", "--r", "100"];
+
+/// A pale glossy ball lit by one lamp beside the camera, stored as linear 8-bit values (as a
+/// photometric-stereo set's copies are): read as sRGB, its shading falls to black toward the
+/// rim faster than any light makes it, and the lighting check flags it, in `classify --json`
+/// and `predict`'s CSV; read as linear (`--encoding linear`), that check passes.
+#[test]
+fn a_lamp_in_the_dark_on_linear_pixels_is_out_of_domain() {
+    let dir = temp("lamp");
+    let ball = dir.join("ball.png");
+    write_lamp_ball(&ball, 0.7, 2.0, false);
+    let circle = LAMP_BALL_CIRCLE;
     let misread = classify_with("models/ward6", &ball, &circle);
     assert_eq!(
         misread["domain"]["in_domain"], false,
@@ -238,4 +253,29 @@ fn a_lamp_in_the_dark_on_linear_pixels_is_out_of_domain() {
     assert_success(&out);
     let csv = std::fs::read_to_string(&out_csv).unwrap();
     assert!(csv.lines().nth(1).unwrap().contains("lighting"), "{csv}");
+}
+
+/// The same ball under its lamp, sRGB-encoded and exposed darker (a white snooker ball under a
+/// table lamp): without white the classifier answers a matte class, but the highlight, which
+/// no matte surface shows, brings the glossy classes into the set, and a warning says so.
+#[test]
+fn a_highlight_on_a_matte_answer_brings_the_glossy_classes_in() {
+    let dir = temp("highlight");
+    let ball = dir.join("ball.png");
+    write_lamp_ball(&ball, 0.3, 0.8, true);
+    let answer = classify_with("models/ward6", &ball, &LAMP_BALL_CIRCLE);
+    assert_eq!(answer["label"], "white_matte", "{answer}");
+    let set = labels(&answer);
+    assert!(
+        set.contains(&"white_shiny") && set.contains(&"black_shiny"),
+        "{set:?}"
+    );
+    let warnings = answer["warnings"].to_string();
+    assert!(warnings.contains("shows a highlight"), "{warnings}");
+    // Without the highlight: a matte answer with the matte set alone.
+    write_lamp_ball(&ball, 0.3, 0.0, true);
+    let matte = classify_with("models/ward6", &ball, &LAMP_BALL_CIRCLE);
+    let warnings = matte["warnings"].to_string();
+    assert!(!warnings.contains("shows a highlight"), "{warnings}");
+    assert!(!labels(&matte).contains(&"white_shiny"), "{matte}");
 }

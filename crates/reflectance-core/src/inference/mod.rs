@@ -175,6 +175,8 @@ pub struct Decision {
     /// The sphere's shading fitted by one light, when the capture was measured (the lighting
     /// check: [`Decision::beyond_any_light`]).
     pub shading: Option<Shading>,
+    /// The set took in glossy classes because the sphere shows a highlight ([`add_glossy`]).
+    pub glossy_added: bool,
     /// The classifier's standardized inputs.
     pub z: Vec<f64>,
 }
@@ -232,13 +234,18 @@ pub fn decide(model: &ModelFile, values: &[f64], context: Context) -> Result<Dec
         ),
         _ => Vec::new(),
     };
-    let set = prediction_set(
+    let mut set = prediction_set(
         model,
         &head,
         &output.probabilities,
         context.coverage,
         context.request.white_given,
     );
+    let shading = context.measured.and_then(|m| m.shading);
+    let glossy_added = match (&mut set, shading) {
+        (Some(set), Some(s)) if s.shows_highlight() => add_glossy(model, &head, output.class, set),
+        _ => false,
+    };
     let verdict = head.domain.map(|d| d.verdict(&z, values));
     Ok(Decision {
         request: context.request,
@@ -250,7 +257,8 @@ pub fn decide(model: &ModelFile, values: &[f64], context: Context) -> Result<Dec
         coverage: context.coverage,
         verdict,
         envelope,
-        shading: context.measured.and_then(|m| m.shading),
+        shading,
+        glossy_added,
         z,
     })
 }
@@ -578,6 +586,29 @@ fn prediction_set(
         }
     }
     Some(set)
+}
+
+/// A sphere that shows a highlight brighter than its diffuse shading is not matte: when the
+/// `label` is a matte class, every glossy class alike to a matte member of `set`
+/// ([`Ward::glossy_alike`]) joins it. Whether one did.
+fn add_glossy(file: &ModelFile, head: &Head, label: usize, set: &mut Vec<usize>) -> bool {
+    let classes = &head.classifier.classes;
+    let ward = |k: usize| file.ward_of(&classes[k]);
+    if !ward(label).is_some_and(|w| w.rho_s <= 0.0) {
+        return false;
+    }
+    let members = set.clone();
+    let before = set.len();
+    for k in 0..classes.len() {
+        let alike = members.iter().any(|&m| match (ward(m), ward(k)) {
+            (Some(a), Some(b)) => a.glossy_alike(&b),
+            _ => false,
+        });
+        if alike && !set.contains(&k) {
+            set.push(k);
+        }
+    }
+    set.len() > before
 }
 
 /// Candidates a locate answer offers.

@@ -482,6 +482,10 @@ pub struct DomainOut {
 /// The model's own warning when it cannot say how sure it is.
 pub const NO_SETS_WARNING: &str = "this model version has no prediction-set calibration (it was \
     trained before prediction sets existed): the answer has no prediction set; retrain it for one";
+/// The set took in glossy classes because the sphere shows a highlight.
+pub const HIGHLIGHT_WARNING: &str = "the sphere shows a highlight brighter than its diffuse \
+    shading, which no matte surface makes: the prediction set also holds the glossy classes \
+    alike to its matte ones";
 /// The warning of an answer given without a white reference by the classifier without white.
 pub const WITHOUT_WHITE_WARNING: &str = "answered without a white reference: only features that \
     do not depend on the image's brightness were read, so classes that differ mainly in \
@@ -657,6 +661,9 @@ impl Classified {
         }
         if d.set.is_none() {
             warnings.push(NO_SETS_WARNING.to_string());
+        }
+        if d.glossy_added {
+            warnings.push(HIGHLIGHT_WARNING.to_string());
         }
         warnings.extend(
             self.analysis

@@ -82,6 +82,16 @@ impl Ward {
         (metal(self) && dark_coat(other)) || (dark_coat(self) && metal(other))
     }
 
+    /// Whether `self` is matte and `other` a glossy dielectric (ρs > 0, ρd ≥ 0.02) with a
+    /// diffuse reflectance within a factor 2 of it: what a matte answer becomes when the
+    /// sphere shows a highlight, which no matte surface makes ([`crate::features::lighting`]).
+    pub fn glossy_alike(&self, other: &Ward) -> bool {
+        let matte = self.rho_s <= 0.0;
+        let glossy = other.rho_s > 0.0 && other.rho_d >= 0.02;
+        let (low, high) = (self.rho_d.min(other.rho_d), self.rho_d.max(other.rho_d));
+        matte && glossy && high <= 2.0 * low
+    }
+
     /// The reflectance in words, for people: the tone of the diffuse part, and how much and
     /// how sharply the surface mirrors its surroundings.
     pub fn describe(&self) -> String {
@@ -196,5 +206,11 @@ mod tests {
         assert!(!chrome.mirror_alike(&ward(0.1, 0.1, 0.02)));
         assert!(!chrome.mirror_alike(&ward(0.1, 0.0, 0.0)));
         assert!(!ward(0.0, 0.75, 0.02).mirror_alike(&black_shiny));
+        // A highlight on a matte answer: the glossy classes of a like diffuse part.
+        let (white_matte, white_shiny) = (ward(0.9, 0.0, 0.0), ward(0.7, 0.25, 0.01));
+        assert!(white_matte.glossy_alike(&white_shiny));
+        assert!(ward(0.1, 0.0, 0.0).glossy_alike(&black_shiny));
+        assert!(!white_matte.glossy_alike(&ward(0.25, 0.05, 0.01)));
+        assert!(!white_matte.glossy_alike(&chrome) && !white_shiny.glossy_alike(&white_matte));
     }
 }
