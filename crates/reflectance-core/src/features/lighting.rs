@@ -26,15 +26,15 @@ use crate::image::circle::Circle;
 use ndarray::ArrayView2;
 
 /// Pixels the fit samples, about.
-pub const SAMPLES: usize = 400;
+pub const SAMPLES: usize = 256;
 /// Directions of the coarse search.
 pub const DIRECTIONS: usize = 64;
 /// The fit's explained share of the variance at least this: the shading is one light's.
 pub const MIN_FIT: f64 = 0.9;
 /// Below this ambient share, with a fit at least [`MIN_FIT`], the input is out of domain:
-/// half-way from 0 to the −0.27 and −0.36 of a photometric-stereo ball stored as linear
-/// 8-bit data (docs/accuracy.md, "Honest answers"), and below the −0.11 of the sphere under
-/// the darkest CC0 probe (a street lamp at night) through a camera curve 1.25 times steeper
+/// about half-way from 0 to the −0.27 and −0.30 of a photometric-stereo ball stored as linear
+/// 8-bit data (docs/accuracy.md, "Honest answers"), and below the −0.11 of a sphere under
+/// `open3d_streetlamp` (a street lamp at night) through a camera curve 1.25 times steeper
 /// than sRGB.
 pub const AMBIENT_LIMIT: f64 = -0.15;
 
@@ -98,7 +98,7 @@ pub fn shading(image: ArrayView2<f64>, c: &Circle) -> Option<Shading> {
         return None;
     }
     let mut kept: Vec<&Sample> = samples.iter().collect();
-    let mut best = refine(&kept, coarse(&kept)?);
+    let mut best = refine(&kept, coarse(&kept)?, 0.2);
     for _ in 0..3 {
         let deviation = best.mse.sqrt();
         let next: Vec<&Sample> = samples
@@ -109,7 +109,7 @@ pub fn shading(image: ArrayView2<f64>, c: &Circle) -> Option<Shading> {
             break;
         }
         kept = next;
-        best = refine(&kept, fit_along(&kept, best.dir)?);
+        best = refine(&kept, fit_along(&kept, best.dir)?, 0.05);
     }
     let mean = kept.iter().map(|s| s.l).sum::<f64>() / kept.len() as f64;
     let variance = kept.iter().map(|s| (s.l - mean).powi(2)).sum::<f64>() / kept.len() as f64;
@@ -123,27 +123,64 @@ pub fn shading(image: ArrayView2<f64>, c: &Circle) -> Option<Shading> {
     })
 }
 
-/// The mean of the [`HIGHLIGHT_PIXELS`] largest rises above `fit` over every pixel of the
-/// disc within 0.9 r (a highlight can be smaller than the samples' spacing), as a share of
-/// the fit's brightest.
+/// The mean of the [`HIGHLIGHT_PIXELS`] largest rises above `fit` over the disc within 0.9 r,
+/// as a share of the fit's brightest. Every pixel is read (a highlight can be smaller than
+/// the samples' spacing), but the fit is evaluated at the brightest pixel of each 2 × 2
+/// block only: a highlight's pixels are its block's brightest, and the fit barely changes
+/// within a block.
 fn highlight(image: ArrayView2<f64>, c: &Circle, fit: &Fit) -> f64 {
     let mut top = [f64::NEG_INFINITY; HIGHLIGHT_PIXELS];
     let (height, width) = image.dim();
-    let rows = (c.cy - 0.9 * c.r).floor().max(0.0) as usize
-        ..((c.cy + 0.9 * c.r).ceil().max(0.0) as usize + 1).min(height);
-    for row in rows {
+    let span = |centre: f64, limit: usize| {
+        let low = (centre - 0.9 * c.r).floor().max(0.0) as usize;
+        low..((centre + 0.9 * c.r).ceil().max(0.0) as usize + 1).min(limit)
+    };
+    let (rows, cols) = (span(c.cy, height), span(c.cx, width));
+    let standard = image.as_standard_layout();
+    let Some(pixels) = standard.as_slice() else {
+        return 0.0;
+    };
+    // The fit's cosine along a row is concave (a plane plus a half-circle's height), so its
+    // least over the row's part of the disc is at one of the ends: the fit there bounds it.
+    let least_cosine = |row: usize| {
         let y = (c.cy - row as f64) / c.r;
-        let half = (0.81 - y * y).max(0.0).sqrt() * c.r;
-        let cols = (c.cx - half).floor().max(0.0) as usize
-            ..((c.cx + half).ceil().max(0.0) as usize + 1).min(width);
-        for col in cols {
-            let x = (col as f64 - c.cx) / c.r;
+        let half = (0.81 - y * y).max(0.0).sqrt();
+        let z = (1.0 - y * y - half * half).max(0.0).sqrt();
+        let end = |x: f64| cosine(&[x, y, z], &fit.dir);
+        end(-half).min(end(half))
+    };
+    for row in rows.clone().step_by(2) {
+        // (With the light behind the sphere's rim, the cosine is convex: only C bounds it.)
+        let least = match fit.dir[2] >= 0.0 {
+            true => least_cosine(row).min(least_cosine(row + 1)),
+            false => 0.0,
+        };
+        let floor = fit.c + fit.a * least;
+        for col in cols.clone().step_by(2) {
+            let mut brightest = (f64::NEG_INFINITY, row, col);
+            for r in row..(row + 2).min(rows.end) {
+                let line = &pixels[r * width..(r + 1) * width];
+                for (k, &value) in line
+                    .iter()
+                    .enumerate()
+                    .take((col + 2).min(cols.end))
+                    .skip(col)
+                {
+                    if value > brightest.0 {
+                        brightest = (value, r, k);
+                    }
+                }
+            }
+            let (value, r, k) = brightest;
+            if value - floor <= top[0] {
+                continue;
+            }
+            let (x, y) = ((k as f64 - c.cx) / c.r, (c.cy - r as f64) / c.r);
             let rho2 = x * x + y * y;
             if rho2 >= 0.81 {
                 continue;
             }
-            let n = [x, y, (1.0 - rho2).sqrt()];
-            let rise = image[(row, col)] - fit.a * cosine(&n, &fit.dir) - fit.c;
+            let rise = value - fit.a * cosine(&[x, y, (1.0 - rho2).sqrt()], &fit.dir) - fit.c;
             if rise > top[0] {
                 top[0] = rise;
                 top.sort_unstable_by(f64::total_cmp);
@@ -239,11 +276,11 @@ fn coarse(samples: &[&Sample]) -> Option<Fit> {
         .fold(None, |best, dir| better(best, fit_along(samples, dir)))
 }
 
-/// `start` refined in a shrinking 3 × 3 pattern around the best so far.
-fn refine(samples: &[&Sample], start: Fit) -> Fit {
+/// `start` refined in a 3 × 3 pattern around the best so far, from `step` (radians) halving
+/// down to 0.025.
+fn refine(samples: &[&Sample], start: Fit, mut step: f64) -> Fit {
     let mut best = start;
-    let mut step = 0.2;
-    for _ in 0..4 {
+    while step >= 0.025 {
         let centre = best.dir;
         let (t1, t2) = tangents(centre);
         for i in [-1.0, 0.0, 1.0] {
