@@ -249,9 +249,10 @@ fn browser_or_skip(width: u32, height: u32) -> Option<Browser> {
     browser
 }
 
-/// Upload the fixture and check the detected circle; its (cx, cy, r).
-fn upload_and_detect(browser: &Browser) -> (f64, f64, f64) {
-    browser.upload(&root().join(PHOTO));
+/// Upload `file` and check the detected circle against `expected` (within 3 px); its
+/// (cx, cy, r).
+fn upload_and_detect(browser: &Browser, file: &Path, expected: (f64, f64, f64)) -> (f64, f64, f64) {
+    browser.upload(file);
     browser.wait_for(
         "the circle",
         "!document.getElementById('stage').hidden && document.getElementById('r').value",
@@ -261,8 +262,9 @@ fn upload_and_detect(browser: &Browser) -> (f64, f64, f64) {
         browser.number("cy"),
         browser.number("r"),
     );
+    let (ex, ey, er) = expected;
     assert!(
-        (cx - 699.5).abs() < 3.0 && (cy - 469.5).abs() < 3.0 && (r - 290.9).abs() < 3.0,
+        (cx - ex).abs() < 3.0 && (cy - ey).abs() < 3.0 && (r - er).abs() < 3.0,
         "detected ({cx}, {cy}, {r})"
     );
     (cx, cy, r)
@@ -510,7 +512,7 @@ fn the_page_classifies_a_photograph_in_a_real_browser() {
         "the models",
         "document.querySelectorAll('#model option').length",
     );
-    let (cx, _, r) = upload_and_detect(&browser);
+    let (cx, _, r) = upload_and_detect(&browser, &root().join(PHOTO), (699.5, 469.5, 290.9));
     the_circle_to_check_is_on_screen(&browser);
     adjust_the_circle(&browser, (cx, r));
     outline_the_white_card(&browser);
@@ -619,20 +621,7 @@ fn write_small_ball(dir: &Path) -> PathBuf {
 /// pointer moves the rim by the image pixels the zoomed picture shows; the button goes back
 /// to the whole photograph.
 fn a_small_ball_is_zoomed_to(browser: &Browser, dir: &Path) {
-    browser.upload(&write_small_ball(dir));
-    browser.wait_for(
-        "the small ball's circle",
-        "!document.getElementById('stage').hidden && document.getElementById('r').value",
-    );
-    let (cx, cy, r) = (
-        browser.number("cx"),
-        browser.number("cy"),
-        browser.number("r"),
-    );
-    assert!(
-        (cx - 1574.6).abs() < 3.0 && (cy - 417.4).abs() < 3.0 && (r - 72.7).abs() < 3.0,
-        "detected ({cx}, {cy}, {r})"
-    );
+    let (cx, cy, r) = upload_and_detect(browser, &write_small_ball(dir), (1574.6, 417.4, 72.7));
     let pressed =
         browser.script("return document.getElementById('zoom').getAttribute('aria-pressed');");
     assert_eq!(pressed, "true", "a small ball is not zoomed to");
