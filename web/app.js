@@ -191,7 +191,7 @@ async function choose(file) {
     $("stage").hidden = false;
     syncInputs();
     // A small ball is shown zoomed, so that its handles can be told apart.
-    const small = g && circleCssWidthWhole() < SMALL_CIRCLE_CSS;
+    const small = g && 2 * g.r * cssScaleFor(state.width, state.height) < SMALL_CIRCLE_CSS;
     zoom(small);
     const found = g
       ? `Sphere found (confidence ${g.confidence !== undefined ? g.confidence.toFixed(2) : "n/a"}). Check the circle, then Classify.`
@@ -241,21 +241,17 @@ function zoom(on) {
   draw();
 }
 
-/** How many CSS pixels across the circle is drawn with the whole photograph shown. */
-function circleCssWidthWhole() {
-  const canvas = $("canvas");
-  const cssWidth = canvas.parentElement.clientWidth || 600;
-  const cssScale = Math.min(cssWidth / state.width, (window.innerHeight * 0.7) / state.height);
-  return 2 * state.circle.r * cssScale;
+/** CSS pixels per image pixel when a part `w` × `h` of the photograph fills the canvas. */
+function cssScaleFor(w, h) {
+  const cssWidth = $("canvas").parentElement.clientWidth || 600;
+  return Math.min(cssWidth / w, (window.innerHeight * 0.7) / h);
 }
 
 function draw() {
   const canvas = $("canvas");
   const ratio = window.devicePixelRatio || 1;
-  const cssWidth = canvas.parentElement.clientWidth || 600;
-  const maxHeight = window.innerHeight * 0.7;
   const v = view();
-  const cssScale = Math.min(cssWidth / v.w, maxHeight / v.h);
+  const cssScale = cssScaleFor(v.w, v.h);
   canvas.width = Math.max(1, Math.round(v.w * cssScale * ratio));
   canvas.height = Math.max(1, Math.round(v.h * cssScale * ratio));
   canvas.style.width = `${Math.round(v.w * cssScale)}px`;

@@ -144,6 +144,12 @@ impl Browser {
         value
     }
 
+    /// Click the element `css` selects.
+    fn click(&self, css: &str) {
+        let element = self.find(css);
+        self.call("POST", &format!("/element/{element}/click"), json!({}));
+    }
+
     fn number(&self, id: &str) -> f64 {
         let value = self.script(&format!("return document.getElementById('{id}').value;"));
         value.as_str().and_then(|v| v.parse().ok()).unwrap()
@@ -345,11 +351,7 @@ fn outline_the_white_card(browser: &Browser) {
 }
 
 fn classify_and_read_the_answer(browser: &Browser) {
-    browser.call(
-        "POST",
-        &format!("/element/{}/click", browser.find("#classify")),
-        json!({}),
-    );
+    browser.click("#classify");
     let label = browser.wait_for(
         "the answer",
         "!document.getElementById('result').hidden && document.getElementById('label').textContent",
@@ -528,14 +530,7 @@ fn the_page_classifies_a_photograph_in_a_real_browser() {
     browser.call("POST", "/window/rect", json!({"width": 390, "height": 844}));
     browser.open(&page);
     // The example photograph, one tap: the same render as the fixture.
-    browser.call(
-        "POST",
-        &format!(
-            "/element/{}/click",
-            browser.find("[data-name='white-shiny-ball.jpg']")
-        ),
-        json!({}),
-    );
+    browser.click("[data-name='white-shiny-ball.jpg']");
     browser.wait_for(
         "the example's circle",
         "!document.getElementById('stage').hidden && document.getElementById('r').value",
@@ -577,11 +572,7 @@ fn an_object_shows_its_equivalent_sphere(browser: &Browser, dir: &Path) {
         "!document.getElementById('stage').hidden && document.getElementById('r').value",
     );
     browser.upload_to("#normals", &normals_path);
-    browser.call(
-        "POST",
-        &format!("/element/{}/click", browser.find("#classify")),
-        json!({}),
-    );
+    browser.click("#classify");
     let outcome = browser.wait_for(
         "the equivalent sphere",
         "(!document.getElementById('error').hidden \
@@ -656,11 +647,7 @@ fn a_small_ball_is_zoomed_to(browser: &Browser, dir: &Path) {
         (grown - (r + 10.0)).abs() < 1.0,
         "radius {r} dragged to {grown}"
     );
-    browser.call(
-        "POST",
-        &format!("/element/{}/click", browser.find("#zoom")),
-        json!({}),
-    );
+    browser.click("#zoom");
     let whole = browser.script(
         "return [state.view, document.getElementById('zoom').getAttribute('aria-pressed')];",
     );
@@ -731,11 +718,7 @@ fn an_error_replaces_the_answer(browser: &Browser) {
            return fetched(url, options); };",
     );
     browser.script("window.scrollTo(0, 0);");
-    browser.call(
-        "POST",
-        &format!("/element/{}/click", browser.find("#classify")),
-        json!({}),
-    );
+    browser.click("#classify");
     browser.wait_for(
         "the error",
         "!document.getElementById('error').hidden && document.getElementById('error-title').textContent",
@@ -750,11 +733,7 @@ fn an_error_replaces_the_answer(browser: &Browser) {
 }
 
 fn classify_and_read_the_answer_on_a_phone(browser: &Browser) {
-    browser.call(
-        "POST",
-        &format!("/element/{}/click", browser.find("#classify")),
-        json!({}),
-    );
+    browser.click("#classify");
     browser.wait_for(
         "the answer",
         "!document.getElementById('result').hidden && document.getElementById('label').textContent",

@@ -24,6 +24,7 @@
 
 use crate::image::circle::Circle;
 use ndarray::ArrayView2;
+use std::ops::Range;
 
 /// Pixels the fit samples, about.
 pub const SAMPLES: usize = 256;
@@ -130,12 +131,8 @@ pub fn shading(image: ArrayView2<f64>, c: &Circle) -> Option<Shading> {
 /// within a block.
 fn highlight(image: ArrayView2<f64>, c: &Circle, fit: &Fit) -> f64 {
     let mut top = [f64::NEG_INFINITY; HIGHLIGHT_PIXELS];
-    let (height, width) = image.dim();
-    let span = |centre: f64, limit: usize| {
-        let low = (centre - 0.9 * c.r).floor().max(0.0) as usize;
-        low..((centre + 0.9 * c.r).ceil().max(0.0) as usize + 1).min(limit)
-    };
-    let (rows, cols) = (span(c.cy, height), span(c.cx, width));
+    let width = image.ncols();
+    let (rows, cols) = disc_bounds(image, c);
     let standard = image.as_standard_layout();
     let Some(pixels) = standard.as_slice() else {
         return 0.0;
@@ -157,21 +154,8 @@ fn highlight(image: ArrayView2<f64>, c: &Circle, fit: &Fit) -> f64 {
         };
         let floor = fit.c + fit.a * least;
         for col in cols.clone().step_by(2) {
-            let mut brightest = (f64::NEG_INFINITY, row, col);
-            for r in row..(row + 2).min(rows.end) {
-                let line = &pixels[r * width..(r + 1) * width];
-                for (k, &value) in line
-                    .iter()
-                    .enumerate()
-                    .take((col + 2).min(cols.end))
-                    .skip(col)
-                {
-                    if value > brightest.0 {
-                        brightest = (value, r, k);
-                    }
-                }
-            }
-            let (value, r, k) = brightest;
+            let block = (row..(row + 2).min(rows.end), col..(col + 2).min(cols.end));
+            let (value, r, k) = brightest(pixels, width, block);
             if value - floor <= top[0] {
                 continue;
             }
@@ -191,19 +175,56 @@ fn highlight(image: ArrayView2<f64>, c: &Circle, fit: &Fit) -> f64 {
     (mean / (fit.a + fit.c)).max(0.0)
 }
 
-/// The disc within 0.9 r on a grid of about [`SAMPLES`] pixels (pixel centres are integers).
+/// The brightest pixel of a block of rows and columns of the row-major `pixels`: its value,
+/// row and column.
+fn brightest(
+    pixels: &[f64],
+    width: usize,
+    (rows, cols): (Range<usize>, Range<usize>),
+) -> (f64, usize, usize) {
+    let mut best = (f64::NEG_INFINITY, rows.start, cols.start);
+    for r in rows {
+        for (k, &value) in pixels[r * width + cols.start..r * width + cols.end]
+            .iter()
+            .enumerate()
+        {
+            if value > best.0 {
+                best = (value, r, cols.start + k);
+            }
+        }
+    }
+    best
+}
+
+/// The rows and columns of `image` that hold the disc within 0.9 r of `c`.
+fn disc_bounds(image: ArrayView2<f64>, c: &Circle) -> (Range<usize>, Range<usize>) {
+    let (height, width) = image.dim();
+    let span = |centre: f64, limit: usize| {
+        let low = (centre - 0.9 * c.r).floor().max(0.0) as usize;
+        low.min(limit)..((centre + 0.9 * c.r).ceil().max(0.0) as usize + 1).min(limit)
+    };
+    (span(c.cy, height), span(c.cx, width))
+}
+
+/// The first multiple of `stride` at or after `start`, through the end of `range`.
+fn aligned(range: Range<usize>, stride: usize) -> impl Iterator<Item = usize> {
+    (range.start.div_ceil(stride) * stride..range.end).step_by(stride)
+}
+
+/// The disc within 0.9 r on a grid of about [`SAMPLES`] pixels (pixel centres are integers;
+/// the grid's rows and columns are the multiples of its stride).
 fn sample(image: ArrayView2<f64>, c: &Circle) -> Vec<Sample> {
     let reach = 0.9 * c.r;
     let area = std::f64::consts::PI * reach * reach;
     let stride = ((area / SAMPLES as f64).sqrt().floor() as usize).max(1);
-    let (height, width) = image.dim();
+    let (rows, cols) = disc_bounds(image, c);
     let mut out = Vec::with_capacity(2 * SAMPLES);
-    for row in (0..height).step_by(stride) {
+    for row in aligned(rows, stride) {
         let y = (c.cy - row as f64) / c.r;
         if y.abs() >= 0.9 {
             continue;
         }
-        for col in (0..width).step_by(stride) {
+        for col in aligned(cols.clone(), stride) {
             let x = (col as f64 - c.cx) / c.r;
             let rho2 = x * x + y * y;
             if rho2 < 0.81 {

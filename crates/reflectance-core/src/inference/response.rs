@@ -5,7 +5,7 @@ use super::{Classified, Decision, LoadedModel};
 use crate::analysis::{Analysis, Read};
 use crate::estimate::{StatedEstimate, WardEstimate};
 use crate::features::Extractor;
-use crate::features::lighting::{AMBIENT_LIMIT, MIN_FIT};
+use crate::features::lighting::{AMBIENT_LIMIT, MIN_FIT, Shading};
 use crate::image::colour::{self, Rgb};
 use crate::image::display;
 use crate::locate::{self, Method as GeometryMethod};
@@ -611,7 +611,7 @@ impl Decision {
         }
         reasons.extend(
             self.shading
-                .filter(|_| self.beyond_any_light())
+                .filter(Shading::beyond_any_light)
                 .map(|s| s.reason()),
         );
         reasons.extend(self.envelope.iter().cloned());
