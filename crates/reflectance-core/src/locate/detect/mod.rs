@@ -71,7 +71,7 @@ pub struct NotFound(pub String);
 /// The first of the ranked circles that is confident enough, else why not.
 pub fn chosen(ranked: &[Found]) -> Result<Found, NotFound> {
     if let Some(found) = ranked.iter().find(|f| f.confidence >= MIN_CONFIDENCE) {
-        return Ok(*found);
+        return Ok(enclosing_ball(found, ranked).unwrap_or(*found));
     }
     if let [first, rest @ ..] = ranked
         && stands_alone(first, rest)
@@ -111,6 +111,28 @@ fn stands_alone(first: &Found, rest: &[Found]) -> bool {
         && rest.iter().all(|other| {
             inside(&other.circle) || evidence(other) <= RUNNER_UP_SHARE * evidence(first)
         })
+}
+
+/// A ball 1.5 to 3 times the radius of a circle inside it is what that circle belongs to (a
+/// billiard ball's printed disc, a mirror ball's round reflections); a circle many times
+/// larger is more often a chance arc around a small ball (wood grain, a room's corners).
+const ENCLOSING: std::ops::RangeInclusive<f64> = 1.5..=3.0;
+
+/// The ball `found` lies inside, if one was found with the evidence a lone ball needs: the
+/// most confident such ball.
+fn enclosing_ball(found: &Found, ranked: &[Found]) -> Option<Found> {
+    let f = &found.circle;
+    ranked
+        .iter()
+        .filter(|outer| {
+            let o = &outer.circle;
+            outer.ball_like
+                && ENCLOSING.contains(&(o.r / f.r))
+                && (o.cx - f.cx).hypot(o.cy - f.cy) + f.r <= INSIDE * o.r
+                && evidence(outer) >= MIN_CONFIDENCE_ALONE
+        })
+        .max_by(|a, b| a.confidence.total_cmp(&b.confidence))
+        .copied()
 }
 
 /// A circle's confidence, less for a circle whose circumference is shorter than [`RAYS`]
@@ -873,6 +895,26 @@ mod tests {
         // and 0.45 as 0.39.
         assert_eq!(chosen(&[first, ball(600.0, 50.0, 0.40)]), Ok(first));
         refused(&[first, ball(600.0, 50.0, 0.45)]);
+    }
+
+    #[test]
+    fn a_confident_disc_printed_on_a_ball_gives_way_to_the_ball() {
+        // A billiard ball's number disc (r 39, 0.66) inside the ball (r 93, 0.46).
+        let disc = ball(253.0, 39.0, 0.66);
+        let ball_around = ball(243.0, 93.0, 0.46);
+        assert_eq!(chosen(&[disc, ball_around]), Ok(ball_around));
+        // Not a ball, or without the evidence a lone ball needs: the disc stays.
+        let flat = found(243.0, 93.0, 0.46, false);
+        assert_eq!(chosen(&[disc, flat]), Ok(disc));
+        let faint = ball(243.0, 93.0, MIN_CONFIDENCE_ALONE - 0.01);
+        assert_eq!(chosen(&[disc, faint]), Ok(disc));
+        // A circle more than 3 times larger is a chance arc around a small ball.
+        let arc = ball(243.0, 125.0, 0.46);
+        let small = ball(253.0, 40.0, 0.66);
+        assert_eq!(chosen(&[small, arc]), Ok(small));
+        // Nor is a circle under 1.5 times larger, or one the first reaches out of.
+        assert_eq!(chosen(&[disc, ball(253.0, 55.0, 0.46)]), Ok(disc));
+        assert_eq!(chosen(&[disc, ball(330.0, 93.0, 0.46)]), Ok(disc));
     }
 
     #[test]
