@@ -166,6 +166,17 @@ enum Category {
     /// r 60–250 px away from the middle of a wide-angle picture (65° across, 1600–3000 px):
     /// an ellipse up to 1.2 times longer away from the centre than across.
     OffAxis,
+    // The judging set's kinds (what real photographs the detector missed look like):
+    /// A close-up: the ball 1.05–1.5 times the frame's shorter side across, crossing one or
+    /// two edges (half to four fifths of its rim inside).
+    CloseUp,
+    /// A dim tinted mirror ball (a fifth to a half of chrome's reflectance) in front of the
+    /// scene it reflects, at its brightness.
+    Tinted,
+    /// A ball of r 100–400 px photographed out of focus: blur of 1.5–4 % of r.
+    SoftFocus,
+    /// r 30–70 px in a picture 2000–4000 px wide, among objects and a ring of another size.
+    SmallInClutter,
 }
 
 const CATEGORIES: [Category; 9] = [
@@ -178,6 +189,15 @@ const CATEGORIES: [Category; 9] = [
     Category::Crowd,
     Category::LowContrast,
     Category::OffAxis,
+];
+
+/// The judging set: kinds the detector was not tuned on, measured apart
+/// ([`found_in_judging_composites`]).
+const JUDGING: [Category; 4] = [
+    Category::CloseUp,
+    Category::Tinted,
+    Category::SoftFocus,
+    Category::SmallInClutter,
 ];
 
 /// `lo..hi`, log-uniform.
@@ -555,24 +575,92 @@ fn stage(
             };
             single(sphere, (w, h), (at, stretch), rng.below(2) == 0, maps, rng)
         }
-        Category::LowContrast => {
-            let own: Vec<&Sphere> = spheres.iter().filter(|s| s.mirror).collect();
-            let sphere = own[rng.below(own.len() as u64) as usize];
-            let r = log_uniform(rng, 60.0, 300.0);
-            let w = (2.0 * r + 100.0 + rng.next_f64() * 500.0).ceil() as usize;
-            let h = (2.0 * r + 100.0 + rng.next_f64() * 300.0).ceil() as usize;
-            let at = placed(w, h, r, 0.2 * r, rng);
-            // The scene it reflects, at the brightness of its reflection.
-            let inside = median(sphere.luminance.iter().copied().collect()) / sphere.white;
-            let mut scene = scene(&sphere_maps[sphere.probe], w, h, inside, rng);
-            paste(&mut scene, sphere, &at, &ON_AXIS);
-            Staged {
-                scene,
-                spheres: vec![(at, ON_AXIS)],
-                blur: 0.5 + 2.0 * rng.next_f64(),
-            }
+        Category::LowContrast => in_own_scene(spheres, sphere_maps, 1.0, rng),
+        Category::Tinted => {
+            let tint = 0.2 + 0.3 * rng.next_f64();
+            in_own_scene(spheres, sphere_maps, tint, rng)
+        }
+        Category::CloseUp => close_up(sphere, maps, rng),
+        Category::SoftFocus => {
+            let r = log_uniform(rng, 100.0, 400.0);
+            let margin = 0.25 * r + 4.0;
+            let w = (2.0 * (r + margin) + rng.next_f64() * 600.0).ceil() as usize;
+            let h = (2.0 * (r + margin) + rng.next_f64() * 400.0).ceil() as usize;
+            let at = placed(w, h, r, margin, rng);
+            let mut staged = single(sphere, (w, h), (at, ON_AXIS), rng.below(2) == 0, maps, rng);
+            staged.blur = (0.015 + 0.025 * rng.next_f64()) * r;
+            staged
+        }
+        Category::SmallInClutter => small_in_clutter(sphere, maps, rng),
+    }
+}
+
+/// A mirror ball, its reflectance times `tint`, in front of the scene it reflects at the
+/// brightness of its reflection, softly focused.
+fn in_own_scene(spheres: &[Sphere], sphere_maps: &[EnvMap], tint: f64, rng: &mut Rng) -> Staged {
+    let own: Vec<&Sphere> = spheres.iter().filter(|s| s.mirror).collect();
+    let sphere = own[rng.below(own.len() as u64) as usize];
+    let r = log_uniform(rng, 60.0, 300.0);
+    let w = (2.0 * r + 100.0 + rng.next_f64() * 500.0).ceil() as usize;
+    let h = (2.0 * r + 100.0 + rng.next_f64() * 300.0).ceil() as usize;
+    let at = placed(w, h, r, 0.2 * r, rng);
+    let inside = tint * median(sphere.luminance.iter().copied().collect()) / sphere.white;
+    let mut scene = scene(&sphere_maps[sphere.probe], w, h, inside, rng);
+    let tinted = Sphere {
+        luminance: sphere.luminance.mapv(|v| v * tint),
+        ..*sphere
+    };
+    paste(&mut scene, &tinted, &at, &ON_AXIS);
+    Staged {
+        scene,
+        spheres: vec![(at, ON_AXIS)],
+        blur: 0.5 + 2.0 * rng.next_f64(),
+    }
+}
+
+/// A ball held up close: wider than the frame's shorter side, crossing one or two edges
+/// with half to four fifths of its rim inside.
+fn close_up(sphere: &Sphere, maps: &[EnvMap], rng: &mut Rng) -> Staged {
+    let h = (600.0 + 1400.0 * rng.next_f64()) as usize;
+    let w = (h as f64 * (1.0 + 0.5 * rng.next_f64())) as usize;
+    let draw = |rng: &mut Rng| Circle {
+        cx: w as f64 * rng.next_f64(),
+        cy: h as f64 * rng.next_f64(),
+        r: (0.525 + 0.225 * rng.next_f64()) * h as f64,
+    };
+    let mut at = draw(rng);
+    while !(0.5..=0.8).contains(&locate::visible_rim(&at, w, h)) {
+        at = draw(rng);
+    }
+    single(sphere, (w, h), (at, ON_AXIS), rng.below(2) == 0, maps, rng)
+}
+
+/// A small ball in a furnished room: a scene, objects around (boxes, elongated shapes) and a
+/// ring (a plate, a clock) of another size.
+fn small_in_clutter(sphere: &Sphere, maps: &[EnvMap], rng: &mut Rng) -> Staged {
+    let w = (2000.0 + 2000.0 * rng.next_f64()) as usize;
+    let h = w * 3 / 4;
+    let r = log_uniform(rng, 30.0, 70.0);
+    let at = placed(w, h, r, 0.25 * r + 4.0, rng);
+    let mut staged = single(sphere, (w, h), (at, ON_AXIS), true, maps, rng);
+    for _ in 0..3 {
+        clutter(&mut staged.scene, &[at], rng);
+    }
+    for _ in 0..100 {
+        let ring = placed(w, h, r * (2.0 + 2.0 * rng.next_f64()), 4.0, rng);
+        if (ring.cx - at.cx).hypot(ring.cy - at.cy) > ring.r + at.r + 0.5 * r {
+            let inner = Circle {
+                r: ring.r * (0.75 + 0.15 * rng.next_f64()),
+                ..ring
+            };
+            let inside = staged.scene.clone();
+            let level = 0.05 + 1.0 * rng.next_f64();
+            paint(&mut staged.scene, &ring, &ON_AXIS, |_, _| level);
+            paint(&mut staged.scene, &inner, &ON_AXIS, |x, y| inside[[y, x]]);
+            break;
         }
     }
+    staged
 }
 
 /// Two or three balls and two to four flat discs and rings of similar size, apart.
@@ -666,16 +754,9 @@ fn matches(found: &locate::Geometry, (truth, stretch): &(Circle, Stretch)) -> bo
         && found.r <= 1.02 * truth.r * stretch.factor
 }
 
-#[test]
-#[cfg_attr(
-    not(shared_data),
-    ignore = "needs ../shared/data/probes beside the repository"
-)]
-fn spheres_are_found_in_photograph_like_composites() {
-    let count: usize = std::env::var("REFLECTANCE_COMPOSITES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(36);
+/// Found within 2 % of r per kind of `kinds`, on `count` composites cycling through them
+/// (seeded by `seed`), printed as a table with the misses; the counts per kind and the misses.
+fn measure(kinds: &[Category], seed: u64, count: usize) -> (Vec<(usize, usize)>, Vec<String>) {
     let sphere_maps: Vec<EnvMap> = SPHERE_PROBES.iter().map(|n| probe(n)).collect();
     let maps: Vec<EnvMap> = SCENE_PROBES.iter().map(|n| probe(n)).collect();
     let spheres = spheres(&sphere_maps);
@@ -687,12 +768,12 @@ fn spheres_are_found_in_photograph_like_composites() {
             ..Limits::default()
         },
     };
-    let mut per_category = vec![(0usize, 0usize); CATEGORIES.len()];
+    let mut per_kind = vec![(0usize, 0usize); kinds.len()];
     let mut misses = Vec::new();
     for i in 0..count {
-        let index = i % CATEGORIES.len();
-        let category = CATEGORIES[index];
-        let mut rng = Rng::fork(2026, i as u64);
+        let index = i % kinds.len();
+        let category = kinds[index];
+        let mut rng = Rng::fork(seed, i as u64);
         let staged = stage(category, &spheres, &sphere_maps, &maps, &mut rng);
         let (jpeg, quality) = photograph(&staged, &mut rng);
         drop(staged.scene);
@@ -701,9 +782,9 @@ fn spheres_are_found_in_photograph_like_composites() {
         let good = found
             .as_ref()
             .is_ok_and(|g| staged.spheres.iter().any(|truth| matches(g, truth)));
-        per_category[index].1 += 1;
+        per_kind[index].1 += 1;
         if good {
-            per_category[index].0 += 1;
+            per_kind[index].0 += 1;
         } else {
             let (h, w) = image.luminance.dim();
             misses.push(format!(
@@ -715,36 +796,87 @@ fn spheres_are_found_in_photograph_like_composites() {
             }
         }
     }
-    let total: usize = per_category.iter().map(|k| k.0).sum();
+    let total: usize = per_kind.iter().map(|k| k.0).sum();
     eprintln!("| category | found within 2 % of r |\n|---|---|");
-    for (category, (ok, n)) in CATEGORIES.iter().zip(&per_category) {
+    for (category, (ok, n)) in kinds.iter().zip(&per_kind) {
         eprintln!("| {category:?} | {ok} / {n} |");
     }
     eprintln!("found {total}/{count}");
     for miss in &misses {
         eprintln!("miss {miss}");
     }
+    (per_kind, misses)
+}
+
+/// Each kind at least `of_20(kind)` of 20 found, applied to this run's count (rounded down
+/// to whole composites).
+fn assert_floors(
+    kinds: &[Category],
+    per_kind: &[(usize, usize)],
+    misses: &[String],
+    of_20: impl Fn(Category) -> usize,
+) {
+    for (&category, &(ok, n)) in kinds.iter().zip(per_kind) {
+        let of_20 = of_20(category);
+        let floor = (of_20 * n) / 20;
+        assert!(
+            ok >= floor,
+            "{category:?}: {ok} of {n} found, docs/accuracy.md reports {of_20} of 20: {misses:#?}"
+        );
+    }
+}
+
+/// `REFLECTANCE_COMPOSITES`, else `default`.
+fn composite_count(default: usize) -> usize {
+    std::env::var("REFLECTANCE_COMPOSITES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+#[test]
+#[cfg_attr(
+    not(shared_data),
+    ignore = "needs ../shared/data/probes beside the repository"
+)]
+fn spheres_are_found_in_photograph_like_composites() {
+    let count = composite_count(36);
+    let (per_kind, misses) = measure(&CATEGORIES, 2026, count);
     // The rates docs/accuracy.md reports on 180 composites (20 of each kind), applied to
-    // this run's count: 90 % in all, and each kind at least its own rate (rounded down to
-    // whole composites; the suite's run of 4 per kind found 34 of 36).
+    // this run's count: 90 % in all, and each kind at least its own rate (the suite's run of
+    // 4 per kind found 34 of 36).
+    let total: usize = per_kind.iter().map(|k| k.0).sum();
     assert!(
         total as f64 >= 0.9 * count as f64,
         "{total} of {count}: {misses:#?}"
     );
-    for (category, (ok, n)) in CATEGORIES.iter().zip(&per_category) {
-        let of_20 = match category {
-            Category::TableTop | Category::Large | Category::FillsFrame => 20,
-            Category::Scene | Category::CutByFrame | Category::Crowd => 18,
-            Category::Small => 16,
-            Category::LowContrast => 15,
-            Category::OffAxis => 17,
-        };
-        let floor = (of_20 * n) / 20;
-        assert!(
-            *ok >= floor,
-            "{category:?}: {ok} of {n} found, docs/accuracy.md reports {of_20} of 20: {misses:#?}"
-        );
-    }
+    assert_floors(&CATEGORIES, &per_kind, &misses, |category| match category {
+        Category::TableTop | Category::Large | Category::FillsFrame => 20,
+        Category::Scene | Category::CutByFrame | Category::Crowd => 18,
+        Category::Small => 16,
+        Category::LowContrast => 15,
+        _ => 17,
+    });
+}
+
+/// The judging set (issue 67): composites of the kinds real photographs were missed on, kept
+/// apart from the tuning set above so that a change is judged on what it was not tuned on.
+/// `REFLECTANCE_COMPOSITES=80 cargo test --release --test numerics found_in_judging_composites
+/// -- --nocapture` measures docs/accuracy.md's table.
+#[test]
+#[cfg_attr(
+    not(shared_data),
+    ignore = "needs ../shared/data/probes beside the repository"
+)]
+fn found_in_judging_composites() {
+    let (per_kind, misses) = measure(&JUDGING, 2027, composite_count(16));
+    // docs/accuracy.md's rates on 80 (20 of each kind), less one.
+    assert_floors(&JUDGING, &per_kind, &misses, |category| match category {
+        Category::CloseUp => 18,
+        Category::SoftFocus => 17,
+        Category::Tinted => 11,
+        _ => 10,
+    });
 }
 
 #[test]

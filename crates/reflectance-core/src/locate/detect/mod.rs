@@ -386,17 +386,26 @@ pub(crate) fn rim_slopes(
     window: f64,
     steps: usize,
 ) -> Option<RimSlopes> {
+    rim_slopes_over(image, circle, theta, window, steps, RIM_BASE)
+}
+
+/// [`rim_slopes`] with slopes taken over `base` steps.
+fn rim_slopes_over(
+    image: ArrayView2<f64>,
+    circle: &Circle,
+    theta: f64,
+    window: f64,
+    steps: usize,
+    base: usize,
+) -> Option<RimSlopes> {
     let (ux, uy) = (theta.cos(), theta.sin());
-    let profile: Vec<f64> = (0..steps + RIM_BASE)
+    let profile: Vec<f64> = (0..steps + base)
         .map(|s| {
             let d = circle.r - window + s as f64 * RIM_STEP;
             sample(image, circle.cx + d * ux, circle.cy + d * uy)
         })
         .collect();
-    let slope: Vec<f64> = profile
-        .windows(RIM_BASE + 1)
-        .map(|p| p[RIM_BASE] - p[0])
-        .collect();
+    let slope: Vec<f64> = profile.windows(base + 1).map(|p| p[base] - p[0]).collect();
     let (steepest, peak) = slope
         .iter()
         .enumerate()
@@ -414,6 +423,17 @@ pub(crate) fn rim_slopes(
 /// over one pixel every quarter pixel, and the steepest is interpolated between samples:
 /// for a step blurred by any symmetric lens, the step itself.
 fn rim_points(image: ArrayView2<f64>, outline: &Outline, window: f64) -> Vec<(f64, f64, f64)> {
+    rim_points_over(image, outline, window, RIM_BASE)
+}
+
+/// [`rim_points`] with slopes taken over `base` steps (a blurred rim's edge spans more
+/// than a pixel).
+fn rim_points_over(
+    image: ArrayView2<f64>,
+    outline: &Outline,
+    window: f64,
+    base: usize,
+) -> Vec<(f64, f64, f64)> {
     let steps = (2.0 * window / RIM_STEP).ceil() as usize + 1;
     let mut out = Vec::with_capacity(RAYS);
     for k in 0..RAYS {
@@ -425,7 +445,7 @@ fn rim_points(image: ArrayView2<f64>, outline: &Outline, window: f64) -> Vec<(f6
             slope,
             steepest: i,
             peak,
-        }) = rim_slopes(image, circle, theta, window, steps)
+        }) = rim_slopes_over(image, circle, theta, window, steps, base)
         else {
             continue;
         };
@@ -445,7 +465,7 @@ fn rim_points(image: ArrayView2<f64>, outline: &Outline, window: f64) -> Vec<(f6
         } else {
             0.0
         };
-        let at = rho(i as f64 + offset + RIM_BASE as f64 / 2.0);
+        let at = rho(i as f64 + offset + base as f64 / 2.0);
         let (x, y) = (circle.cx + at * ux, circle.cy + at * uy);
         if radial(image, x, y, ux, uy) {
             out.push((x, y, peak));
@@ -647,8 +667,39 @@ fn rim_confidence(luminance: ArrayView2<f64>, outline: &Outline) -> Option<f64> 
     if visible < (MIN_VISIBLE * RAYS as f64).ceil() as usize {
         return None;
     }
-    let points = rim_points(luminance, outline, 0.015 * outline.r0 + 2.0);
-    let tolerance = (0.01 * outline.r0).max(1.0);
+    let sharp = rim_share(luminance, outline, visible, RIM_BASE, 0.0);
+    if !SOFT_TRIED.contains(&sharp) {
+        return Some(sharp);
+    }
+    // A soft rim (out of focus, a blurred reflection): slopes over its width, and its place
+    // known to a quarter of it.
+    let width = edge_width(luminance, outline).min(SOFT_WIDTH * outline.r0);
+    if width <= 2.0 {
+        return Some(sharp);
+    }
+    let base = (width / RIM_STEP) as usize;
+    Some(sharp.max(rim_share(luminance, outline, visible, base, 0.25 * width)))
+}
+
+/// A rim is measured again as a soft one when its sharp confidence is in this range: below, it
+/// is no sphere's (a soft rim reads 0.3–0.5 sharp); above, it is clear enough.
+const SOFT_TRIED: std::ops::Range<f64> = 0.25..MIN_CONFIDENCE;
+
+/// The widest rim (over r) measured over its width: a blur of σ 2 % of r.
+const SOFT_WIDTH: f64 = 0.05;
+
+/// The share of `visible` rays with a clear edge on `outline`, slopes over `base` steps, the
+/// edge within 1 % of r, 1 px or `spread` px of the outline, whichever is the most.
+fn rim_share(
+    luminance: ArrayView2<f64>,
+    outline: &Outline,
+    visible: usize,
+    base: usize,
+    spread: f64,
+) -> f64 {
+    let window = 0.015 * outline.r0 + 2.0 + 0.5 * base as f64 * RIM_STEP;
+    let points = rim_points_over(luminance, outline, window, base);
+    let tolerance = (0.01 * outline.r0).max(1.0).max(spread);
     let on = points
         .iter()
         .filter(|p| {
@@ -656,7 +707,45 @@ fn rim_confidence(luminance: ArrayView2<f64>, outline: &Outline) -> Option<f64> 
             (dx.hypot(dy) - outline.radius_at(dy.atan2(dx))).abs() <= tolerance
         })
         .count();
-    Some((on as f64 / (visible as f64).max(UNCUT * RAYS as f64)).min(1.0))
+    (on as f64 / (visible as f64).max(UNCUT * RAYS as f64)).min(1.0)
+}
+
+/// The width (px) of the edge along `outline`: the median over rays of its 10–90 % rise (2.56 σ
+/// for a step blurred by a Gaussian of σ), from its 25–75 % rise (1.35 σ), which noise on the
+/// flat parts does not reach. Each level's crossing is where as many samples lie below it as a
+/// step would put there.
+fn edge_width(luminance: ArrayView2<f64>, outline: &Outline) -> f64 {
+    let window = 0.04 * outline.r0 + 4.0;
+    let steps = (2.0 * window / RIM_STEP).ceil() as usize + 1;
+    let widths: Vec<f64> = (0..RAYS)
+        .step_by(8)
+        .filter_map(|k| {
+            let theta = std::f64::consts::TAU * k as f64 / RAYS as f64;
+            let circle = outline.circle_at(theta);
+            let (ux, uy) = (theta.cos(), theta.sin());
+            let profile: Vec<f64> = (0..steps)
+                .map(|s| {
+                    let d = circle.r - window + s as f64 * RIM_STEP;
+                    sample(luminance, circle.cx + d * ux, circle.cy + d * uy)
+                })
+                .collect();
+            let end = |part: &[f64]| part.iter().sum::<f64>() / part.len() as f64;
+            let (first, last) = (end(&profile[..RIM_BASE]), end(&profile[steps - RIM_BASE..]));
+            let height = last - first;
+            let below = |level: f64| {
+                let count = profile
+                    .iter()
+                    .filter(|&&v| (v - first) / height < level)
+                    .count();
+                count as f64 * RIM_STEP
+            };
+            (height.abs() > 1e-9).then(|| (below(0.75) - below(0.25)).abs() * 2.56 / 1.35)
+        })
+        .collect();
+    if widths.is_empty() {
+        return 0.0;
+    }
+    quantile(widths, 0.5)
 }
 
 /// Elongation (over r0) allowed in any direction: a crop rescaled unevenly, a sensor's
@@ -915,6 +1004,49 @@ mod tests {
         // Nor is a circle under 1.5 times larger, or one the first reaches out of.
         assert_eq!(chosen(&[disc, ball(253.0, 55.0, 0.46)]), Ok(disc));
         assert_eq!(chosen(&[disc, ball(330.0, 93.0, 0.46)]), Ok(disc));
+    }
+
+    /// A disc of r 150 (0.6 on 0.2) blurred by a Gaussian of `sigma`, with noise (σ 0.03).
+    fn blurred_disc(sigma: f64) -> (ndarray::Array2<f64>, Circle) {
+        let circle = Circle {
+            cx: 200.3,
+            cy: 190.7,
+            r: 150.0,
+        };
+        let disc = ndarray::Array2::from_shape_fn((380, 400), |(y, x)| {
+            if (x as f64 - circle.cx).hypot(y as f64 - circle.cy) <= circle.r {
+                0.6
+            } else {
+                0.2
+            }
+        });
+        let mut rng = crate::util::rng::Rng::new(3);
+        let noisy = crate::image::blur::gaussian_blur(disc.view(), sigma)
+            .mapv(|v| v + 0.06 * (rng.next_f64() + rng.next_f64() + rng.next_f64() - 1.5));
+        (noisy, circle)
+    }
+
+    #[test]
+    fn a_soft_rim_is_measured_over_its_own_width() {
+        let (image, circle) = blurred_disc(5.0);
+        let outline = Outline::of(&circle);
+        // A Gaussian's step is 2.5 σ wide by height over steepest slope, less where noise
+        // steepens the steepest.
+        let width = edge_width(image.view(), &outline);
+        assert!((6.0..15.0).contains(&width), "{width}");
+        // Over one pixel the noise moves the steepest slope off the rim; over its width, not.
+        let visible = visible_rays(&circle, image.dim());
+        let sharp = rim_share(image.view(), &outline, visible, RIM_BASE, 0.0);
+        let confidence = rim_confidence(image.view(), &outline).unwrap();
+        assert!(
+            sharp < MIN_CONFIDENCE && confidence >= 0.6,
+            "{sharp} {confidence}"
+        );
+        // A sharp rim keeps the one-pixel measure.
+        let (image, circle) = blurred_disc(0.7);
+        let outline = Outline::of(&circle);
+        assert!(edge_width(image.view(), &outline) < 2.0);
+        assert!(rim_confidence(image.view(), &outline).unwrap() >= 0.9);
     }
 
     #[test]
