@@ -11,6 +11,7 @@ pub mod mask;
 
 pub use crate::image::circle::Circle;
 pub use detect::clean::{MIN_CONFIDENCE, detect_clean};
+pub use detect::{ACCEPTANCE, Acceptance, Found, chosen_by};
 pub use mask::fit_mask;
 use ndarray::ArrayView2;
 use serde::{Deserialize, Serialize};
@@ -243,22 +244,28 @@ pub const ALTERNATIVE_CONFIDENCE: f64 = 0.3;
 pub fn detect_ranked(
     luminance: ArrayView2<f64>,
 ) -> (Result<Geometry, GeometryError>, Vec<Geometry>) {
-    use detect::NotFound;
-    let ranked = match detect::find_spheres(luminance, |small| {
-        detect_clean(small).ok().map(|g| g.circle())
-    }) {
+    let ranked = match candidates(luminance) {
         Ok(ranked) => ranked,
-        Err(NotFound(reason)) => return (Err(GeometryError::DetectionFailed { reason }), vec![]),
+        Err(e) => return (Err(e), vec![]),
     };
     let chosen = detect::chosen(&ranked)
         .map(|found| Geometry::new(found.circle, Method::Auto, Some(found.confidence)))
-        .map_err(|NotFound(reason)| GeometryError::DetectionFailed { reason });
+        .map_err(|detect::NotFound(reason)| GeometryError::DetectionFailed { reason });
     let alternatives = ranked
         .iter()
         .filter(|f| f.confidence >= ALTERNATIVE_CONFIDENCE)
         .map(|f| Geometry::new(f.circle, Method::Auto, Some(f.confidence)))
         .collect();
     (chosen, alternatives)
+}
+
+/// Every distinct circle [`detect`] weighs, ranked (balls first, then by confidence), before
+/// [`chosen_by`] takes one or refuses: what a measurement of the acceptance rule reads.
+pub fn candidates(luminance: ArrayView2<f64>) -> Result<Vec<Found>, GeometryError> {
+    detect::find_spheres(luminance, |small| {
+        detect_clean(small).ok().map(|g| g.circle())
+    })
+    .map_err(|detect::NotFound(reason)| GeometryError::DetectionFailed { reason })
 }
 
 /// The fraction of a circle's circumference inside a `width` × `height` image.

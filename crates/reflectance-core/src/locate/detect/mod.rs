@@ -47,7 +47,7 @@ use vote::{Edge, edge_points, rim_coverage, rough_circles};
 pub const WORK_SIZE: usize = 640;
 /// Rays along the rim of a candidate.
 const RAYS: usize = 360;
-/// A detection below this confidence is refused.
+/// [`Acceptance::confidence`] as the service uses it.
 pub const MIN_CONFIDENCE: f64 = 0.5;
 /// A circle with less of its rim inside the frame is not judged.
 pub const MIN_VISIBLE: f64 = 0.5;
@@ -59,8 +59,11 @@ const UNCUT: f64 = 0.75;
 /// looks like a ball rather than a flat round thing.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Found {
+    /// The circle (the outline's mean circle when it was fitted elongated).
     pub circle: Circle,
+    /// The share of its visible rim with a clear edge on it.
     pub confidence: f64,
+    /// Neither flat inside nor ringed by a concentric circle with a flat band between.
     pub ball_like: bool,
 }
 
@@ -68,13 +71,42 @@ pub struct Found {
 #[derive(Clone, Debug, PartialEq)]
 pub struct NotFound(pub String);
 
+/// The thresholds by which [`chosen`] takes a circle or refuses: tuned on the development
+/// photographs, a value so that a measurement can choose them without the source it judges
+/// (tests/numerics/real_photos.rs, leave one source out).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Acceptance {
+    /// Any circle is taken from this confidence.
+    pub confidence: f64,
+    /// A ball whose rim shows only in part (a mirror ball reflecting what surrounds it, a
+    /// point-lit ball in the dark) is taken from this evidence when no other circle comes near.
+    pub alone: f64,
+    /// ... near: a rival's evidence is at most this fraction of the first's.
+    pub runner_up_share: f64,
+}
+
+/// The thresholds the service uses.
+pub const ACCEPTANCE: Acceptance = Acceptance {
+    confidence: MIN_CONFIDENCE,
+    alone: MIN_CONFIDENCE_ALONE,
+    runner_up_share: RUNNER_UP_SHARE,
+};
+
 /// The first of the ranked circles that is confident enough, else why not.
 pub fn chosen(ranked: &[Found]) -> Result<Found, NotFound> {
-    if let Some(found) = ranked.iter().find(|f| f.confidence >= MIN_CONFIDENCE) {
-        return Ok(enclosing_ball(found, ranked).unwrap_or(*found));
+    chosen_by(ranked, &ACCEPTANCE)
+}
+
+/// [`chosen`] by the thresholds of `acceptance`.
+pub fn chosen_by(ranked: &[Found], acceptance: &Acceptance) -> Result<Found, NotFound> {
+    if let Some(found) = ranked
+        .iter()
+        .find(|f| f.confidence >= acceptance.confidence)
+    {
+        return Ok(enclosing_ball(found, ranked, acceptance).unwrap_or(*found));
     }
     if let [first, rest @ ..] = ranked
-        && stands_alone(first, rest)
+        && stands_alone(first, rest, acceptance)
     {
         return Ok(*first);
     }
@@ -91,10 +123,9 @@ pub fn chosen(ranked: &[Found]) -> Result<Found, NotFound> {
     }
 }
 
-/// A ball whose rim shows only in part (a mirror ball reflecting what surrounds it, a
-/// point-lit ball in the dark) is taken from this confidence when no other circle comes near.
+/// [`Acceptance::alone`] as the service uses it.
 pub const MIN_CONFIDENCE_ALONE: f64 = 0.4;
-/// ... near: the runner-up's confidence is at most this fraction of the first's.
+/// [`Acceptance::runner_up_share`] as the service uses it.
 const RUNNER_UP_SHARE: f64 = 0.75;
 
 /// A circle mostly inside the first (its centre's distance plus its radius within this many
@@ -103,13 +134,13 @@ const INSIDE: f64 = 1.1;
 
 /// Whether `first` (ranked first) is a ball, confident enough, with no rival among `rest`.
 /// Both are weighed by [`evidence`]; circles inside the first are not rivals.
-fn stands_alone(first: &Found, rest: &[Found]) -> bool {
+fn stands_alone(first: &Found, rest: &[Found], acceptance: &Acceptance) -> bool {
     let f = &first.circle;
     let inside = |c: &Circle| (c.cx - f.cx).hypot(c.cy - f.cy) + c.r <= INSIDE * f.r;
     first.ball_like
-        && evidence(first) >= MIN_CONFIDENCE_ALONE
+        && evidence(first) >= acceptance.alone
         && rest.iter().all(|other| {
-            inside(&other.circle) || evidence(other) <= RUNNER_UP_SHARE * evidence(first)
+            inside(&other.circle) || evidence(other) <= acceptance.runner_up_share * evidence(first)
         })
 }
 
@@ -118,9 +149,9 @@ fn stands_alone(first: &Found, rest: &[Found]) -> bool {
 /// larger is more often a chance arc around a small ball (wood grain, a room's corners).
 const ENCLOSING: std::ops::RangeInclusive<f64> = 1.5..=3.0;
 
-/// The ball `found` lies inside, if one was found with the evidence a lone ball needs: the
-/// most confident such ball.
-fn enclosing_ball(found: &Found, ranked: &[Found]) -> Option<Found> {
+/// The ball `found` lies inside, if one was found with the evidence a lone ball needs
+/// ([`Acceptance::alone`]): the most confident such ball.
+fn enclosing_ball(found: &Found, ranked: &[Found], acceptance: &Acceptance) -> Option<Found> {
     let f = &found.circle;
     ranked
         .iter()
@@ -129,7 +160,7 @@ fn enclosing_ball(found: &Found, ranked: &[Found]) -> Option<Found> {
             outer.ball_like
                 && ENCLOSING.contains(&(o.r / f.r))
                 && (o.cx - f.cx).hypot(o.cy - f.cy) + f.r <= INSIDE * o.r
-                && evidence(outer) >= MIN_CONFIDENCE_ALONE
+                && evidence(outer) >= acceptance.alone
         })
         .max_by(|a, b| a.confidence.total_cmp(&b.confidence))
         .copied()
