@@ -875,7 +875,7 @@ fn found_in_judging_composites() {
         Category::CloseUp => 18,
         Category::SoftFocus => 17,
         Category::Tinted => 11,
-        _ => 10,
+        _ => 13,
     });
 }
 

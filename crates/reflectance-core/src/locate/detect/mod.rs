@@ -197,7 +197,7 @@ pub fn find_spheres(
     }
     let (small, scale) = reduced(luminance);
     let clean = clean(small.view()).map(|c| (c.enlarged(scale), 2.0 / scale));
-    let work = working_copy(small.view());
+    let (work, norm) = working_copy(small.view());
     let edges = edge_points(work.view());
     if edges.len() < 32 {
         return Err(NotFound("the image has almost no edges".into()));
@@ -212,7 +212,13 @@ pub fn find_spheres(
     let mut candidates: Vec<(Circle, f64)> = clean.into_iter().collect();
     candidates.extend(rough_circles(&edges, (wh, ww), scale, (min_r, max_r)));
     let refined = |candidates| refine_all(luminance, (small.view(), scale), candidates);
-    let rank = |found: Vec<Found>| ranked(luminance, found, work.view(), &edges, scale);
+    let working = Working {
+        image: work.view(),
+        edges: &edges,
+        scale,
+        norm,
+    };
+    let rank = |found: Vec<Found>| ranked(luminance, found, &working);
     let mut found = refined(candidates);
     if scale < 0.5 {
         let first = rank(found.clone());
@@ -234,16 +240,17 @@ fn settled(first: &Found) -> bool {
     first.ball_like && first.confidence >= SETTLED
 }
 
-/// `found` as distinct circles, the most confident tried as elongated outlines, judged for
-/// ball-likeness on the working copy `work` (at `scale`, with its `edges`), balls first, then
-/// by confidence.
-fn ranked(
-    luminance: ArrayView2<f64>,
-    found: Vec<Found>,
-    work: ArrayView2<f64>,
-    edges: &[Edge],
+/// The working copy of a search, its edges, its scale and the factor that normalized it.
+struct Working<'a> {
+    image: ArrayView2<'a, f64>,
+    edges: &'a [Edge],
     scale: f64,
-) -> Vec<Found> {
+    norm: f64,
+}
+
+/// `found` as distinct circles, the most confident tried as elongated outlines, judged for
+/// ball-likeness ([`judge_ball_likeness`]), balls first, then by confidence.
+fn ranked(luminance: ArrayView2<f64>, found: Vec<Found>, working: &Working) -> Vec<Found> {
     let mut distinct = distinct_circles(found);
     // A sphere off the lens's axis, among the most confident: as the lens draws it.
     for f in distinct.iter_mut().take(ELONGATE_FIRST) {
@@ -252,7 +259,7 @@ fn ranked(
         }
     }
     let mut distinct = distinct_circles(distinct);
-    judge_ball_likeness(&mut distinct, work, edges, scale);
+    judge_ball_likeness(&mut distinct, luminance, working);
     distinct.sort_by(|a, b| {
         (b.ball_like, b.confidence)
             .partial_cmp(&(a.ball_like, a.confidence))
@@ -275,11 +282,54 @@ fn distinct_circles(mut found: Vec<Found>) -> Vec<Found> {
 
 /// Mark the circles that are not balls: a flat inside, or a concentric circle with a flat
 /// band between them.
-fn judge_ball_likeness(found: &mut [Found], work: ArrayView2<f64>, edges: &[Edge], scale: f64) {
+fn judge_ball_likeness(found: &mut [Found], luminance: ArrayView2<f64>, working: &Working) {
     for f in found.iter_mut() {
-        let on_work = f.circle.reduced(scale);
-        f.ball_like = !flat_band(work, &on_work, 0.0, 0.8) && !ringed(work, edges, &on_work);
+        let on_work = f.circle.reduced(working.scale);
+        f.ball_like = if on_work.r >= SMALL_ON_WORK || working.scale >= 1.0 {
+            ball_like(working.image, working.edges, &on_work)
+        } else {
+            let (around, circle) = surroundings(luminance, &f.circle, working.norm);
+            ball_like(around.view(), &edge_points(around.view()), &circle)
+        };
     }
+}
+
+/// A circle under this radius on the working copy is judged on a copy of its surroundings:
+/// on the working copy a plate's rim band is a pixel or two wide ...
+const SMALL_ON_WORK: f64 = 32.0;
+/// ... in which its radius is at most this.
+const JUDGED_RADIUS: f64 = 64.0;
+
+/// Neither flat inside nor ringed, on a working copy (`image`, its `edges`).
+fn ball_like(image: ArrayView2<f64>, edges: &[Edge], circle: &Circle) -> bool {
+    !flat_band(image, circle, 0.0, 0.8) && !ringed(image, edges, circle)
+}
+
+/// A working copy of `circle`'s surroundings in `luminance` (to 1.8 r, as far as [`ringed`]
+/// looks), reduced so that its radius there is at most [`JUDGED_RADIUS`], in the units `norm`
+/// gives; and the circle on it.
+fn surroundings(luminance: ArrayView2<f64>, circle: &Circle, norm: f64) -> (Array2<f64>, Circle) {
+    let (h, w) = luminance.dim();
+    let reach = 1.8 * circle.r;
+    let span = |centre: f64, n: usize| {
+        let lo = (centre - reach).floor().clamp(0.0, n as f64) as usize;
+        let hi = ((centre + reach).ceil().clamp(0.0, n as f64) as usize).max(lo);
+        lo..hi
+    };
+    let (rows, cols) = (span(circle.cy, h), span(circle.cx, w));
+    let crop = luminance.slice(ndarray::s![rows.clone(), cols.clone()]);
+    let factor = (JUDGED_RADIUS / circle.r).min(1.0);
+    let shifted = Circle {
+        cx: circle.cx - cols.start as f64,
+        cy: circle.cy - rows.start as f64,
+        r: circle.r,
+    };
+    let small = if factor < 1.0 {
+        crate::image::resample::downsample(crop, factor)
+    } else {
+        crop.to_owned()
+    };
+    (encoded(small.view(), norm), shifted.reduced(factor))
 }
 
 /// A second circle, inside or around a circle at its centre (0.5–1.6 r), with an edge along
@@ -338,7 +388,7 @@ fn flat_band(work: ArrayView2<f64>, circle: &Circle, inner: f64, outer: f64) -> 
 /// copy twice [`WORK_SIZE`] across, where they are twice as many pixels across.
 fn small_balls(luminance: ArrayView2<f64>) -> Vec<(Circle, f64)> {
     let (small, scale) = reduced_to(luminance, 2 * WORK_SIZE);
-    let work = working_copy(small.view());
+    let (work, _) = working_copy(small.view());
     let edges = edge_points(work.view());
     let (wh, ww) = work.dim();
     let min_r = (MIN_RADIUS * scale).max(6.0);
@@ -366,11 +416,16 @@ fn reduced_to(luminance: ArrayView2<f64>, size: usize) -> (Array2<f64>, f64) {
 }
 
 /// `small` gamma-encoded (so that edges in the shadows count as much as in the light) in
-/// units of its 99th percentile, and smoothed (σ = 1 px).
-fn working_copy(small: ArrayView2<f64>) -> Array2<f64> {
+/// units of its 99th percentile, and smoothed (σ = 1 px); and the factor to those units.
+fn working_copy(small: ArrayView2<f64>) -> (Array2<f64>, f64) {
     let p99 = quantile(small.iter().copied().collect(), 0.99);
     let norm = if p99 > 0.0 { 1.0 / p99 } else { 1.0 };
-    let encoded = small.mapv(|v| (v * norm).clamp(0.0, 4.0).powf(1.0 / 2.2));
+    (encoded(small, norm), norm)
+}
+
+/// `image` times `norm`, gamma-encoded and smoothed as [`working_copy`] makes it.
+fn encoded(image: ArrayView2<f64>, norm: f64) -> Array2<f64> {
+    let encoded = image.mapv(|v| (v * norm).clamp(0.0, 4.0).powf(1.0 / 2.2));
     crate::image::blur::gaussian_blur(encoded.view(), 1.0)
 }
 
@@ -1078,6 +1133,52 @@ mod tests {
         let outline = Outline::of(&circle);
         assert!(edge_width(image.view(), &outline) < 2.0);
         assert!(rim_confidence(image.view(), &outline).unwrap() >= 0.9);
+    }
+
+    #[test]
+    fn a_plate_is_told_from_a_ball_in_a_large_photograph() {
+        // 3000 × 2000: a plate (a rim band from 0.8 to 1 of r 120 around a textured inside)
+        // and a shaded ball of r 120; 26 px each on the working copy.
+        let plate = Circle {
+            cx: 800.0,
+            cy: 1000.0,
+            r: 120.0,
+        };
+        let ball = Circle {
+            cx: 2200.0,
+            ..plate
+        };
+        let image = ndarray::Array2::from_shape_fn((2000, 3000), |(y, x)| {
+            let (x, y) = (x as f64, y as f64);
+            let from = |c: &Circle| (x - c.cx).hypot(y - c.cy) / c.r;
+            let (p, b) = (from(&plate), from(&ball));
+            if p <= 0.8 {
+                0.3 + 0.2 * (x / 9.0).sin() * (y / 7.0).cos()
+            } else if p <= 1.0 {
+                0.9
+            } else if b <= 1.0 {
+                0.1 + 0.8 * (1.0 - b * b).sqrt()
+            } else {
+                0.25
+            }
+        });
+        let (small, scale) = reduced(image.view());
+        let (work, norm) = working_copy(small.view());
+        let edges = edge_points(work.view());
+        let working = Working {
+            image: work.view(),
+            edges: &edges,
+            scale,
+            norm,
+        };
+        assert!(plate.reduced(scale).r < SMALL_ON_WORK);
+        let mut found = [plate, ball].map(|circle| Found {
+            circle,
+            confidence: 0.9,
+            ball_like: true,
+        });
+        judge_ball_likeness(&mut found, image.view(), &working);
+        assert!(!found[0].ball_like && found[1].ball_like, "{found:?}");
     }
 
     #[test]
