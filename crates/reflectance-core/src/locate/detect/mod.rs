@@ -783,6 +783,7 @@ fn rim_share(
     base: usize,
     spread: f64,
 ) -> f64 {
+    // Wider by half the slopes' base, so that a slope centred on the window's edge fits in it.
     let window = 0.015 * outline.r0 + 2.0 + 0.5 * base as f64 * RIM_STEP;
     let points = rim_points_over(luminance, outline, window, base);
     let tolerance = (0.01 * outline.r0).max(1.0).max(spread);
