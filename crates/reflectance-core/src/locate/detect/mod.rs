@@ -369,10 +369,11 @@ fn flat_band(work: ArrayView2<f64>, circle: &Circle, inner: f64, outer: f64) -> 
     // Every pixel of a small band; of a large one, a grid of about 128 across.
     let stride = ((far / 64.0).ceil() as usize).max(1);
     let mut band: Vec<f64> = Vec::new();
+    let (near2, far2) = (near * near, far * far);
     for y in rows.step_by(stride) {
         for x in cols.clone().step_by(stride) {
-            let d = (x as f64 - cx).hypot(y as f64 - cy);
-            if (near..=far).contains(&d) {
+            let (dx, dy) = (x as f64 - cx, y as f64 - cy);
+            if (near2..=far2).contains(&(dx * dx + dy * dy)) {
                 band.push(work[[y, x]]);
             }
         }
@@ -441,7 +442,8 @@ fn sample(image: ArrayView2<f64>, x: f64, y: f64) -> f64 {
     let (h, w) = image.dim();
     let x = x.clamp(0.0, (w - 1) as f64);
     let y = y.clamp(0.0, (h - 1) as f64);
-    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+    // Truncation is the floor of the clamped, non-negative coordinates (and no libm call).
+    let (x0, y0) = (x as usize, y as usize);
     let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
     let (fx, fy) = (x - x0 as f64, y - y0 as f64);
     let top = image[[y0, x0]] * (1.0 - fx) + image[[y0, x1]] * fx;
@@ -449,10 +451,64 @@ fn sample(image: ArrayView2<f64>, x: f64, y: f64) -> f64 {
     top * (1.0 - fy) + bottom * fy
 }
 
+/// The length of (dx, dy): `hypot` without its guard against overflow, which distances in
+/// an image never reach, and at a fraction of its cost in the search's inner loops.
+#[inline]
+pub(super) fn length(dx: f64, dy: f64) -> f64 {
+    (dx * dx + dy * dy).sqrt()
+}
+
 /// Spacing (px) of the samples along a ray through a rim.
 pub(crate) const RIM_STEP: f64 = 0.25;
-/// Slopes along a ray are taken over one pixel: this many steps.
-const RIM_BASE: usize = 4;
+
+/// How slopes along a ray are taken: over `base` samples spaced `step` px.
+#[derive(Clone, Copy)]
+struct Slopes {
+    step: f64,
+    base: usize,
+}
+
+/// A sharp rim's slopes: over one pixel, every [`RIM_STEP`].
+const SHARP: Slopes = Slopes {
+    step: RIM_STEP,
+    base: 4,
+};
+
+impl Slopes {
+    /// The slopes of a rim whose edge is `width` px wide: over its width, sampled finely
+    /// enough to place it to a sixteenth of it (and never coarser than [`RIM_STEP`]).
+    fn over(width: f64) -> Slopes {
+        let step = (width / 16.0).max(RIM_STEP);
+        Slopes {
+            step,
+            base: (width / step) as usize,
+        }
+    }
+
+    /// The length (px) a slope spans.
+    fn span(self) -> f64 {
+        self.base as f64 * self.step
+    }
+}
+
+/// The luminance sampled `n` times every `step` px along the ray at angle `theta` through
+/// the rim of `circle`, from `window` px inside it outwards.
+fn ray_profile(
+    image: ArrayView2<f64>,
+    circle: &Circle,
+    theta: f64,
+    window: f64,
+    step: f64,
+    n: usize,
+) -> Vec<f64> {
+    let (ux, uy) = (theta.cos(), theta.sin());
+    (0..n)
+        .map(|s| {
+            let d = circle.r - window + s as f64 * step;
+            sample(image, circle.cx + d * ux, circle.cy + d * uy)
+        })
+        .collect()
+}
 
 /// The luminance slopes along one ray through a rim, and the steepest of them.
 pub(crate) struct RimSlopes {
@@ -472,25 +528,20 @@ pub(crate) fn rim_slopes(
     window: f64,
     steps: usize,
 ) -> Option<RimSlopes> {
-    rim_slopes_over(image, circle, theta, window, steps, RIM_BASE)
+    rim_slopes_over(image, circle, theta, window, steps, SHARP)
 }
 
-/// [`rim_slopes`] with slopes taken over `base` steps.
+/// [`rim_slopes`] with slopes taken as `slopes` says.
 fn rim_slopes_over(
     image: ArrayView2<f64>,
     circle: &Circle,
     theta: f64,
     window: f64,
     steps: usize,
-    base: usize,
+    slopes: Slopes,
 ) -> Option<RimSlopes> {
-    let (ux, uy) = (theta.cos(), theta.sin());
-    let profile: Vec<f64> = (0..steps + base)
-        .map(|s| {
-            let d = circle.r - window + s as f64 * RIM_STEP;
-            sample(image, circle.cx + d * ux, circle.cy + d * uy)
-        })
-        .collect();
+    let base = slopes.base;
+    let profile = ray_profile(image, circle, theta, window, slopes.step, steps + base);
     let slope: Vec<f64> = profile.windows(base + 1).map(|p| p[base] - p[0]).collect();
     let (steepest, peak) = slope
         .iter()
@@ -509,29 +560,29 @@ fn rim_slopes_over(
 /// over one pixel every quarter pixel, and the steepest is interpolated between samples:
 /// for a step blurred by any symmetric lens, the step itself.
 fn rim_points(image: ArrayView2<f64>, outline: &Outline, window: f64) -> Vec<(f64, f64, f64)> {
-    rim_points_over(image, outline, window, RIM_BASE)
+    rim_points_over(image, outline, window, SHARP)
 }
 
-/// [`rim_points`] with slopes taken over `base` steps (a blurred rim's edge spans more
-/// than a pixel).
+/// [`rim_points`] with slopes taken as `slopes` says (a blurred rim's edge spans more than
+/// a pixel).
 fn rim_points_over(
     image: ArrayView2<f64>,
     outline: &Outline,
     window: f64,
-    base: usize,
+    slopes: Slopes,
 ) -> Vec<(f64, f64, f64)> {
-    let steps = (2.0 * window / RIM_STEP).ceil() as usize + 1;
+    let steps = (2.0 * window / slopes.step).ceil() as usize + 1;
     let mut out = Vec::with_capacity(RAYS);
     for k in 0..RAYS {
         let theta = std::f64::consts::TAU * k as f64 / RAYS as f64;
         let (ux, uy) = (theta.cos(), theta.sin());
         let circle = &outline.circle_at(theta);
-        let rho = |s: f64| circle.r - window + s * RIM_STEP;
+        let rho = |s: f64| circle.r - window + s * slopes.step;
         let Some(RimSlopes {
             slope,
             steepest: i,
             peak,
-        }) = rim_slopes_over(image, circle, theta, window, steps, base)
+        }) = rim_slopes_over(image, circle, theta, window, steps, slopes)
         else {
             continue;
         };
@@ -551,7 +602,7 @@ fn rim_points_over(
         } else {
             0.0
         };
-        let at = rho(i as f64 + offset + base as f64 / 2.0);
+        let at = rho(i as f64 + offset + slopes.base as f64 / 2.0);
         let (x, y) = (circle.cx + at * ux, circle.cy + at * uy);
         if radial(image, x, y, ux, uy) {
             out.push((x, y, peak));
@@ -574,7 +625,7 @@ fn rim_points_over(
 fn radial(image: ArrayView2<f64>, x: f64, y: f64, ux: f64, uy: f64) -> bool {
     let gx = sample(image, x + 1.5, y) - sample(image, x - 1.5, y);
     let gy = sample(image, x, y + 1.5) - sample(image, x, y - 1.5);
-    let magnitude = gx.hypot(gy);
+    let magnitude = length(gx, gy);
     magnitude > 0.0 && (gx * ux + gy * uy).abs() >= MIN_RADIAL_ALIGNMENT * magnitude
 }
 
@@ -628,7 +679,7 @@ fn robust_fit(points: &[(f64, f64, f64)], start: &Circle) -> Option<Circle> {
         let tolerance = if round < 2 { 3.0 } else { 1.5 } * (0.01 * c.r).max(1.0);
         let [dcx, dcy, dr] = biweight_step(points, tolerance, |x, y| {
             let (dx, dy) = (x - c.cx, y - c.cy);
-            let d = dx.hypot(dy);
+            let d = length(dx, dy);
             (d > 0.0).then(|| ([dx / d, dy / d, 1.0], d - c.r))
         })?;
         c = Circle {
@@ -726,7 +777,7 @@ fn fit_outline(points: &[(f64, f64, f64)], start: &Outline) -> Option<Outline> {
                 theta.cos(),
                 theta.sin(),
             ];
-            Some((gradient, dx.hypot(dy) - o.radius_at(theta)))
+            Some((gradient, length(dx, dy) - o.radius_at(theta)))
         })?;
         o = Outline {
             cx: o.cx + dcx,
@@ -753,7 +804,7 @@ fn rim_confidence(luminance: ArrayView2<f64>, outline: &Outline) -> Option<f64> 
     if visible < (MIN_VISIBLE * RAYS as f64).ceil() as usize {
         return None;
     }
-    let sharp = rim_share(luminance, outline, visible, RIM_BASE, 0.0);
+    let sharp = rim_share(luminance, outline, visible, SHARP, 0.0);
     if !SOFT_TRIED.contains(&sharp) {
         return Some(sharp);
     }
@@ -763,8 +814,14 @@ fn rim_confidence(luminance: ArrayView2<f64>, outline: &Outline) -> Option<f64> 
     if width <= 2.0 {
         return Some(sharp);
     }
-    let base = (width / RIM_STEP) as usize;
-    Some(sharp.max(rim_share(luminance, outline, visible, base, 0.25 * width)))
+    let soft = rim_share(
+        luminance,
+        outline,
+        visible,
+        Slopes::over(width),
+        0.25 * width,
+    );
+    Some(sharp.max(soft))
 }
 
 /// A rim is measured again as a soft one when its sharp confidence is in this range: below, it
@@ -774,24 +831,24 @@ const SOFT_TRIED: std::ops::Range<f64> = 0.25..MIN_CONFIDENCE;
 /// The widest rim (over r) measured over its width: a blur of σ 2 % of r.
 const SOFT_WIDTH: f64 = 0.05;
 
-/// The share of `visible` rays with a clear edge on `outline`, slopes over `base` steps, the
-/// edge within 1 % of r, 1 px or `spread` px of the outline, whichever is the most.
+/// The share of `visible` rays with a clear edge on `outline`, slopes taken as `slopes` says,
+/// the edge within 1 % of r, 1 px or `spread` px of the outline, whichever is the most.
 fn rim_share(
     luminance: ArrayView2<f64>,
     outline: &Outline,
     visible: usize,
-    base: usize,
+    slopes: Slopes,
     spread: f64,
 ) -> f64 {
-    // Wider by half the slopes' base, so that a slope centred on the window's edge fits in it.
-    let window = 0.015 * outline.r0 + 2.0 + 0.5 * base as f64 * RIM_STEP;
-    let points = rim_points_over(luminance, outline, window, base);
+    // Wider by half the slopes' span, so that a slope centred on the window's edge fits in it.
+    let window = 0.015 * outline.r0 + 2.0 + 0.5 * slopes.span();
+    let points = rim_points_over(luminance, outline, window, slopes);
     let tolerance = (0.01 * outline.r0).max(1.0).max(spread);
     let on = points
         .iter()
         .filter(|p| {
             let (dx, dy) = (p.0 - outline.cx, p.1 - outline.cy);
-            (dx.hypot(dy) - outline.radius_at(dy.atan2(dx))).abs() <= tolerance
+            (length(dx, dy) - outline.radius_at(dy.atan2(dx))).abs() <= tolerance
         })
         .count();
     (on as f64 / (visible as f64).max(UNCUT * RAYS as f64)).min(1.0)
@@ -809,15 +866,10 @@ fn edge_width(luminance: ArrayView2<f64>, outline: &Outline) -> f64 {
         .filter_map(|k| {
             let theta = std::f64::consts::TAU * k as f64 / RAYS as f64;
             let circle = outline.circle_at(theta);
-            let (ux, uy) = (theta.cos(), theta.sin());
-            let profile: Vec<f64> = (0..steps)
-                .map(|s| {
-                    let d = circle.r - window + s as f64 * RIM_STEP;
-                    sample(luminance, circle.cx + d * ux, circle.cy + d * uy)
-                })
-                .collect();
+            let profile = ray_profile(luminance, &circle, theta, window, RIM_STEP, steps);
             let end = |part: &[f64]| part.iter().sum::<f64>() / part.len() as f64;
-            let (first, last) = (end(&profile[..RIM_BASE]), end(&profile[steps - RIM_BASE..]));
+            let ends = SHARP.base;
+            let (first, last) = (end(&profile[..ends]), end(&profile[steps - ends..]));
             let height = last - first;
             let below = |level: f64| {
                 let count = profile
@@ -1123,7 +1175,7 @@ mod tests {
         assert!((6.0..15.0).contains(&width), "{width}");
         // Over one pixel the noise moves the steepest slope off the rim; over its width, not.
         let visible = visible_rays(&circle, image.dim());
-        let sharp = rim_share(image.view(), &outline, visible, RIM_BASE, 0.0);
+        let sharp = rim_share(image.view(), &outline, visible, SHARP, 0.0);
         let confidence = rim_confidence(image.view(), &outline).unwrap();
         assert!(
             sharp < MIN_CONFIDENCE && confidence >= 0.6,

@@ -3,7 +3,7 @@
 //! of its circumference has an edge pointing at it, are the rough circles that
 //! [`super::find_spheres`] refines.
 
-use super::{UNCUT, quantile};
+use super::{UNCUT, length, quantile};
 use crate::image::circle::Circle;
 use ndarray::{Array2, ArrayView2};
 
@@ -54,7 +54,7 @@ pub(super) fn edge_points(image: ArrayView2<f64>) -> Vec<Edge> {
             gy[[y, x]] = (p(2, 0) + 2.0 * p(2, 1) + p(2, 2)) - (p(0, 0) + 2.0 * p(0, 1) + p(0, 2));
         }
     }
-    let magnitude = Array2::from_shape_fn((h, w), |p| gx[p].hypot(gy[p]));
+    let magnitude = Array2::from_shape_fn((h, w), |p| length(gx[p], gy[p]));
     let positive: Vec<f64> = magnitude.iter().copied().filter(|&m| m > 0.0).collect();
     if positive.is_empty() {
         return Vec::new();
@@ -336,7 +336,7 @@ pub(super) fn rim_coverage(
     let mut sectors = vec![0u128; bins];
     for e in edges {
         let (dx, dy) = (e.x - cx, e.y - cy);
-        let d = dx.hypot(dy);
+        let d = length(dx, dy);
         if d < min_r - 1.0 || d > max_r + 1.0 {
             continue;
         }
