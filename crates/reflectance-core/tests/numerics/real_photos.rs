@@ -58,6 +58,19 @@ struct Photo {
     r: f64,
 }
 
+impl Photo {
+    /// Found when the circle (cx, cy, r) is within 4 % of the true radius, in centre and in
+    /// radius; else wrong.
+    fn outcome_of(&self, cx: f64, cy: f64, r: f64) -> Outcome {
+        let within = 0.04 * self.r;
+        if (cx - self.cx).hypot(cy - self.cy) <= within && (r - self.r).abs() <= within {
+            Outcome::Found
+        } else {
+            Outcome::Wrong
+        }
+    }
+}
+
 fn manifest(set: &str) -> Vec<Photo> {
     let path = set_dir(set).join("manifest.csv");
     let text = std::fs::read_to_string(&path)
@@ -155,18 +168,8 @@ fn real_photographs() {
             None => crate::detection::detect_as_received(image.luminance.view()),
         };
         let seconds = t.elapsed().as_secs_f64();
-        let close = |g: &locate::Geometry| {
-            (g.cx - photo.cx).hypot(g.cy - photo.cy) <= 0.04 * photo.r
-                && (g.r - photo.r).abs() <= 0.04 * photo.r
-        };
         let outcome = match &found {
-            Ok(g) => {
-                if close(g) {
-                    Outcome::Found
-                } else {
-                    Outcome::Wrong
-                }
-            }
+            Ok(g) => photo.outcome_of(g.cx, g.cy, g.r),
             Err(_) => Outcome::Refused,
         };
         let said = match &found {
@@ -188,6 +191,7 @@ fn real_photographs() {
         }
         let mark = ["found", "WRONG", "refused"][outcome as usize];
         // Where the true circle is among the alternatives offered (confidence ≥ 0.3).
+        let close = |g: &locate::Geometry| photo.outcome_of(g.cx, g.cy, g.r) == Outcome::Found;
         let offered = match ranked.iter().position(close) {
             Some(k) => format!(
                 "; the true circle is offered {} at {:.2}",
@@ -259,16 +263,7 @@ const RUNNER_UP_SHARES: [f64; 4] = [0.9, 0.75, 0.6, 0.5];
 /// The outcome of `acceptance` on one photograph's ranked candidates.
 fn judged(photo: &Photo, ranked: &[locate::Found], acceptance: &locate::Acceptance) -> Outcome {
     match locate::chosen_by(ranked, acceptance) {
-        Ok(f) => {
-            let c = f.circle;
-            let close = (c.cx - photo.cx).hypot(c.cy - photo.cy) <= 0.04 * photo.r
-                && (c.r - photo.r).abs() <= 0.04 * photo.r;
-            if close {
-                Outcome::Found
-            } else {
-                Outcome::Wrong
-            }
-        }
+        Ok(f) => photo.outcome_of(f.circle.cx, f.circle.cy, f.circle.r),
         Err(_) => Outcome::Refused,
     }
 }
