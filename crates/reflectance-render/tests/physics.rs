@@ -480,3 +480,34 @@ fn a_printed_disc_covers_its_projected_area() {
         assert!((f64::from(max) - 1.0).abs() < 2e-3, "{max}");
     }
 }
+
+/// A broad lobe (a rubber ball's coat: α 0.3) takes the light of bright sources from 2 × 2
+/// samples per pixel the sphere covers instead of 8 × 8: its highlight under a sun is no
+/// noisier from seed to seed than that allows (the pixels within 0.9 r differ by under 0.5 %
+/// on average and by under 10 % anywhere between two seeds; one sample per pixel reads
+/// 0.8 % and 13 %).
+#[test]
+fn a_broad_lobe_is_lit_by_a_sun_smoothly_with_few_samples() {
+    let (w, h) = (512usize, 256usize);
+    let mut map = EnvMap::from_fn(w, h, |_| 0.02);
+    // A sun of 3 × 3 texels 40° above the horizon, in front of the viewer's side.
+    for row in 55..58 {
+        for col in 250..253 {
+            map.luminance[row * w + col] = 3000.0;
+        }
+    }
+    let lighting = Lighting::new(map);
+    let m = Ward::new(0.04, 0.04, 0.3).unwrap();
+    let [a, b] = [21, 22].map(|seed| render_with(&lighting, &m, &dielectric(1.5), 128, seed));
+    let differences: Vec<f64> = interior(&a)
+        .into_iter()
+        .filter(|(_, x, y)| x.hypot(*y) <= 0.9)
+        .map(|(i, _, _)| {
+            let (p, q) = (f64::from(a.luminance[i]), f64::from(b.luminance[i]));
+            (p - q).abs() / p.max(q)
+        })
+        .collect();
+    let mean = differences.iter().sum::<f64>() / differences.len() as f64;
+    let most = differences.iter().copied().fold(0.0, f64::max);
+    assert!(mean < 0.005 && most < 0.1, "mean {mean}, most {most}");
+}
