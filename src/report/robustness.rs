@@ -120,8 +120,7 @@ pub fn sweep(ranges: &CaptureRanges, radius: f64) -> Vec<Setting> {
             CaptureSettings { blur, ..base },
         );
     }
-    let [r0, r1] = ranges.radius;
-    for r in [r0, 0.5 * (r0 + radius), r1.min(2.0 * radius), r1] {
+    for r in radius_points(ranges.radius[0], radius) {
         add(
             "radius",
             format!("{r:.0}"),
@@ -167,6 +166,22 @@ pub fn sweep(ranges: &CaptureRanges, radius: f64) -> Vec<Setting> {
     });
     out
 }
+
+/// The radii a sweep photographs the renders at: the renders' own `radius` and its halvings
+/// down to the capture range's smallest, `low`, which ends the list. Never larger than the
+/// renders: an enlarged render has no detail a larger ball would show.
+fn radius_points(low: f64, radius: f64) -> Vec<f64> {
+    let mut points = vec![low];
+    let mut r = radius;
+    while r > low * (1.0 + RADIUS_GAP) {
+        points.insert(1, r);
+        r /= 2.0;
+    }
+    points
+}
+
+/// Radii closer than this share are one point of the sweep.
+const RADIUS_GAP: f64 = 0.05;
 
 /// A test image: a render, its class, where its sphere is and its white.
 pub struct TestImage {
@@ -231,11 +246,77 @@ pub struct Cell {
     /// estimator and their classes' parameters).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub nearest_correct: Option<usize>,
+    /// Answers whose prediction set (at the model's default coverage) holds the truth, and
+    /// the sum of those sets' sizes (models with calibrated sets).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sets: Option<SetTally>,
 }
 
-/// (truth, predicted, nearest to the estimate) class indices, or `None` when the model
-/// refused the capture.
-type Verdict = Option<(usize, usize, Option<usize>)>;
+/// How a model's prediction sets did on a cell's images.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct SetTally {
+    pub holding_truth: usize,
+    pub total_size: usize,
+}
+
+/// What a model answered for one capture (class indices), or `None` when it refused it.
+#[derive(Clone, Debug, PartialEq)]
+struct Verdict {
+    truth: usize,
+    predicted: usize,
+    /// The class nearest to the Ward-parameter estimate.
+    nearest: Option<usize>,
+    /// The prediction set.
+    set: Option<Vec<usize>>,
+}
+
+impl Cell {
+    fn empty(setting: &Setting, model: &str, classes: usize) -> Cell {
+        Cell {
+            factor: setting.factor.into(),
+            value: setting.value.clone(),
+            model: model.into(),
+            n: 0,
+            correct: 0,
+            accuracy: 0.0,
+            refused: 0,
+            confusion: vec![vec![0; classes]; classes],
+            nearest_correct: None,
+            sets: None,
+        }
+    }
+
+    fn add(&mut self, verdict: Option<&Verdict>) {
+        self.n += 1;
+        match verdict {
+            Some(v) => {
+                self.correct += usize::from(v.truth == v.predicted);
+                self.confusion[v.truth][v.predicted] += 1;
+                if let Some(nearest) = v.nearest {
+                    *self.nearest_correct.get_or_insert(0) += usize::from(v.truth == nearest);
+                }
+                if let Some(set) = &v.set {
+                    let tally = self.sets.get_or_insert_default();
+                    tally.holding_truth += usize::from(set.contains(&v.truth));
+                    tally.total_size += set.len();
+                }
+            }
+            None => self.refused += 1,
+        }
+        self.accuracy = self.correct as f64 / self.n as f64;
+    }
+
+    /// The share of answers whose set holds the truth and the sets' mean size.
+    fn set_figures(&self) -> Option<(f64, f64)> {
+        let answered = (self.n - self.refused).max(1) as f64;
+        self.sets.map(|t| {
+            (
+                t.holding_truth as f64 / answered,
+                t.total_size as f64 / answered,
+            )
+        })
+    }
+}
 
 /// Classify every test image, captured at every setting, with every model.
 pub fn evaluate(
@@ -256,7 +337,7 @@ pub fn evaluate(
         })
         .collect();
     let bar = progress::bar(jobs.len() as u64, "robustness");
-    let outcomes: Vec<Result<Vec<Verdict>, ReportError>> = jobs
+    let outcomes: Vec<Result<Vec<Option<Verdict>>, ReportError>> = jobs
         .par_iter()
         .map(|&(s, i, d)| {
             let image = &images[i];
@@ -284,9 +365,11 @@ pub fn evaluate(
                     classified
                         .and_then(Result::ok)
                         .zip(truth)
-                        .map(|(c, truth)| {
-                            let nearest = c.ward.as_ref().and_then(|e| model.nearest_class(e));
-                            (truth, c.decision.class, nearest)
+                        .map(|(c, truth)| Verdict {
+                            truth,
+                            predicted: c.decision.class,
+                            nearest: c.ward.as_ref().and_then(|e| model.nearest_class(e)),
+                            set: c.decision.set,
                         })
                 })
                 .collect();
@@ -302,38 +385,11 @@ pub fn evaluate(
             let position = cells.iter().position(|c| {
                 c.factor == setting.factor && c.value == setting.value && &c.model == name
             });
-            let cell = match position {
-                Some(p) => &mut cells[p],
-                None => {
-                    cells.push(Cell {
-                        factor: setting.factor.into(),
-                        value: setting.value.clone(),
-                        model: name.clone(),
-                        n: 0,
-                        correct: 0,
-                        accuracy: 0.0,
-                        refused: 0,
-                        confusion: vec![
-                            vec![0; classes_of(models, name)];
-                            classes_of(models, name)
-                        ],
-                        nearest_correct: None,
-                    });
-                    cells.last_mut().expect("just pushed")
-                }
-            };
-            cell.n += 1;
-            match verdict {
-                Some((truth, predicted, nearest)) => {
-                    cell.correct += usize::from(truth == predicted);
-                    cell.confusion[truth][predicted] += 1;
-                    if let Some(nearest) = nearest {
-                        *cell.nearest_correct.get_or_insert(0) += usize::from(truth == nearest);
-                    }
-                }
-                None => cell.refused += 1,
-            }
-            cell.accuracy = cell.correct as f64 / cell.n as f64;
+            let at = position.unwrap_or_else(|| {
+                cells.push(Cell::empty(setting, name, classes_of(models, name)));
+                cells.len() - 1
+            });
+            cells[at].add(verdict.as_ref());
         }
     }
     Ok(cells)
@@ -392,8 +448,25 @@ fn fnv(text: &str) -> u64 {
     })
 }
 
-/// The cells as a Markdown table: a row per setting, a column per model.
+/// The cells as Markdown: the accuracy, a row per setting and a column per model; then,
+/// for models with prediction sets, how often a set held the truth and its mean size.
 pub fn markdown(cells: &[Cell], models: &[String]) -> String {
+    let mut out = table(cells, models, accuracy_text);
+    if cells.iter().any(|c| c.sets.is_some()) {
+        out.push_str(
+            "\nPrediction sets (the model's default coverage): holding the truth, mean size\n\n",
+        );
+        out.push_str(&table(cells, models, |c| {
+            c.set_figures().map_or("–".into(), |(holding, size)| {
+                format!("{:.1} %, {size:.2}", 100.0 * holding)
+            })
+        }));
+    }
+    out
+}
+
+/// A Markdown table of `text` of each cell: a row per setting, a column per model.
+fn table(cells: &[Cell], models: &[String], text: impl Fn(&Cell) -> String) -> String {
     let mut out = String::from("| factor | setting |");
     for m in models {
         let _ = write!(out, " {m} |");
@@ -410,25 +483,25 @@ pub fn markdown(cells: &[Cell], models: &[String]) -> String {
     for (factor, value) in rows {
         let _ = write!(out, "| {factor} | {value} |");
         for m in models {
-            match cells
+            let cell = cells
                 .iter()
-                .find(|c| c.factor == factor && c.value == value && &c.model == m)
-            {
-                Some(c) => {
-                    let _ = write!(out, " {:.1} % ({}/{})", 100.0 * c.accuracy, c.correct, c.n);
-                    if let Some(right) = c.nearest_correct {
-                        let share = 100.0 * right as f64 / c.n.max(1) as f64;
-                        let _ = write!(out, "; estimate's nearest class {share:.1} %");
-                    }
-                    if c.refused > 0 {
-                        let _ = write!(out, ", {} refused", c.refused);
-                    }
-                    out.push_str(" |");
-                }
-                None => out.push_str(" – |"),
-            }
+                .find(|c| c.factor == factor && c.value == value && &c.model == m);
+            let _ = write!(out, " {} |", cell.map_or("–".into(), &text));
         }
         out.push('\n');
+    }
+    out
+}
+
+/// A cell's accuracy, the estimate's nearest class's and what was refused.
+fn accuracy_text(c: &Cell) -> String {
+    let mut out = format!("{:.1} % ({}/{})", 100.0 * c.accuracy, c.correct, c.n);
+    if let Some(right) = c.nearest_correct {
+        let share = 100.0 * right as f64 / c.n.max(1) as f64;
+        let _ = write!(out, "; estimate's nearest class {share:.1} %");
+    }
+    if c.refused > 0 {
+        let _ = write!(out, ", {} refused", c.refused);
     }
     out
 }
@@ -555,4 +628,58 @@ fn plot(cells: &[Cell], models: &[String], path: &Path) -> Result<(), ReportErro
         }
         root.present().map_err(plot_error)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn radius_values(radius: f64) -> Vec<String> {
+        sweep(&CaptureRanges::default(), radius)
+            .into_iter()
+            .filter(|s| s.factor == "radius")
+            .map(|s| s.value)
+            .collect()
+    }
+
+    #[test]
+    fn the_radius_rows_halve_the_renders_radius_down_to_the_smallest_and_never_enlarge_them() {
+        assert_eq!(radius_values(465.5), ["60", "116", "233", "466"]);
+        assert_eq!(radius_values(116.36), ["60", "116"]);
+        // Within a twentieth of the smallest: one point.
+        assert_eq!(radius_values(124.0), ["60", "124"]);
+        assert_eq!(radius_values(62.0), ["60"]);
+    }
+
+    #[test]
+    fn a_cell_counts_answers_refusals_and_the_sets_that_hold_the_truth() {
+        let setting = Setting {
+            factor: "noise",
+            value: "1.0".into(),
+            camera: Camera::Original,
+        };
+        let mut cell = Cell::empty(&setting, "m", 3);
+        let verdict = |truth, predicted, set: &[usize]| Verdict {
+            truth,
+            predicted,
+            nearest: None,
+            set: Some(set.to_vec()),
+        };
+        cell.add(Some(&verdict(0, 0, &[0])));
+        cell.add(Some(&verdict(1, 2, &[2, 1])));
+        cell.add(Some(&verdict(2, 1, &[1])));
+        cell.add(None);
+        assert_eq!((cell.n, cell.correct, cell.refused), (4, 1, 1));
+        assert_eq!(cell.confusion[1][2] + cell.confusion[2][1], 2);
+        assert_eq!(cell.accuracy, 0.25);
+        // Of the three answered, two sets held the truth; four classes in all.
+        let (holding, size) = cell.set_figures().unwrap();
+        assert!((holding - 2.0 / 3.0).abs() < 1e-12 && (size - 4.0 / 3.0).abs() < 1e-12);
+        let text = markdown(std::slice::from_ref(&cell), &["m".into()]);
+        assert!(
+            text.contains("| noise | 1.0 | 25.0 % (1/4), 1 refused |"),
+            "{text}"
+        );
+        assert!(text.contains("| noise | 1.0 | 66.7 %, 1.33 |"), "{text}");
+    }
 }

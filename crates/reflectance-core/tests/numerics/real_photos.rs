@@ -15,7 +15,7 @@
 //! photos whose file name contains it (no floor then); `REFLECTANCE_DETECT_LONG_SIDE=N` detects
 //! on the photograph area-reduced to a long side of N px (no floor then either).
 
-use reflectance_core::decode::{DecodeOptions, decode_file};
+use reflectance_core::decode::{DecodeOptions, LinearImage, Photo as Decoded};
 use reflectance_core::locate::{self, GeometryError};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -103,6 +103,15 @@ fn manifest(set: &str) -> Vec<Photo> {
         .collect()
 }
 
+/// The photograph as a located request reads it: decoded whole at full size (a JPEG by
+/// libjpeg-turbo).
+fn as_located(photo: &Photo, options: &DecodeOptions) -> LinearImage {
+    const _: () = assert!(reflectance_core::analysis::LOCATING_SIDE == usize::MAX);
+    let bytes = std::fs::read(set_dir(&photo.set).join(&photo.path)).unwrap();
+    let decoded = Decoded::open(&bytes, options).unwrap();
+    decoded.whole(1).unwrap().image.into_owned()
+}
+
 #[derive(Clone, Copy, PartialEq)]
 enum Outcome {
     Found,
@@ -158,7 +167,7 @@ fn real_photographs() {
     let only = std::env::var("REFLECTANCE_REAL_PHOTOS_ONLY").unwrap_or_default();
     for photo in photos.iter().filter(|p| p.path.contains(only.as_str())) {
         let t = Instant::now();
-        let image = decode_file(&set_dir(&photo.set).join(&photo.path), &options).unwrap();
+        let image = as_located(photo, &options);
         // What `classify` does without a circle: the alpha channel, else detection.
         let (found, ranked) = match &image.alpha_mask {
             Some(alpha) => (
@@ -298,7 +307,7 @@ fn acceptance_left_one_source_out() {
         .iter()
         .flat_map(|set| manifest(set))
         .map(|photo| {
-            let image = decode_file(&set_dir(&photo.set).join(&photo.path), &options).unwrap();
+            let image = as_located(&photo, &options);
             let ranked = locate::candidates(image.luminance.view()).unwrap_or_default();
             (photo, ranked)
         })
