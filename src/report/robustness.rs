@@ -142,8 +142,9 @@ pub fn sweep(ranges: &CaptureRanges, radius: f64) -> Vec<Setting> {
         };
         add("errors", label.into(), settings);
     }
-    // Everything at its worst at once, at both ends of the radius range.
-    for r in ranges.radius {
+    // Everything at its worst at once, at both ends of the radius range (the larger no
+    // larger than the renders).
+    for r in [ranges.radius[0], ranges.radius[1].min(radius)] {
         let settings = CaptureSettings {
             radius: r,
             exposure: ranges.exposure[1],
@@ -640,6 +641,19 @@ mod tests {
             .filter(|s| s.factor == "radius")
             .map(|s| s.value)
             .collect()
+    }
+
+    #[test]
+    fn the_worst_rows_take_the_range_s_ends_but_never_enlarge_the_renders() {
+        let worst = |radius| -> Vec<String> {
+            sweep(&CaptureRanges::default(), radius)
+                .into_iter()
+                .filter(|s| s.factor == "worst")
+                .map(|s| s.value)
+                .collect()
+        };
+        assert_eq!(worst(465.5), ["r 60", "r 400"]);
+        assert_eq!(worst(116.36), ["r 60", "r 116"]);
     }
 
     #[test]
