@@ -5,6 +5,8 @@
                                 circle given: per material
   cues.py renders DIR PROBES    renders of a class file with members (`reflectance render`, PFM)
                                 in DIR, under the probes of the folder PROBES: per member
+  cues.py colour                the photographs again: how coloured each ball's centre is
+                                against the whole picture (no white card needed either)
 
 Both cues are log10 ratios of median linear luminances:
 * against the surroundings: the ball (within 0.9 r) over the ring 1.1-1.6 r around it; for a
@@ -12,6 +14,11 @@ Both cues are log10 ratios of median linear luminances:
   camera would see around it (the render itself has no background);
 * the rim's rise: the ring 0.9-0.97 r, outside the unwrapped annulus (which stops at 0.9 r),
   over the ball. A dielectric's Fresnel term rises there; a metal's hardly does.
+
+The colour: the mean linear RGB of the ball's centre (within 0.5 r, its brightest quarter left
+out, as highlights) over the picture's mean RGB (a grey world), normalized to sum 1; its
+distance from grey (L1 from a third each). A mirror ball reflects the scene it is in, so it
+reads near grey; a coloured ball does not.
 
 Needs numpy and Pillow.
 """
@@ -50,24 +57,53 @@ def srgb_to_linear(u8):
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 
-def photos():
-    table = collections.defaultdict(list)
+def labelled_photos():
+    """(manifest row, material, linear RGB, circle) of every photograph of dev and dev2."""
     for folder in ('dev', 'dev2'):
         base = os.path.join(PHOTOS, folder)
         with open(os.path.join(base, 'manifest.csv')) as f:
             for r in csv.DictReader(f):
                 image = ImageOps.exif_transpose(Image.open(os.path.join(base, r['path'])))
                 rgb = np.asarray(image.convert('RGB'), dtype=np.float64)
-                against, rise = cues(hdr.luminance(srgb_to_linear(rgb)), *(float(r[k]) for k in 'cx cy r'.split()))
-                material = r['label6'] or 'unlabelled'
-                table[material].append((against, rise))
-                shown = '  none' if against is None else f'{against:6.2f}'
-                print(f"{r['path']:45s} {material:12s} {shown} {rise:6.2f}", file=sys.stderr)
+                material = r['label6'] or r['path'].split('_')[0]
+                yield r, material, srgb_to_linear(rgb), tuple(float(r[k]) for k in 'cx cy r'.split())
+
+
+def photos():
+    table = collections.defaultdict(list)
+    for r, material, rgb, circle in labelled_photos():
+        against, rise = cues(hdr.luminance(rgb), *circle)
+        table[material].append((against, rise))
+        shown = '  none' if against is None else f'{against:6.2f}'
+        print(f"{r['path']:45s} {material:12s} {shown} {rise:6.2f}", file=sys.stderr)
     print('| material | photographs | against the surroundings: median (range) | rim\'s rise: median (range) |')
     print('|---|---|---|---|')
     for material, values in sorted(table.items()):
         print(f'| {material} | {len(values)} | {summary([a for a, _ in values if a is not None])} '
               f'| {summary([b for _, b in values])} |')
+
+
+def centre_colour(rgb, cx, cy, r):
+    """How far from grey the ball's centre is against the picture's mean colour."""
+    h, w, _ = rgb.shape
+    yy, xx = np.mgrid[0:h, 0:w]
+    centre = rgb[np.hypot(xx - cx, yy - cy) <= 0.5 * r]
+    y = hdr.luminance(centre)
+    centre = centre[y <= np.quantile(y, 0.75)]
+    ratio = centre.mean(0) / rgb.reshape(-1, 3).mean(0)
+    return np.abs(ratio / ratio.sum() - 1.0 / 3.0).sum()
+
+
+def colour():
+    table = collections.defaultdict(list)
+    for r, material, rgb, circle in labelled_photos():
+        distance = centre_colour(rgb, *circle)
+        table[material].append(distance)
+        print(f"{r['path']:45s} {material:12s} {distance:6.3f}", file=sys.stderr)
+    print('| material | photographs | centre against the picture, distance from grey: median (range) |')
+    print('|---|---|---|')
+    for material, values in sorted(table.items()):
+        print(f'| {material} | {len(values)} | {summary(values)} |')
 
 
 def summary(values):
@@ -142,5 +178,7 @@ if __name__ == '__main__':
         photos()
     elif sys.argv[1:2] == ['renders'] and len(sys.argv) == 4:
         renders(sys.argv[2], sys.argv[3])
+    elif sys.argv[1:2] == ['colour'] and len(sys.argv) == 2:
+        colour()
     else:
         sys.exit(__doc__)
