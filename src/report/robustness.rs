@@ -142,9 +142,11 @@ pub fn sweep(ranges: &CaptureRanges, radius: f64) -> Vec<Setting> {
         };
         add("errors", label.into(), settings);
     }
-    // Everything at its worst at once, at both ends of the radius range (the larger no
-    // larger than the renders).
-    for r in [ranges.radius[0], ranges.radius[1].min(radius)] {
+    // Everything at its worst at once, at both ends of the radius range (no larger than
+    // the renders).
+    let mut ends = ranges.radius.map(|r| r.min(radius)).to_vec();
+    ends.dedup();
+    for r in ends {
         let settings = CaptureSettings {
             radius: r,
             exposure: ranges.exposure[1],
@@ -172,6 +174,9 @@ pub fn sweep(ranges: &CaptureRanges, radius: f64) -> Vec<Setting> {
 /// down to the capture range's smallest, `low`, which ends the list. Never larger than the
 /// renders: an enlarged render has no detail a larger ball would show.
 fn radius_points(low: f64, radius: f64) -> Vec<f64> {
+    if radius < low {
+        return vec![radius];
+    }
     let mut points = vec![low];
     let mut r = radius;
     while r > low * (1.0 + RADIUS_GAP) {
@@ -654,6 +659,7 @@ mod tests {
         };
         assert_eq!(worst(465.5), ["r 60", "r 400"]);
         assert_eq!(worst(116.36), ["r 60", "r 116"]);
+        assert_eq!(worst(36.4), ["r 36"]);
     }
 
     #[test]
@@ -663,6 +669,7 @@ mod tests {
         // Within a twentieth of the smallest: one point.
         assert_eq!(radius_values(124.0), ["60", "124"]);
         assert_eq!(radius_values(62.0), ["60"]);
+        assert_eq!(radius_values(36.4), ["36"]);
     }
 
     #[test]
