@@ -177,12 +177,10 @@ fn radius_points(low: f64, radius: f64) -> Vec<f64> {
     if radius < low {
         return vec![radius];
     }
-    let mut points = vec![low];
-    let mut r = radius;
-    while r > low * (1.0 + RADIUS_GAP) {
-        points.insert(1, r);
-        r /= 2.0;
-    }
+    let halvings = std::iter::successors(Some(radius), |r| Some(r / 2.0))
+        .take_while(|&r| r > low * (1.0 + RADIUS_GAP));
+    let mut points: Vec<f64> = halvings.chain([low]).collect();
+    points.reverse();
     points
 }
 

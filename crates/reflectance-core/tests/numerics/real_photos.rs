@@ -103,8 +103,8 @@ fn manifest(set: &str) -> Vec<Photo> {
         .collect()
 }
 
-/// The photograph as a located request reads it: decoded whole at full size (a JPEG by
-/// libjpeg-turbo).
+/// The photograph as a located request reads it: decoded whole at full size by
+/// `decode::Photo`, whatever decoder that uses.
 fn as_located(photo: &Photo, options: &DecodeOptions) -> LinearImage {
     const _: () = assert!(reflectance_core::analysis::LOCATING_SIDE == usize::MAX);
     let bytes = std::fs::read(set_dir(&photo.set).join(&photo.path)).unwrap();
