@@ -438,6 +438,7 @@ mod tests {
                 preprocessing: Preprocessing {
                     working_radius: Some(64.0),
                     saturation: Some(1.25),
+                    blur_at_working_radius: true,
                 },
                 ..FeatureOptions::default()
             },

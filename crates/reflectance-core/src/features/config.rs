@@ -32,6 +32,12 @@ pub struct Preprocessing {
     #[serde(default)]
     #[cfg_attr(feature = "cli", arg(long))]
     pub saturation: Option<f64>,
+    /// Measure the rim's blur (`cap.blur`) on the sphere reduced to the working radius, where
+    /// the other features read it, rather than on the image as given; a model records it so
+    /// that serving does the same.
+    #[serde(default)]
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub blur_at_working_radius: bool,
 }
 
 impl Preprocessing {
@@ -39,7 +45,7 @@ impl Preprocessing {
     pub fn at_radius(working_radius: f64) -> Self {
         Preprocessing {
             working_radius: Some(working_radius),
-            saturation: None,
+            ..Preprocessing::default()
         }
     }
 }
@@ -313,6 +319,13 @@ pub struct FeatureConfig {
     /// an unclipped render, look alike.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub saturation: Option<f64>,
+    /// Whether `cap.blur` is measured on the sphere at the working radius (where a sharp
+    /// ball reads as sharp whatever its size in the photograph) rather than as given, where
+    /// the rim of a large sharp ball reads below anything a model trained on smaller renders
+    /// saw (docs/accuracy.md, "Accuracy per input radius"). Absent (false) in model files
+    /// from before it.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub blur_at_working_radius: bool,
 }
 
 impl Default for FeatureConfig {
@@ -323,6 +336,7 @@ impl Default for FeatureConfig {
             families: Families::NONE,
             working_radius: None,
             saturation: None,
+            blur_at_working_radius: false,
         }
     }
 }
@@ -424,6 +438,7 @@ impl FeatureConfig {
             families: families.completed(),
             working_radius: preprocessing.working_radius,
             saturation: preprocessing.saturation,
+            blur_at_working_radius: preprocessing.blur_at_working_radius,
             ..FeatureConfig::default()
         }
     }
@@ -461,6 +476,7 @@ impl FeatureConfig {
         Preprocessing {
             working_radius: self.working_radius,
             saturation: self.saturation,
+            blur_at_working_radius: self.blur_at_working_radius,
         }
     }
 
@@ -581,13 +597,14 @@ mod tests {
         // preprocessing), then the preprocessing.
         let families = r#"{"log_features":false,"radial_features":false,"dependency_features":false,"capture_features":false,"centre_features":true,"domain_features":false,"#;
         assert!(text.starts_with(families), "{text}");
-        let preprocessing = r#","working_radius":64.0,"saturation":null}"#;
+        let preprocessing =
+            r#","working_radius":64.0,"saturation":null,"blur_at_working_radius":false}"#;
         assert!(text.ends_with(preprocessing), "{text}");
         let read: FeatureOptions = serde_json::from_str(&text).unwrap();
         assert_eq!(read, options);
         let partial: FeatureOptions =
             serde_json::from_str(r#"{"domain_features":true,"other":1}"#).unwrap();
         assert_eq!(partial.families, Families::NONE.with(&DOMAIN));
-        assert_eq!(FeatureOptions::keys().len(), FAMILIES.len() + 2);
+        assert_eq!(FeatureOptions::keys().len(), FAMILIES.len() + 3);
     }
 }

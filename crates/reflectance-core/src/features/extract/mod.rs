@@ -266,6 +266,7 @@ impl Extractor {
             reduced,
             white,
             full_scale,
+            blur_as_seen: self.config.blur_at_working_radius,
             annulus,
             observed,
             equivalent,

@@ -537,3 +537,67 @@ fn config_validation() {
         assert!(matches!(bad.validate(), Err(ConfigError::BadSaturation(_))));
     }
 }
+
+/// A sharp (area-sampled) shaded disc of radius `r` centred in a square image 2.4 r across.
+fn sharp_disc(r: f64) -> (Array2<f64>, Circle) {
+    let side = (2.4 * r) as usize;
+    let c = side as f64 / 2.0 - 0.3;
+    let offsets = [-0.375, -0.125, 0.125, 0.375];
+    let image = Array2::from_shape_fn((side, side), |(y, x)| {
+        let inside = offsets
+            .iter()
+            .flat_map(|dy| offsets.iter().map(move |dx| (dx, dy)))
+            .filter(|(dx, dy)| (x as f64 + **dx - c).hypot(y as f64 + **dy - c) <= r)
+            .count() as f64
+            / 16.0;
+        inside * (0.4 + 0.3 * x as f64 / side as f64) + (1.0 - inside) * 0.1
+    });
+    (image, Circle { cx: c, cy: c, r })
+}
+
+#[test]
+fn the_rim_blur_at_the_working_radius_reads_a_large_sharp_ball_as_a_small_one() {
+    let blur_of = |blur_at_working_radius: bool, r: f64| {
+        let preprocessing = Preprocessing {
+            working_radius: Some(64.0),
+            blur_at_working_radius,
+            ..Preprocessing::default()
+        };
+        let config = FeatureConfig::extended(Families::NONE.with(&CAPTURE), preprocessing);
+        let (image, circle) = sharp_disc(r);
+        let row = Extractor::new(config)
+            .unwrap()
+            .extract(image.view(), &circle, 0.7);
+        row[config.names().iter().position(|n| n == "cap.blur").unwrap()]
+    };
+    // At the working radius itself both read the same sharp rim.
+    assert_eq!(blur_of(false, 64.0), blur_of(true, 64.0));
+    let small = blur_of(true, 64.0);
+    // Four times as large and as sharp: as given, its rim reads far sharper per radius than
+    // any ball of 64 px can (a model trained on them never saw it); at the working radius,
+    // about as the small ball's (the reduction's own blur aside).
+    let (given, seen) = (blur_of(false, 256.0), blur_of(true, 256.0));
+    assert!(given < small - 0.3, "as given {given}, small {small}");
+    assert!(
+        (seen - small).abs() < 0.3,
+        "at the working radius {seen}, small {small}"
+    );
+}
+
+#[test]
+fn a_model_file_records_the_rim_blur_at_the_working_radius_only_when_on() {
+    let off = FeatureConfig::extended(
+        Families::NONE.with(&CAPTURE),
+        Preprocessing::at_radius(64.0),
+    );
+    let json = serde_json::to_value(off).unwrap();
+    assert!(json.get("blur_at_working_radius").is_none(), "{json}");
+    let on = FeatureConfig {
+        blur_at_working_radius: true,
+        ..off
+    };
+    let json = serde_json::to_value(on).unwrap();
+    assert_eq!(json["blur_at_working_radius"], true);
+    assert_eq!(serde_json::from_value::<FeatureConfig>(json).unwrap(), on);
+    assert!(on.preprocessing().blur_at_working_radius);
+}

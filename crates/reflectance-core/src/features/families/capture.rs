@@ -77,7 +77,11 @@ fn of_photograph(sphere: &Seen<'_>, wanted: &dyn Fn(usize) -> bool) -> Vec<f64> 
         capture[1] = m.clipped;
     }
     if wanted(2) {
-        let sigma = rim_blur(sphere.given.view(), &sphere.circle).unwrap_or(0.0) / sphere.circle.r;
+        let (image, circle) = match sphere.blur_as_seen {
+            true => sphere.seen(),
+            false => (sphere.given.view(), &sphere.circle),
+        };
+        let sigma = rim_blur(image, circle).unwrap_or(0.0) / circle.r;
         capture[2] = sigma.max(NOISE_FLOOR).log10();
     }
     capture

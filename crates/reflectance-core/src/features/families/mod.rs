@@ -147,6 +147,8 @@ pub(crate) struct Seen<'a> {
     pub white: f64,
     /// The value the image's samples clip at (`None`: they do not, as in floating point).
     pub full_scale: Option<f64>,
+    /// Whether the rim's blur is read as the features see the sphere ([`Seen::seen`]).
+    pub blur_as_seen: bool,
     /// The white-normalized annulus the blocks read (rows: radius, columns: angle).
     pub annulus: Array2<f64>,
     /// Which of its cells are observed (`None`: all).
