@@ -290,6 +290,18 @@ pub struct TrainArgs {
     /// train jobs do (whose default is never).
     #[arg(long, value_enum, default_value_t = Activate::IfBetter)]
     activate: Activate,
+    /// Fit the classifier without white on the classes' reference materials only: leave out
+    /// the images of their members (`CLASS+MEMBER` in a rendered file's name), which without
+    /// white a classifier cannot tell from other classes (a black lacquer from chrome).
+    #[arg(long)]
+    no_white_references_only: bool,
+    /// Take the Ward-parameter estimator and the classifier for objects of this model
+    /// (DIR/NAME, DIR/NAME/VERSION or a name, as `classify --model`) instead of fitting
+    /// them: the features are extracted with its families too, and its preprocessing and
+    /// classes must be the new model's. A retrained classifier keeps what reads the
+    /// features alike.
+    #[arg(long, conflicts_with = "estimator_table")]
+    carry_from: Option<PathBuf>,
     #[command(flatten)]
     estimator: EstimatorArgs,
     #[command(flatten)]
@@ -352,10 +364,20 @@ impl EstimatorArgs {
 pub fn train(args: TrainArgs) -> CliResult {
     registry::check_name(&args.name)?;
     let classes = args.classes.as_deref().map(load_classes).transpose()?;
-    // A model's domain check reads how well each circle follows a sphere's outline.
-    let config = (args.estimator)
+    let carried = args
+        .carry_from
+        .as_deref()
+        .map(super::load_model_file)
+        .transpose()?;
+    // A model's domain check reads how well each circle follows a sphere's outline; what
+    // is carried reads the families of the model it comes from.
+    let mut config = (args.estimator)
         .config(args.extraction.config(&args.options.features)?)
         .with(&DOMAIN);
+    if let Some(from) = &carried {
+        config.families = config.families.union(from.features.config.families);
+        train::check_carry(&config, from)?;
+    }
     let (table, label, manifest) = args.data.load_with_manifest(&args.limits, config)?;
     let options = TrainOptions {
         name: args.name.clone(),
@@ -367,10 +389,14 @@ pub fn train(args: TrainArgs) -> CliResult {
         images: manifest,
         decode: args.limits.decode_options(),
         estimator: args.estimator.data(args.options.gamma, &table.names)?,
+        no_white_references_only: args.no_white_references_only,
     };
     let mut trained = progress::observed("train", |bar| {
         train::train_with(&table, &label, &options, bar)
     })?;
+    if let Some(from) = &carried {
+        train::carry_heads(&mut trained.model, from)?;
+    }
     if let Some(report) = &trained.estimate {
         eprint!(
             "estimator: {}",

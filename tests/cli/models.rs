@@ -36,6 +36,7 @@ fn trained(name: &str) -> ModelFile {
         images: None,
         decode: Default::default(),
         estimator: None,
+        no_white_references_only: false,
     };
     train(&table(), "fixture", &options).unwrap().model
 }
@@ -287,6 +288,42 @@ fn synthetic_probes_and_classes(dir: &Path) -> (PathBuf, PathBuf) {
     (probes, classes)
 }
 
+/// `train` of a hand6+log model on `manifest` into the registry `models` (no CV; calibrated
+/// one illumination at a time), with `extra` arguments.
+fn train_hand6_log(
+    manifest: &Path,
+    models: &Path,
+    name: &str,
+    extra: &[&str],
+) -> std::process::Output {
+    let (manifest, models) = (manifest.to_str().unwrap(), models.to_str().unwrap());
+    let mut args = vec!["train", "--manifest", manifest, "--features", "hand6+log"];
+    args.extend(["--calibration-folds", "0", "--no-cv", "--models", models]);
+    args.extend(["--name", name]);
+    args.extend(extra);
+    Command::new(env!("CARGO_BIN_EXE_reflectance"))
+        .args(&args)
+        .output()
+        .unwrap()
+}
+
+/// Spheres of `classes` under `probes`, 96 px, into `out`.
+fn render_spheres(probes: &Path, classes: &Path, out: &Path) {
+    let (probes, classes) = (probes.to_str().unwrap(), classes.to_str().unwrap());
+    let out = out.to_str().unwrap();
+    run(&[
+        "render",
+        "--probes",
+        probes,
+        "--classes",
+        classes,
+        "--out",
+        out,
+        "--size",
+        "96",
+    ]);
+}
+
 /// Run the binary; its stdout, or a panic with its stderr.
 fn run(args: &[&str]) -> String {
     let out = Command::new(env!("CARGO_BIN_EXE_reflectance"))
@@ -306,17 +343,7 @@ fn predict_rendered_spheres_with_a_trained_model() {
     let dir = temp_dir("predict");
     let (probes, classes) = synthetic_probes_and_classes(&dir);
     let data = dir.join("data");
-    run(&[
-        "render",
-        "--probes",
-        probes.to_str().unwrap(),
-        "--classes",
-        classes.to_str().unwrap(),
-        "--out",
-        data.to_str().unwrap(),
-        "--size",
-        "96",
-    ]);
+    render_spheres(&probes, &classes, &data);
     let manifest = data.join("manifest.csv");
     let models = dir.join("models");
     let train = |name: &str, features: &str, extra: &[&str]| {
@@ -549,6 +576,78 @@ fn a_classifier_for_objects_answers_objects_and_spheres_stay_as_they_were() {
         .zip(&as_sphere)
         .any(|(a, b)| (a - b).abs() > 1e-6);
     assert!(differs, "{expected:?} {as_sphere:?}");
+
+    // Retrained on the spheres, carrying version 2's classifier for objects: version 3 is
+    // version 1's classifier (the same data and options) with version 2's heads.
+    let retrain = |extra: &[&str]| train_hand6_log(&spheres_csv, &models, "m", extra);
+    let v2_dir = models.join("m/2");
+    let v2_dir = v2_dir.to_str().unwrap();
+    // Another preprocessing cannot carry them, and nothing is published.
+    let refused = retrain(&["--carry-from", v2_dir, "--saturation", "1.25"]);
+    assert!(!refused.status.success());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        stderr.contains(
+            "cannot carry its estimator and classifier for objects from m version 2: \
+             its feature configuration differs"
+        ),
+        "{stderr}"
+    );
+    assert!(registry.load("m", 3).is_err());
+    common::assert_success(&retrain(&["--carry-from", v2_dir]));
+    let v3 = registry.load("m", 3).unwrap();
+    assert_eq!(v3.objects, v2.objects);
+    assert_eq!(
+        (&v3.classifier, &v3.no_white),
+        (&v1.classifier, &v1.no_white)
+    );
+    assert_eq!(
+        v3.self_test.objects_probabilities,
+        v2.self_test.objects_probabilities
+    );
+}
+
+/// `train --no-white-references-only` fits the classifier without white on the classes'
+/// reference materials alone: as a model trained on the manifest without its members' rows.
+#[test]
+fn the_classifier_without_white_can_leave_the_members_out() {
+    let dir = temp_dir("references");
+    let (probes, _) = synthetic_probes_and_classes(&dir);
+    let classes = dir.join("members.json");
+    std::fs::write(
+        &classes,
+        r#"{"classes": [{"name": "matte", "rho_d": 0.8, "rho_s": 0.0, "alpha": 0.0},
+                        {"name": "chrome", "rho_d": 0.0, "rho_s": 0.75, "alpha": 0.0},
+                        {"name": "dark", "rho_d": 0.1, "rho_s": 0.0, "alpha": 0.0},
+                        {"name": "dark", "member": "lacquer", "rho_d": 0.01, "rho_s": 0.04,
+                         "alpha": 0.0, "ior": 1.5}]}"#,
+    )
+    .unwrap();
+    let out = dir.join("spheres");
+    render_spheres(&probes, &classes, &out);
+    let manifest = out.join("manifest.csv");
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    assert_eq!(
+        text.lines().filter(|l| l.contains("dark+lacquer")).count(),
+        3
+    );
+    let references = out.join("references.csv");
+    let kept: Vec<&str> = text.lines().filter(|l| !l.contains('+')).collect();
+    std::fs::write(&references, kept.join("\n") + "\n").unwrap();
+    let models = dir.join("models");
+    let train = |manifest: &Path, name: &str, extra: &[&str]| {
+        common::assert_success(&train_hand6_log(manifest, &models, name, extra));
+        Registry::new(&models).load(name, 1).unwrap()
+    };
+    let with_members = train(&manifest, "all", &[]);
+    let without_members = train(&manifest, "refs", &["--no-white-references-only"]);
+    let references_alone = train(&references, "alone", &[]);
+    let no_white = |m: &ModelFile| m.no_white.clone().unwrap().classifier;
+    assert_eq!(no_white(&without_members), no_white(&references_alone));
+    assert_ne!(no_white(&without_members), no_white(&with_members));
+    // The classifier with white still learns from the members.
+    assert_eq!(without_members.classifier, with_members.classifier);
+    assert_ne!(without_members.classifier, references_alone.classifier);
 }
 
 /// `classify` on the shipped default without naming it, a model by name from any folder

@@ -150,6 +150,7 @@ pub fn fixture() -> &'static Fixture {
                 },
                 gamma: Some(1.0 / 6.0),
             }),
+            no_white_references_only: false,
         };
         let mut model = train(&table, "train/manifest.csv", &options).unwrap().model;
         let models = dir.join("models");

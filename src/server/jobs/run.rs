@@ -467,6 +467,7 @@ impl Context<'_> {
                 &table.names,
                 data,
             )?,
+            no_white_references_only: false,
         };
         let mut trained = train::train_with(&table, &label, &options, observer)?;
         if observer.cancelled() {

@@ -144,6 +144,15 @@ pub enum MaterialError {
 /// The separator of a class's name and its member's in file names (`black_shiny+billiard`).
 pub const MEMBER_SEPARATOR: char = '+';
 
+/// Whether a rendered image's path names a class's member (`…__black_shiny+billiard.pfm`,
+/// as `render` names it: the material's [`Material::label`] after the last `__`) rather
+/// than its reference material.
+pub fn names_a_member(path: &str) -> bool {
+    let name = path.rsplit(['/', '\\']).next().unwrap_or(path);
+    name.rsplit_once("__")
+        .is_some_and(|(_, material)| material.contains(MEMBER_SEPARATOR))
+}
+
 impl Material {
     /// A class's reference material: plain Ward, no member.
     pub fn new(name: impl Into<String>, ward: Ward) -> Material {
@@ -297,6 +306,25 @@ pub fn load_classes(path: &Path) -> Result<Vec<Material>, ClassFileError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_rendered_path_names_a_member_after_its_probe() {
+        for member in [
+            "p0__black_shiny+billiard.pfm",
+            "cc0/some_probe@rot90@cap2__gray_shiny+plastic_rough.jpg",
+            r"dir\probe__chrome+steel.png",
+        ] {
+            assert!(names_a_member(member), "{member}");
+        }
+        for reference in [
+            "p0__black_shiny.pfm",
+            "a+b/some_probe@cap1__chrome.png",
+            "photo+1.jpg",
+            "black_shiny+billiard",
+        ] {
+            assert!(!names_a_member(reference), "{reference}");
+        }
+    }
 
     #[test]
     fn a_class_needs_a_name_and_valid_parameters() {

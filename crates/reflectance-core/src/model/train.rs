@@ -55,6 +55,16 @@ pub enum TrainError {
         /// The model's.
         model: String,
     },
+    /// A model whose estimator and classifier for objects cannot be carried into this one.
+    #[error("cannot carry {what} from {from}: {why}")]
+    Carry {
+        /// What was to be carried.
+        what: &'static str,
+        /// The model it was to come from (name and version).
+        from: String,
+        /// Why not.
+        why: &'static str,
+    },
     /// A manifest or table cannot be read.
     #[error(transparent)]
     Dataset(#[from] crate::dataset::DatasetError),
@@ -89,6 +99,11 @@ pub struct TrainOptions {
     pub decode: DecodeOptions,
     /// Fit a Ward-parameter estimator next to the classifier.
     pub estimator: Option<EstimatorData>,
+    /// Fit the classifier without white on the classes' reference materials only, leaving
+    /// out the images of their members ([`crate::material::names_a_member`]): without white a
+    /// dark glossy member is a dim mirror, which the classifier without white cannot tell
+    /// from the metals (docs/design.md §8, "Real materials and the classes").
+    pub no_white_references_only: bool,
 }
 
 /// What a Ward-parameter estimator is fitted on.
@@ -223,7 +238,11 @@ pub fn train_with(
         fit_classifier(&ds, &options.spec, options.seed, &column, observer)?;
     let no_white = match (&options.images, config.families.contains(&LOG)) {
         (Some(manifest), true) => {
-            let table = without_white(manifest, config, &options.decode, observer)?;
+            let manifest = match options.no_white_references_only {
+                true => references_only(manifest),
+                false => manifest.clone(),
+            };
+            let table = without_white(&manifest, config, &options.decode, observer)?;
             observer.stage("fit_without_white");
             fit_no_white(&Dataset::from_table(&table)?, options, &column, observer)?
         }
@@ -438,6 +457,17 @@ fn reliability(
 
 /// The features of a manifest's images as a request without white gives them (white = 1):
 /// what the classifier without white is fitted and calibrated on.
+/// `manifest` without the rows of classes' members.
+fn references_only(manifest: &Manifest) -> Manifest {
+    Manifest {
+        source: manifest.source.clone(),
+        entries: (manifest.entries.iter())
+            .filter(|e| !crate::material::names_a_member(&e.path))
+            .cloned()
+            .collect(),
+    }
+}
+
 fn without_white(
     manifest: &Manifest,
     config: FeatureConfig,
@@ -556,6 +586,56 @@ pub fn add_objects(
         report: None,
         estimate: None,
     })
+}
+
+/// `model` with the Ward-parameter estimator and the classifier for objects of `from`, a
+/// model of the same feature configuration and classes (what it lacks stays absent; an
+/// estimator `model` has already is kept). Both read only features, which the two models
+/// extract alike, so they answer in `model` exactly as in `from`: a retrained classifier
+/// need not refit them.
+pub fn carry_heads(model: &mut ModelFile, from: &ModelFile) -> Result<(), TrainError> {
+    check_carry(&model.features.config, from)?;
+    if model.estimator.is_none() {
+        model.estimator = from.estimator.clone();
+    }
+    if let Some(objects) = &from.objects {
+        if objects.classifier.classes != model.classifier.classes {
+            return Err(refused(
+                from,
+                "its classifier for objects",
+                "its classes differ",
+            ));
+        }
+        model.self_test.objects_probabilities = Some(
+            objects
+                .classifier
+                .predict_proba(&model.self_test.features)?,
+        );
+        model.objects = Some(objects.clone());
+    }
+    model.verify()?;
+    Ok(())
+}
+
+/// Whether a model extracted with `config` can take `from`'s estimator and classifier for
+/// objects ([`carry_heads`]), before it is trained.
+pub fn check_carry(config: &FeatureConfig, from: &ModelFile) -> Result<(), TrainError> {
+    match from.features.config == *config {
+        true => Ok(()),
+        false => Err(refused(
+            from,
+            "its estimator and classifier for objects",
+            "its feature configuration differs",
+        )),
+    }
+}
+
+fn refused(from: &ModelFile, what: &'static str, why: &'static str) -> TrainError {
+    TrainError::Carry {
+        what,
+        from: format!("{} version {}", from.name, from.version),
+        why,
+    }
 }
 
 /// The estimator of `data` for a model of `table`'s columns and `options`' feature set.
