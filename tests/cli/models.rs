@@ -8,7 +8,7 @@ use reflectance_core::dataset::FeatureTable;
 use reflectance_core::features::families::{LOG, RADIAL};
 use reflectance_core::learn::FeatureSet;
 use reflectance_core::model::registry::{Registry, RegistryError};
-use reflectance_core::model::train::{TrainOptions, train};
+use reflectance_core::model::train::{self, TrainOptions, train};
 use reflectance_core::model::{ModelError, ModelFile};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -605,6 +605,30 @@ fn a_classifier_for_objects_answers_objects_and_spheres_stay_as_they_were() {
         v3.self_test.objects_probabilities,
         v2.self_test.objects_probabilities
     );
+}
+
+/// The shipped `ward6` version 2's estimator and classifier for objects carried into a copy of
+/// it without them: the copy is version 2 again; a copy of another configuration refuses.
+#[test]
+fn the_estimator_and_the_objects_head_carry_exactly() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let shipped = Registry::new(root.join("models")).load("ward6", 2).unwrap();
+    assert!(shipped.estimator.is_some() && shipped.objects.is_some());
+    let mut bare = shipped.clone();
+    (bare.estimator, bare.objects) = (None, None);
+    bare.self_test.objects_probabilities = None;
+    let mut other = bare.clone();
+    train::carry_heads(&mut bare, &shipped).unwrap();
+    assert_eq!(bare, shipped);
+    other.features.config.saturation = Some(2.0);
+    let refused = train::carry_heads(&mut other, &shipped).unwrap_err();
+    assert!(
+        refused
+            .to_string()
+            .ends_with("from ward6 version 2: its feature configuration differs"),
+        "{refused}"
+    );
+    assert!(other.estimator.is_none() && other.objects.is_none());
 }
 
 /// `train --no-white-references-only` fits the classifier without white on the classes'
