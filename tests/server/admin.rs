@@ -214,11 +214,12 @@ async fn render_train_activate_roll_back_and_delete() {
     assert_eq!(versions["versions"].as_array().unwrap().len(), 2);
     assert!(versions["versions"][1]["cv_accuracy"].is_number());
 
-    // The same training again is not better: if_better keeps version 2.
+    // The same training again is not better: if_better keeps version 2 (the classifier
+    // without white of a hand6 model does not exist, so leaving members out of it is moot).
     let again = submit(
         &server,
         json!({"type": "train", "name": "ward6", "dataset": "renders/r96/manifest.csv",
-               "activate": "if_better", "seed": 3}),
+               "activate": "if_better", "seed": 3, "no_white_references_only": true}),
     )
     .await;
     let done = wait_for(&server, again["id"].as_str().unwrap(), TERMINAL).await;

@@ -53,6 +53,7 @@ fn check_keys(body: &Value) -> Result<(), ApiError> {
             "estimator_table",
             "estimator_classes",
             "estimator_features",
+            "no_white_references_only",
         ],
         "cross_validate" => &["ward_classes"],
         "render" => &["probes", "classes", "out", "size", "seed", "captures"],
@@ -454,6 +455,7 @@ mod tests {
                 estimator_table: Some("materials.csv".into()),
                 estimator_classes: Some("materials.json".into()),
                 estimator_features: Some("hand6+log+cap+ctr".into()),
+                no_white_references_only: true,
             },
             JobRequest::CrossValidate {
                 data,

@@ -234,6 +234,7 @@ fn check_train(request: &JobRequest, data: &DataDir) -> Result<(), JobError> {
         estimator_table,
         estimator_classes,
         estimator_features,
+        no_white_references_only: _,
     } = request
     else {
         return Err(JobError::WrongKind("train"));
@@ -432,6 +433,7 @@ impl Context<'_> {
             estimator_table,
             estimator_classes,
             estimator_features,
+            no_white_references_only,
         } = request
         else {
             return Err(JobError::WrongKind("train").into());
@@ -467,7 +469,7 @@ impl Context<'_> {
                 &table.names,
                 data,
             )?,
-            no_white_references_only: false,
+            no_white_references_only: *no_white_references_only,
         };
         let mut trained = train::train_with(&table, &label, &options, observer)?;
         if observer.cancelled() {

@@ -87,6 +87,11 @@ pub enum JobRequest {
         /// `train --estimator-features` does.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         estimator_features: Option<String>,
+        /// Fit the classifier without white on the classes' reference materials only,
+        /// leaving out the images of their members (`CLASS+MEMBER` in a rendered file's
+        /// name), as `train --no-white-references-only` does.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        no_white_references_only: bool,
     },
     /// Leave-one-illumination-out cross-validation.
     CrossValidate {
