@@ -455,8 +455,6 @@ fn reliability(
     Ok((Some(sets), DomainCheck::calibrate(&rows, column, seed)))
 }
 
-/// The features of a manifest's images as a request without white gives them (white = 1):
-/// what the classifier without white is fitted and calibrated on.
 /// `manifest` without the rows of classes' members.
 fn references_only(manifest: &Manifest) -> Manifest {
     Manifest {
@@ -468,6 +466,8 @@ fn references_only(manifest: &Manifest) -> Manifest {
     }
 }
 
+/// The features of a manifest's images as a request without white gives them (white = 1):
+/// what the classifier without white is fitted and calibrated on.
 fn without_white(
     manifest: &Manifest,
     config: FeatureConfig,
