@@ -485,7 +485,7 @@ mod tests {
             "{refused}"
         );
         let listed = "dataset, manifest, table, features, classifier, c, gamma, grid, seed, \
-                      calibration_folds, capture_features";
+                      calibration_folds, blur_at_working_radius, capture_features";
         assert!(refused.contains(listed), "{refused}");
     }
 
