@@ -44,9 +44,16 @@ def fill_form(form):
         form["white_rect"] = WHITE_RECT
     if "white_reflectance" in form and not ({"white_image", "white_rect"} & set(form)):
         del form["white_reflectance"]
-    if "white" in form and float(form["white"]) < 1e-6:
-        # The image over white must stay within f32's range.
+    if "white" in form and not usable_white(form["white"]):
         form["white"] = "0.8"
+
+
+def usable_white(value):
+    """A white the image can be divided by within f32's range (generated forms may hold none)."""
+    try:
+        return float(value) >= 1e-6
+    except (TypeError, ValueError):
+        return False
 
 
 def fill_inference(body):
