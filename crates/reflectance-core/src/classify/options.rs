@@ -155,8 +155,8 @@ impl TrainSpec {
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ClassifierOptions {
     /// A named set (hand6, hand2, mean1, hand6+log, hand6+log+radial, hand6+log+radial+dep,
-    /// hand6+cap, hand6+log+cap, hand6+log+cap+ctr, estimator, scale_free), all, auto<N>,
-    /// pca<N>, or a comma-separated list of names.
+    /// hand6+cap, hand6+log+cap, hand6+log+ctr, hand6+log+cap+ctr, estimator, scale_free), all,
+    /// auto<N>, pca<N>, or a comma-separated list of names.
     #[serde(default = "default_features")]
     #[cfg_attr(feature = "openapi", schema(default = "hand6"))]
     #[cfg_attr(
@@ -164,9 +164,9 @@ pub struct ClassifierOptions {
         arg(
             long,
             help = "A named set (hand6, hand2, mean1, hand6+log, hand6+log+radial, \
-                    hand6+log+radial+dep, hand6+cap, hand6+log+cap, hand6+log+cap+ctr, \
-                    estimator, scale_free), all, auto<N>, pca<N>, or a comma-separated list \
-                    of names. `all`, `auto<N>` and `pca<N>` range over the table's columns"
+                    hand6+log+radial+dep, hand6+cap, hand6+log+cap, hand6+log+ctr, \
+                    hand6+log+cap+ctr, estimator, scale_free), all, auto<N>, pca<N>, or a \
+                    comma-separated list of names. `all`, `auto<N>` and `pca<N>` range over the table's columns"
         )
     )]
     pub features: String,

@@ -17,7 +17,7 @@ pub(crate) fn families_of(spec: &str) -> Families {
 
 /// The named feature sets: the paper's hand-picked ones, the trivial one, and hand6 with
 /// our extensions ([`named_set`] lists their features).
-pub const NAMED_SETS: [&str; 11] = [
+pub const NAMED_SETS: [&str; 12] = [
     "hand6",
     "hand2",
     "mean1",
@@ -26,6 +26,7 @@ pub const NAMED_SETS: [&str; 11] = [
     "hand6+log+radial+dep",
     "hand6+cap",
     "hand6+log+cap",
+    "hand6+log+ctr",
     "hand6+log+cap+ctr",
     "estimator",
     "scale_free",
@@ -34,8 +35,10 @@ pub const NAMED_SETS: [&str; 11] = [
 /// The paper's hand-picked sets (§6.3, Fig. 7), the trivial one, hand6 extended with the
 /// log-domain pixel statistics and subband variances (`hand6+log`), and that with the
 /// log-domain radial changes (`hand6+log+radial`; docs/design.md §8), and hand6 and hand6+log with
-/// the capture measurements (`hand6+cap`, `hand6+log+cap`), and the last with the centre
-/// features (`hand6+log+cap+ctr`), and `estimator`, the shipped Ward-parameter estimators'
+/// the capture measurements (`hand6+cap`, `hand6+log+cap`), hand6+log with the centre features
+/// (`hand6+log+ctr`, the shipped ward6 since version 3: the centre shows the reflectance head
+/// on, where a dielectric's Fresnel term is least), and hand6+log+cap with them
+/// (`hand6+log+cap+ctr`), and `estimator`, the shipped Ward-parameter estimators'
 /// inputs: hand6+log+cap+ctr without `cap.blur`, so that a model whose classifier does not read
 /// the rim's blur need not measure it, and with the log-domain variance ratios and subband
 /// kurtoses, which tell α better (docs/design.md §8, docs/accuracy.md), and `scale_free`, the features of
@@ -58,6 +61,11 @@ pub fn named_set(name: &str) -> Option<Vec<String>> {
         "hand6+log+cap" => {
             let mut names = named_set("hand6+log")?;
             names.extend(CAPTURE_NAMES.iter().map(|n| n.to_string()));
+            Some(names)
+        }
+        "hand6+log+ctr" => {
+            let mut names = named_set("hand6+log")?;
+            names.extend(CENTRE_NAMES.iter().map(|n| n.to_string()));
             Some(names)
         }
         "hand6+log+cap+ctr" => {

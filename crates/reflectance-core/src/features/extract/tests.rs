@@ -110,6 +110,11 @@ fn families_of_names_and_specs() {
     );
     assert_eq!(of_spec("log.radial.r1_r2.pix.var"), (true, true));
     assert_eq!(of_spec("log.pix.mean,pix.p10"), (true, false));
+    let centred = named_set("hand6+log+ctr").unwrap();
+    assert_eq!(centred[..25], named_set("hand6+log").unwrap()[..]);
+    assert_eq!(centred[25..], CENTRE_NAMES);
+    let families = families_of("hand6+log+ctr");
+    assert!(families.contains(&LOG) && families.contains(&CENTRE) && !families.contains(&CAPTURE));
     let config = FeatureConfig::extended(Families::ALL, Preprocessing::at_radius(80.0));
     let names = config.names();
     assert_eq!(
