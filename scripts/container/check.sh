@@ -19,8 +19,8 @@
 #    rebuilt (cache images of earlier builds that nothing uses any more are pruned).
 # 3. The image's configuration: user 65532, the exposed port is the port of
 #    REFLECTANCE_LISTEN, entrypoint and command, health check, the shipped models (exactly
-#    the files git tracks under models/*/2/, .dockerignore's), the data directory owned by
-#    65532, the size.
+#    the files git tracks under each model's latest version, .dockerignore's), the data
+#    directory owned by 65532, the size.
 # 4. The image's root filesystem (podman export), its entrypoint run in it (chroot, uid and
 #    gid 65532, no supplementary groups, no capabilities, the image's environment and working
 #    directory, /proc and /dev mounted in a private mount namespace): the health check fails
@@ -373,14 +373,19 @@ fi
 models=$(env_of REFLECTANCE_MODELS)
 default_model=$(env_of REFLECTANCE_DEFAULT_MODEL)
 in_image=$(cd "$R$models" && find . -type f | sed 's|^\./||' | sort)
-tracked=$(git ls-files models 2>/dev/null | sed 's|^models/||' | grep -E '^[^/]+/2/' | sort || true)
-[ -n "$tracked" ] || tracked=$(cd models && find . -path './*/2/*' -type f | sed 's|^\./||' | sort)
+# Each model's latest version: the one served, the only one the image holds.
+latest_files() {
+  sed 's|^models/||' | awk -F/ 'NF >= 3 && $2 ~ /^[0-9]+$/ { v[$1] = ($2 > v[$1] ? $2 : v[$1]); f[NR] = $0; m[NR] = $1; n[NR] = $2 }
+    END { for (i in f) if (n[i] == v[m[i]]) print f[i] }' | sort
+}
+tracked=$(git ls-files models 2>/dev/null | latest_files || true)
+[ -n "$tracked" ] || tracked=$(find models -type f | latest_files)
 if [ "$in_image" = "$tracked" ] && (cd models && sha256sum --quiet -c <(cd "$R$models" && sha256sum $in_image)); then
   pass "models in $models: $(echo $in_image) (the shipped ones, byte for byte)"
 else
   fail "models in $models: $(echo $in_image); shipped: $(echo $tracked)"
 fi
-[ -f "$R$models/$default_model/2/model.json" ] || fail "the default model $default_model is not in the image"
+[ -n "$(find "$R$models/$default_model" -name model.json 2>/dev/null)" ] || fail "the default model $default_model is not in the image"
 
 data=$(env_of REFLECTANCE_DATA_DIR)
 if [ "$(stat -c '%u:%g' "$R$data" 2>/dev/null)" = "$uid:$gid" ] && [ -z "$(ls -A "$R$data")" ]; then
