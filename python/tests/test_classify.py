@@ -28,9 +28,9 @@ def test_the_answer_equals_the_command_lines(model):
 
 def test_a_loaded_model_answers_as_a_path_does():
     model = reflectance.Model(WARD6)
-    assert (model.name, model.version) == ("ward6", 2)
+    assert (model.name, model.version) == ("ward6", 3)
     assert model.classes == ["black_matte", "black_shiny", "chrome", "gray_shiny", "white_matte", "white_shiny"]
-    assert repr(model) == 'Model(name="ward6", version=2)'
+    assert repr(model) == 'Model(name="ward6", version=3)'
     by_model = reflectance.classify(SPHERE, model=model, **CIRCLE)
     assert stable(model.classify(SPHERE, **CIRCLE)) == stable(by_model)
     assert stable(reflectance.classify(SPHERE, model=str(WARD6), **CIRCLE)) == stable(by_model)

@@ -5,12 +5,15 @@ Eight physical materials as glTF metallic-roughness assets (Principled BSDF in B
 dielectric's Fresnel from its index of refraction, a metal's from its base colour, a clear coat),
 each a unit sphere rendered by scripts/gltf/blender/render.py under each light probe, then
 classified by each model with the white reference `reflectance render` computes for that probe
-(read from a manifest that holds the probe, e.g. data/real_test/manifest.csv). Prints, per
-material and model, right / n and confidently wrong (a wrong label, the truth outside the
-prediction set, in domain), with and without the white.
+(read from a manifest that holds the probe, e.g. data/real_test/manifest.csv, or else rendered
+here). Prints, per material and model, right / n and confidently wrong (a wrong label, the truth
+outside the prediction set, in domain), with and without the white. Exits 1 when, with the
+white, a model gets fewer than --min-right of them right or more than --max-confident
+confidently wrong.
 
-    python3 scripts/materials/cycles.py --probes P.txt --whites M.csv --models M1 [M2 …]
+    python3 scripts/materials/cycles.py --probes P.txt|P.hdr… [--whites M.csv] --models M1 [M2 …]
         [--bin target/release/reflectance] [--size 256] [--samples 128] --work DIR
+        [--min-right F] [--max-confident N]
 
 The materials are not the training members' parameters (data/classes/classes6_real.json): they
 are the issue's own description of what people photograph.
@@ -42,13 +45,16 @@ MATERIALS = {
 
 def parse():
     p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    p.add_argument('--probes', required=True, help='a text file listing .hdr probes')
-    p.add_argument('--whites', required=True, help='a manifest whose rows give each probe a white')
+    p.add_argument('--probes', nargs='+', required=True,
+                   help='.hdr probes, or a text file listing them')
+    p.add_argument('--whites', help='a manifest whose rows give each probe a white')
     p.add_argument('--models', nargs='+', required=True)
     p.add_argument('--bin', default='target/release/reflectance')
     p.add_argument('--size', type=int, default=256)
     p.add_argument('--samples', type=int, default=128)
     p.add_argument('--work', required=True)
+    p.add_argument('--min-right', type=float, default=0.0)
+    p.add_argument('--max-confident', type=int)
     return p.parse_args()
 
 
@@ -94,12 +100,37 @@ def write_assets(args, work):
     return paths
 
 
-def whites(path):
+def whites(args, probes, work):
+    """Each probe's white: from --whites, else from a small render of one class under it."""
+    path = args.whites
+    if path is None:
+        classes = os.path.join(work, 'white.json')
+        with open(classes, 'w') as f:
+            json.dump({'classes': [{'name': 'white', 'rho_d': 0.9, 'rho_s': 0.0, 'alpha': 0.0}]}, f)
+        listed = os.path.join(work, 'probes.txt')
+        with open(listed, 'w') as f:
+            f.write(''.join(f'{p}\n' for p in probes))
+        out = os.path.join(work, 'white')
+        subprocess.run([args.bin, 'render', '--probes', listed, '--classes', classes, '--out', out,
+                        '--size', '72'], check=True, stdout=subprocess.DEVNULL,
+                       stderr=subprocess.DEVNULL)
+        path = os.path.join(out, 'manifest.csv')
     found = {}
     with open(path) as f:
         for row in csv.DictReader(f):
             found.setdefault(row['illumination'].split('@')[0], row['white'])
     return found
+
+
+def probe_files(entries):
+    files = []
+    for entry in entries:
+        if entry.endswith('.hdr'):
+            files.append(os.path.abspath(entry))
+            continue
+        with open(entry) as f:
+            files.extend(os.path.abspath(line.strip()) for line in f if line.strip())
+    return files
 
 
 def main():
@@ -108,14 +139,13 @@ def main():
     renders = os.path.join(work, 'renders')
     os.makedirs(renders, exist_ok=True)
     assets = write_assets(args, work)
-    with open(args.probes) as f:
-        probes = [line.strip() for line in f if line.strip()]
+    probes = probe_files(args.probes)
     subprocess.run([sys.executable, RENDER, '--probes', *probes, '--assets', *assets,
                     '--out', renders, '--size', str(args.size), '--samples', str(args.samples)],
                    check=True, stdout=subprocess.DEVNULL)
-    white = whites(args.whites)
+    white = whites(args, probes, work)
     centre, r = (args.size - 1) / 2, args.size / 2.2
-    rows = []
+    rows, failed = [], False
     for probe in probes:
         illum = os.path.splitext(os.path.basename(probe))[0]
         for name, (cls, _) in MATERIALS.items():
@@ -128,10 +158,15 @@ def main():
             out.writerow(['path', 'class', 'illumination', 'cx', 'cy', 'r', 'white'])
             out.writerows(r[:6] + [r[6] if with_white else ''] for r in rows)
         for model in args.models:
-            report(args, manifest, model, with_white)
+            right, n, confident = report(args, manifest, model, with_white)
+            if with_white and (right < args.min_right * n or (
+                    args.max_confident is not None and confident > args.max_confident)):
+                failed = True
+    sys.exit(1 if failed else 0)
 
 
 def report(args, manifest, model, with_white):
+    """Print the model's answers on the manifest; (right, n, confidently wrong)."""
     out = manifest.replace('.csv', f'_{model.strip("/").replace("/", "_")}.csv')
     subprocess.run([args.bin, 'predict', '--model', model, '--manifest', manifest, '--out', out],
                    check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -152,6 +187,7 @@ def report(args, manifest, model, with_white):
     for name in MATERIALS:
         t = tally[name]
         print(f'{name} ({MATERIALS[name][0]}): {t[0]}/{t[1]} right, {t[2]} confidently wrong')
+    return total
 
 
 if __name__ == '__main__':
