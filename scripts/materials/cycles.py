@@ -27,7 +27,10 @@ import subprocess
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-RENDER = os.path.join(HERE, '..', 'gltf', 'blender', 'render.py')
+BLENDER = os.path.join(HERE, '..', 'gltf', 'blender')
+RENDER = os.path.join(BLENDER, 'render.py')
+sys.path.insert(0, BLENDER)
+from check import probe_files  # noqa: E402 (the probes as the glTF check reads them)
 
 # name: (class, glTF material without its name)
 MATERIALS = {
@@ -121,16 +124,6 @@ def whites(args, probes, work):
             found.setdefault(row['illumination'].split('@')[0], row['white'])
     return found
 
-
-def probe_files(entries):
-    files = []
-    for entry in entries:
-        if entry.endswith('.hdr'):
-            files.append(os.path.abspath(entry))
-            continue
-        with open(entry) as f:
-            files.extend(os.path.abspath(line.strip()) for line in f if line.strip())
-    return files
 
 
 def main():
