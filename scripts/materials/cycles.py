@@ -5,13 +5,12 @@ Eight physical materials as glTF metallic-roughness assets (Principled BSDF in B
 dielectric's Fresnel from its index of refraction, a metal's from its base colour, a clear coat),
 each a unit sphere rendered by scripts/gltf/blender/render.py under each light probe, then
 classified by each model with the white reference `reflectance render` computes for that probe
-(read from a manifest that holds the probe, e.g. data/real_test/manifest.csv, or else rendered
-here). Prints, per material and model, right / n and confidently wrong (a wrong label, the truth
+(from a small render under it). Prints, per material and model, right / n and confidently wrong (a wrong label, the truth
 outside the prediction set, in domain), with and without the white. Exits 1 when, with the
 white, a model gets fewer than --min-right of them right or more than --max-confident
 confidently wrong.
 
-    python3 scripts/materials/cycles.py --probes P.txt|P.hdr… [--whites M.csv] --models M1 [M2 …]
+    python3 scripts/materials/cycles.py --probes P.txt|P.hdr… --models M1 [M2 …]
         [--bin target/release/reflectance] [--size 256] [--samples 128] --work DIR
         [--min-right F] [--max-confident N]
 
@@ -31,6 +30,7 @@ BLENDER = os.path.join(HERE, '..', 'gltf', 'blender')
 RENDER = os.path.join(BLENDER, 'render.py')
 sys.path.insert(0, BLENDER)
 from check import probe_files  # noqa: E402 (the probes as the glTF check reads them)
+from evaluate import verdict  # noqa: E402
 
 # name: (class, glTF material without its name)
 MATERIALS = {
@@ -50,7 +50,6 @@ def parse():
     p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     p.add_argument('--probes', nargs='+', required=True,
                    help='.hdr probes, or a text file listing them')
-    p.add_argument('--whites', help='a manifest whose rows give each probe a white')
     p.add_argument('--models', nargs='+', required=True)
     p.add_argument('--bin', default='target/release/reflectance')
     p.add_argument('--size', type=int, default=256)
@@ -91,8 +90,8 @@ def write_assets(args, work):
     paths = []
     for name, (_, m) in MATERIALS.items():
         asset = json.loads(json.dumps(sphere))
-        asset['materials'] = [material(name, m)[0]]
-        used = material(name, m)[1]
+        gltf_material, used = material(name, m)
+        asset['materials'] = [gltf_material]
         asset.pop('extensionsUsed', None)
         if used:
             asset['extensionsUsed'] = used
@@ -104,26 +103,19 @@ def write_assets(args, work):
 
 
 def whites(args, probes, work):
-    """Each probe's white: from --whites, else from a small render of one class under it."""
-    path = args.whites
-    if path is None:
-        classes = os.path.join(work, 'white.json')
-        with open(classes, 'w') as f:
-            json.dump({'classes': [{'name': 'white', 'rho_d': 0.9, 'rho_s': 0.0, 'alpha': 0.0}]}, f)
-        listed = os.path.join(work, 'probes.txt')
-        with open(listed, 'w') as f:
-            f.write(''.join(f'{p}\n' for p in probes))
-        out = os.path.join(work, 'white')
-        subprocess.run([args.bin, 'render', '--probes', listed, '--classes', classes, '--out', out,
-                        '--size', '72'], check=True, stdout=subprocess.DEVNULL,
-                       stderr=subprocess.DEVNULL)
-        path = os.path.join(out, 'manifest.csv')
-    found = {}
-    with open(path) as f:
-        for row in csv.DictReader(f):
-            found.setdefault(row['illumination'].split('@')[0], row['white'])
-    return found
-
+    """Each probe's white, as the manifest of a small render of one class under it gives it."""
+    classes = os.path.join(work, 'white.json')
+    with open(classes, 'w') as f:
+        json.dump({'classes': [{'name': 'white', 'rho_d': 0.9, 'rho_s': 0.0, 'alpha': 0.0}]}, f)
+    listed = os.path.join(work, 'probes.txt')
+    with open(listed, 'w') as f:
+        f.write(''.join(f'{p}\n' for p in probes))
+    out = os.path.join(work, 'white')
+    subprocess.run([args.bin, 'render', '--probes', listed, '--classes', classes, '--out', out,
+                    '--size', '72'], check=True, stdout=subprocess.DEVNULL,
+                   stderr=subprocess.DEVNULL)
+    with open(os.path.join(out, 'manifest.csv')) as f:
+        return {row['illumination']: row['white'] for row in csv.DictReader(f)}
 
 
 def main():
@@ -168,12 +160,11 @@ def report(args, manifest, model, with_white):
         for row in csv.DictReader(f):
             name = os.path.basename(row['path']).split('__')[1].rsplit('.', 1)[0]
             truth = MATERIALS[name][0]
+            v = verdict(row['label'], truth, row['set'].split(), row['in_domain'] == 'true')
             t = tally[name]
             t[1] += 1
-            if row['label'] == truth:
-                t[0] += 1
-            elif truth not in row['set'].split() and row['in_domain'] == 'true':
-                t[2] += 1
+            t[0] += v == 'right'
+            t[2] += v == 'confidently wrong'
     print(f'## {model}, {"with" if with_white else "without"} white')
     total = [sum(t[i] for t in tally.values()) for i in range(3)]
     print(f'all: {total[0]}/{total[1]} right, {total[2]} confidently wrong')
