@@ -7,7 +7,8 @@ mod photo;
 
 pub use input::{InputError, PartError, Placement, WhiteSpec, decode_mask, mask_from_image};
 pub use photo::{
-    FEATURE_MARGIN, LOCATING_SIDE, Read, analyze_photo, feature_denominator, locate_photo_ranked,
+    FEATURE_MARGIN, LOCATING_SIDE, LocatedPhoto, Read, analyze_photo, feature_denominator,
+    locate_photo_ranked,
 };
 
 use crate::decode::{DecodeError, LinearImage};

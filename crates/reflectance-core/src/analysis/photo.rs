@@ -7,10 +7,10 @@
 //! image ([`super::analyze_subset`]) unchanged.
 
 use super::{Analysis, AnalysisError, Located, Placement, WhiteSpec, check_scale, resolve_white};
-use crate::decode::{Photo, Scaled};
+use crate::decode::{Photo, Samples, Scaled};
 use crate::features::{Extracted, Extractor, Sphere};
 use crate::image::circle::Circle;
-use crate::image::colour;
+use crate::image::{colour, display};
 use crate::locate::{self, Geometry, GeometryError};
 use crate::white::{self, Rect};
 
@@ -59,8 +59,8 @@ pub fn analyze_photo<'p>(
     let (geometry, located) = match how {
         Placement::Circle(c) => (given(c)?, None),
         _ => {
-            let copy = photo.whole(locating_denominator(photo))?;
-            (detect_on(&copy)?, Some(copy))
+            let searched = searched(photo)?;
+            (searched.detect()?, Some(searched))
         }
     };
     let locate_ms = started.elapsed().as_secs_f64() * 1e3;
@@ -76,7 +76,9 @@ pub fn analyze_photo<'p>(
     )?);
     let d = feature_denominator(geometry.r, extractor.config().working_radius);
     let copy = match located {
-        Some(copy) if copy.denominator <= d => copy,
+        Some(Searched::Copy(copy)) if copy.denominator <= d => copy,
+        // The features read what the whole decode holds around the ball.
+        Some(Searched::Samples(samples)) => samples.region(around(&geometry.circle(), 1))?,
         _ => photo.region(around(&geometry.circle(), d), d)?,
     };
     let (white, white_warning) = match white_input {
@@ -114,39 +116,98 @@ pub fn analyze_photo<'p>(
     Ok((analysis, Read { copy, circle }))
 }
 
-/// [`super::locate_ranked`] of a photograph: detection on the located copy, the circles on
-/// the full image; and that copy (for a preview).
-pub fn locate_photo_ranked<'p>(
-    photo: &'p Photo,
+/// [`super::locate_ranked`] of a photograph: detection on what location searches
+/// ([`searched`]), the circles on the full image; and with a `preview` side, a picture of
+/// the photograph at most that many pixels across (PNG).
+pub fn locate_photo_ranked(
+    photo: &Photo,
     extractor: &Extractor,
-) -> Result<(Located, Vec<Geometry>, Scaled<'p>), crate::decode::DecodeError> {
-    let copy = photo.whole(locating_denominator(photo))?;
-    if photo.decoded_whole().is_some() {
-        let (chosen, ranked) = super::locate_ranked(&copy.image, extractor);
-        return Ok((chosen, ranked, copy));
+    preview: Option<usize>,
+) -> Result<LocatedPhoto, crate::decode::DecodeError> {
+    if let Some(image) = photo.decoded_whole() {
+        let (chosen, alternatives) = super::locate_ranked(image, extractor);
+        let preview_png = preview.map(|side| display::preview_png(image.luminance.view(), side));
+        return Ok(LocatedPhoto {
+            chosen,
+            alternatives,
+            preview_png,
+        });
     }
+    let searched = searched(photo)?;
     let unwrap = &extractor.config().unwrap;
     let (width, height) = photo.size();
     let fits = |g: &Geometry| locate::validate(&g.circle(), width, height, unwrap.outer, unwrap.r0);
-    let (chosen, ranked) = locate::detect_ranked(copy.image.luminance.view());
-    let on_full = |g: Geometry| on_full_image(&copy, g);
-    let chosen = chosen.map(on_full).and_then(|g| Ok((g, fits(&g)?)));
-    let alternatives = ranked
-        .into_iter()
-        .map(on_full)
-        .filter(|g| fits(g).is_ok())
-        .collect();
-    Ok((chosen, alternatives, copy))
+    let (chosen, ranked) = searched.detect_ranked();
+    let chosen = chosen.and_then(|g| Ok((g, fits(&g)?)));
+    Ok(LocatedPhoto {
+        chosen,
+        alternatives: ranked.into_iter().filter(|g| fits(g).is_ok()).collect(),
+        preview_png: preview.map(|side| searched.preview_png(side)),
+    })
+}
+
+/// [`locate_photo_ranked`]'s answer.
+pub struct LocatedPhoto {
+    /// The circle chosen, or why none was.
+    pub chosen: Located,
+    /// The circles weighed that fit the unwrap, most confident first.
+    pub alternatives: Vec<Geometry>,
+    /// The preview asked for (PNG).
+    pub preview_png: Option<Vec<u8>>,
+}
+
+/// What location searched: a copy of the photograph, or (at full size) its decoded samples,
+/// whose luminance it reads where it looks.
+enum Searched<'p> {
+    Copy(Scaled<'p>),
+    Samples(Samples),
+}
+
+/// The photograph as location searches it: at full size a JPEG's 8-bit samples, with no
+/// 64-bit plane of all its pixels; otherwise the located copy.
+fn searched<'p>(photo: &'p Photo) -> Result<Searched<'p>, crate::decode::DecodeError> {
+    let d = locating_denominator(photo);
+    if d == 1
+        && let Some(samples) = photo.whole_samples()?
+    {
+        return Ok(Searched::Samples(samples));
+    }
+    Ok(Searched::Copy(photo.whole(d)?))
+}
+
+impl Searched<'_> {
+    /// Detection on what was searched, the circle on the full image.
+    fn detect(&self) -> Result<Geometry, GeometryError> {
+        self.detect_ranked().0
+    }
+
+    /// [`locate::detect_ranked`] on what was searched, the circles on the full image.
+    fn detect_ranked(&self) -> (Result<Geometry, GeometryError>, Vec<Geometry>) {
+        match self {
+            Searched::Copy(copy) => {
+                let (chosen, ranked) = locate::detect_ranked(copy.image.luminance.view());
+                let on_full = |g: Geometry| on_full_image(copy, g);
+                (
+                    chosen.map(on_full),
+                    ranked.into_iter().map(on_full).collect(),
+                )
+            }
+            Searched::Samples(samples) => locate::detect_ranked(samples.plane()),
+        }
+    }
+
+    /// A picture of the photograph at most `side` pixels across (PNG).
+    fn preview_png(&self, side: usize) -> Vec<u8> {
+        match self {
+            Searched::Copy(copy) => display::preview_png(copy.image.luminance.view(), side),
+            Searched::Samples(samples) => display::preview_png(samples.plane(), side),
+        }
+    }
 }
 
 /// The circle given, checked on its own.
 fn given(c: &Circle) -> Result<Geometry, GeometryError> {
     locate::given(Some(c.cx), Some(c.cy), Some(c.r))?.ok_or(GeometryError::Incomplete)
-}
-
-/// Detection on the located copy, its circle on the full image.
-fn detect_on(copy: &Scaled) -> Result<Geometry, GeometryError> {
-    locate::detect(copy.image.luminance.view()).map(|g| on_full_image(copy, g))
 }
 
 /// A circle found on `copy`, on the full image.

@@ -11,6 +11,15 @@ use ndarray::Array2;
 use std::io::Cursor;
 
 pub(crate) fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<LinearImage, DecodeError> {
+    let (image, format) = decode_samples(bytes, options)?;
+    to_linear(image, format, options)
+}
+
+/// The file's samples as decoded, after its EXIF orientation, and its format.
+pub(crate) fn decode_samples(
+    bytes: &[u8],
+    options: &DecodeOptions,
+) -> Result<(DynamicImage, Format), DecodeError> {
     let mut reader = ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|_| super::unsupported(bytes))?;
@@ -35,7 +44,7 @@ pub(crate) fn decode(bytes: &[u8], options: &DecodeOptions) -> Result<LinearImag
     let mut image =
         DynamicImage::from_decoder(decoder).map_err(|e| map_error(e, format, limits))?;
     image.apply_orientation(orientation);
-    to_linear(image, format, options)
+    Ok((image, format))
 }
 
 fn image_limits(limits: &Limits) -> image::Limits {

@@ -20,7 +20,7 @@ use std::path::Path;
 use std::str::FromStr;
 
 pub use color::{Encoding, srgb_to_linear};
-pub use scaled::{Photo, Scaled, denominator_for};
+pub use scaled::{Photo, Samples, SamplesPlane, Scaled, denominator_for};
 
 /// Rec. 709 luminance weights for linear R, G, B.
 pub const LUMA_WEIGHTS: [f64; 3] = [0.2126, 0.7152, 0.0722];

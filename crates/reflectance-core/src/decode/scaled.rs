@@ -162,6 +162,28 @@ impl<'a> Photo<'a> {
         }
     }
 
+    /// The whole photograph at full size as its decoded samples, for a JPEG decoded as
+    /// 8-bit grey or RGB (None for a photograph decoded already, or other samples).
+    pub fn whole_samples(&self) -> Result<Option<Samples>, DecodeError> {
+        if let Source::Decoded(_) = self.source {
+            return Ok(None);
+        }
+        let (image, format) = integer::decode_samples(self.bytes, &self.options)?;
+        let channels = match &image {
+            DynamicImage::ImageLuma8(_) => 1,
+            DynamicImage::ImageRgb8(_) => 3,
+            _ => return Ok(None),
+        };
+        let table = self.options.encoding.unwrap_or_default().table(8).to_vec();
+        Ok(Some(Samples {
+            image,
+            channels,
+            format,
+            options: self.options,
+            table,
+        }))
+    }
+
     /// The whole photograph at 1/`denominator` (1, 2, 4 or 8; clamped down to one of them). A
     /// photograph decoded whole answers itself, at 1/1.
     pub fn whole(&self, denominator: usize) -> Result<Scaled<'_>, DecodeError> {
@@ -207,6 +229,96 @@ impl<'a> Photo<'a> {
                 self.bytes,
                 &self.options,
             )?))),
+        }
+    }
+}
+
+/// A JPEG decoded whole at full size and kept as its 8-bit samples (oriented): location
+/// reads their luminance where it looks ([`SamplesPlane`]) and the features a region made
+/// linear ([`Samples::region`]), so that no 64-bit plane of the whole photograph is made.
+/// Both read the values the whole decode's plane would hold.
+pub struct Samples {
+    /// 8-bit grey or RGB.
+    image: DynamicImage,
+    channels: usize,
+    format: Format,
+    options: DecodeOptions,
+    table: Vec<f64>,
+}
+
+impl Samples {
+    /// The luminance of the samples, as location reads it.
+    pub fn plane(&self) -> SamplesPlane<'_> {
+        SamplesPlane {
+            samples: self.image.as_bytes(),
+            channels: self.channels,
+            width: self.image.width() as usize,
+            height: self.image.height() as usize,
+            table: &self.table,
+        }
+    }
+
+    /// The part `[x0, y0, x1)`×`[y0, y1)` (clipped to the image, at least a pixel) made
+    /// linear, as the whole decode makes every pixel.
+    pub fn region(&self, [x0, y0, x1, y1]: [usize; 4]) -> Result<Scaled<'static>, DecodeError> {
+        let (width, height) = (self.image.width() as usize, self.image.height() as usize);
+        let span = |lo: usize, hi: usize, n: usize| {
+            let lo = lo.min(n.saturating_sub(1));
+            (lo, hi.clamp(lo + 1, n.max(lo + 1)))
+        };
+        let ((x0, x1), (y0, y1)) = (span(x0, x1, width), span(y0, y1, height));
+        let crop = self
+            .image
+            .crop_imm(x0 as u32, y0 as u32, (x1 - x0) as u32, (y1 - y0) as u32);
+        let image = integer::to_linear(crop, self.format, &self.options)?;
+        Ok(Scaled {
+            image: Cow::Owned(image),
+            denominator: 1,
+            offset: [x0 as f64, y0 as f64],
+        })
+    }
+}
+
+/// [`Samples`]' luminance: each pixel's samples through the file's transfer table and the
+/// luminance weights when read ([`crate::image::plane::Plane`]).
+#[derive(Clone, Copy)]
+pub struct SamplesPlane<'a> {
+    samples: &'a [u8],
+    channels: usize,
+    width: usize,
+    height: usize,
+    table: &'a [f64],
+}
+
+impl SamplesPlane<'_> {
+    #[inline]
+    fn at(&self, i: usize) -> f64 {
+        let t = |k: usize| self.table[usize::from(self.samples[k])];
+        match self.channels {
+            1 => t(i),
+            _ => super::luminance(t(i), t(i + 1), t(i + 2)),
+        }
+    }
+}
+
+impl crate::image::plane::Plane for SamplesPlane<'_> {
+    fn size(self) -> (usize, usize) {
+        (self.height, self.width)
+    }
+
+    #[inline]
+    fn value(self, y: usize, x: usize) -> f64 {
+        self.at((y * self.width + x) * self.channels)
+    }
+
+    fn fill_line(self, y: usize, x0: usize, line: &mut [f64]) {
+        let first = (y * self.width + x0) * self.channels;
+        let samples = &self.samples[first..first + line.len() * self.channels];
+        let t = |s: u8| self.table[usize::from(s)];
+        match self.channels {
+            1 => line.iter_mut().zip(samples).for_each(|(v, &s)| *v = t(s)),
+            _ => (line.iter_mut().zip(samples.chunks_exact(3)))
+                .for_each(|(v, p)| *v = super::luminance(t(p[0]), t(p[1]), t(p[2]))),
         }
     }
 }
@@ -365,6 +477,47 @@ mod tests {
             }
         }
         scaled.to_full(sx / n, sy / n)
+    }
+
+    #[test]
+    fn the_samples_read_what_the_whole_decode_holds_in_every_orientation() {
+        use crate::image::plane::Plane;
+        for colour in [false, true] {
+            let plain = spot(75, 41, (50.0, 20.0, 6.5), colour);
+            for orientation in [1, 6, 8] {
+                let bytes = with_orientation(&plain, orientation);
+                let options = DecodeOptions::default();
+                let full = decode(&bytes, &options).unwrap();
+                let photo = Photo::open(&bytes, &options).unwrap();
+                let samples = photo.whole_samples().unwrap().unwrap();
+                let plane = samples.plane();
+                assert_eq!(plane.size(), full.luminance.dim());
+                let (h, w) = plane.size();
+                let by_lines = plane.part(0..h, 0..w, 1.0);
+                for ((y, x), v) in full.luminance.indexed_iter() {
+                    assert_eq!(plane.value(y, x).to_bits(), v.to_bits(), "({x}, {y})");
+                    assert_eq!(by_lines[[y, x]].to_bits(), v.to_bits(), "({x}, {y})");
+                }
+                // A region, and one reaching past the border (clipped).
+                for [x0, y0, x1, y1] in [[5, 3, 30, 17], [20, 10, 500, 500]] {
+                    let region = samples.region([x0, y0, x1, y1]).unwrap();
+                    let (x, y) = region.to_full(0.0, 0.0);
+                    assert_eq!((x, y), (x0 as f64, y0 as f64));
+                    let part = full
+                        .luminance
+                        .slice(ndarray::s![y0..y1.min(h), x0..x1.min(w)]);
+                    assert_eq!(region.image.luminance, part);
+                }
+            }
+        }
+        let png = Photo::decoded(
+            decode(
+                &spot(20, 20, (9.0, 9.0, 3.0), false),
+                &DecodeOptions::default(),
+            )
+            .unwrap(),
+        );
+        assert!(png.whole_samples().unwrap().is_none());
     }
 
     #[test]

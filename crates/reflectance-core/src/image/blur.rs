@@ -23,12 +23,13 @@ pub fn gaussian_blur(image: ArrayView2<f64>, sigma: f64) -> Array2<f64> {
         for (i, p) in padded.iter_mut().enumerate() {
             *p = line[clamped(i, w)];
         }
-        for (x, o) in out.iter_mut().enumerate() {
-            *o = kernel
-                .iter()
-                .zip(&padded[x..x + kernel.len()])
-                .map(|(k, v)| k * v)
-                .sum();
+        // Tap by tap across the row: each output's taps in order from −0.0, as `sum` adds
+        // them, while the row's outputs are computed side by side.
+        out.fill(-0.0);
+        for (i, k) in kernel.iter().enumerate() {
+            for (o, v) in out.iter_mut().zip(&padded[i..i + w]) {
+                *o += k * v;
+            }
         }
     }
     // Along columns, a row at a time (the taps in the same order, from −0.0 as `sum` does).
@@ -42,4 +43,67 @@ pub fn gaussian_blur(image: ArrayView2<f64>, sigma: f64) -> Array2<f64> {
         }
     }
     Array2::from_shape_vec((h, w), out).expect("h × w samples")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The blur as its definition reads: each output the kernel's taps over the clamped
+    /// neighbours, summed in order, first along rows, then along columns.
+    fn by_definition(image: ArrayView2<f64>, sigma: f64) -> Array2<f64> {
+        let reach = (3.0 * sigma).ceil() as isize;
+        let weights: Vec<f64> = (-reach..=reach)
+            .map(|k| (-0.5 * (k as f64 / sigma).powi(2)).exp())
+            .collect();
+        let total: f64 = weights.iter().sum();
+        let kernel: Vec<f64> = weights.iter().map(|k| k / total).collect();
+        let (h, w) = image.dim();
+        let at = |i: usize, k: usize, n: usize| {
+            (i as isize + k as isize - reach).clamp(0, n as isize - 1) as usize
+        };
+        let rows = Array2::from_shape_fn((h, w), |(y, x)| {
+            kernel
+                .iter()
+                .enumerate()
+                .map(|(k, q)| q * image[[y, at(x, k, w)]])
+                .sum::<f64>()
+        });
+        Array2::from_shape_fn((h, w), |(y, x)| {
+            kernel
+                .iter()
+                .enumerate()
+                .map(|(k, q)| q * rows[[at(y, k, h), x]])
+                .sum::<f64>()
+        })
+    }
+
+    #[test]
+    fn the_blur_is_its_definition_to_the_bit() {
+        let image = Array2::from_shape_fn((23, 37), |(y, x)| {
+            ((x * 7 + y * 13) % 17) as f64 / 17.0 + if (x / 5 + y / 3) % 2 == 0 { 2.0 } else { 0.0 }
+        });
+        for sigma in [0.6, 1.0, 2.5] {
+            let fast = gaussian_blur(image.view(), sigma);
+            let slow = by_definition(image.view(), sigma);
+            for (a, b) in fast.iter().zip(&slow) {
+                assert_eq!(a.to_bits(), b.to_bits(), "σ {sigma}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_blur_keeps_a_constant_and_the_mean_of_an_impulse() {
+        let flat = Array2::from_elem((9, 12), 0.25);
+        assert!(
+            gaussian_blur(flat.view(), 1.5)
+                .iter()
+                .all(|v| (v - 0.25).abs() < 1e-15)
+        );
+        let mut impulse = Array2::zeros((41, 41));
+        impulse[[20, 20]] = 1.0;
+        let blurred = gaussian_blur(impulse.view(), 2.0);
+        assert!((blurred.sum() - 1.0).abs() < 1e-12);
+        assert!(blurred[[20, 20]] > blurred[[20, 22]] && blurred[[20, 22]] > blurred[[20, 25]]);
+    }
 }

@@ -1,7 +1,7 @@
 //! Pictures for people: linear luminance and signed subbands as 8-bit grey PNG (the page's
 //! unwrapped annulus, subbands and training thumbnails), and PNG data URLs.
 
-use super::resample;
+use super::plane::Plane;
 use base64::Engine;
 use image::ImageEncoder;
 use ndarray::{Array2, ArrayView2};
@@ -56,13 +56,10 @@ pub fn signed_png(values: ArrayView2<f64>) -> Vec<u8> {
 }
 
 /// `luminance` area-averaged so that its longest side is at most `side` pixels.
-fn fit(luminance: ArrayView2<f64>, side: usize) -> Array2<f64> {
-    let (h, w) = luminance.dim();
+fn fit(luminance: impl Plane, side: usize) -> Array2<f64> {
+    let (h, w) = luminance.size();
     let factor = side as f64 / h.max(w).max(1) as f64;
-    match factor < 1.0 {
-        true => resample::downsample(luminance, factor),
-        false => luminance.to_owned(),
-    }
+    luminance.part(0..h, 0..w, factor)
 }
 
 /// A thumbnail of linear luminance (relative to white) whose longest side is at most `side`
@@ -73,7 +70,7 @@ pub fn thumbnail_png(luminance: ArrayView2<f64>, side: usize) -> Vec<u8> {
 
 /// A picture of any linear image (high dynamic range included): the longest side at most
 /// `side` pixels, the 99th percentile of luminance at full brightness.
-pub fn preview_png(luminance: ArrayView2<f64>, side: usize) -> Vec<u8> {
+pub fn preview_png(luminance: impl Plane, side: usize) -> Vec<u8> {
     let small = fit(luminance, side);
     let top = percentile99(small.iter().copied().collect()).unwrap_or(0.0);
     let gain = if top > 0.0 { 1.0 / top } else { 1.0 };

@@ -5,5 +5,6 @@ pub mod blur;
 pub mod circle;
 pub mod colour;
 pub mod display;
+pub mod plane;
 pub mod regions;
 pub mod resample;

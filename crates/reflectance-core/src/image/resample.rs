@@ -36,17 +36,58 @@ fn axis_weights(source: usize, factor: f64) -> Vec<(usize, Vec<f64>)> {
 /// divided by Σ qᵢ: the columns pass adds whole rows at a time, in the same order.
 pub fn downsample(image: ArrayView2<f64>, factor: f64) -> Array2<f64> {
     let (h, w) = image.dim();
+    let lines = image.rows().into_iter().map(|row| match row.to_slice() {
+        Some(line) => Cow::Borrowed(line),
+        None => Cow::Owned(row.to_vec()),
+    });
+    downsample_lines(lines, (h, w), factor)
+}
+
+/// [`downsample`] of an `h` × `w` image given line by line, top to bottom, to the same
+/// bits: each line is reduced along x when it comes and each output row made once its
+/// lines are in, so that neither the image nor its reduced rows are ever held whole.
+pub fn downsample_lines<'a>(
+    lines: impl Iterator<Item = Cow<'a, [f64]>>,
+    (h, w): (usize, usize),
+    factor: f64,
+) -> Array2<f64> {
     let (wy, wx) = (axis_weights(h, factor), axis_weights(w, factor));
     let across = wx.len();
-    let rows = reduce_rows(image, &wx);
+    let covered: Vec<f64> = wx.iter().map(|(_, q)| q.iter().sum()).collect();
     let mut out = vec![0.0; wy.len() * across];
-    for ((first, weights), line) in wy.iter().zip(out.chunks_exact_mut(across)) {
-        let sources = &rows[first * across..(first + weights.len()) * across];
-        reduce_columns(sources, weights, line);
-        let covered: f64 = weights.iter().sum();
-        for v in line.iter_mut() {
-            *v /= covered;
+    let mut outputs = wy.iter().zip(out.chunks_exact_mut(across)).peekable();
+    // The lines reduced along x and still needed: rows `base..` of the image.
+    let (mut window, mut base) = (Vec::new(), 0);
+    let mut lines = lines.take(h);
+    loop {
+        let block: Vec<Cow<[f64]>> = lines.by_ref().take(ROWS_AT_ONCE).collect();
+        if block.is_empty() {
+            break;
         }
+        let start = window.len();
+        window.resize(start + block.len() * across, 0.0);
+        reduce_lines(&block, &wx, &mut window[start..]);
+        // Divided apart from the sums, so that the divisions run four at a time.
+        for row in window[start..].chunks_exact_mut(across) {
+            for (sum, c) in row.iter_mut().zip(&covered) {
+                *sum /= c;
+            }
+        }
+        let available = base + window.len() / across;
+        while let Some(((first, weights), line)) =
+            outputs.next_if(|((first, weights), _)| first + weights.len() <= available)
+        {
+            let sources = &window[(first - base) * across..(first - base + weights.len()) * across];
+            reduce_columns(sources, weights, line);
+            let covered: f64 = weights.iter().sum();
+            for v in line.iter_mut() {
+                *v /= covered;
+            }
+        }
+        let needed = outputs.peek().map_or(available, |((first, _), _)| *first);
+        let done = needed.clamp(base, available) - base;
+        window.drain(..done * across);
+        base += done;
     }
     Array2::from_shape_vec((wy.len(), across), out).expect("the shape of the weights")
 }
@@ -77,40 +118,17 @@ fn reduce_columns(sources: &[f64], weights: &[f64], line: &mut [f64]) {
 /// additions, so several rows' chains run side by side.
 const ROWS_AT_ONCE: usize = 8;
 
-/// The first pass: every row of `image` reduced along x by the weights `wx` (row-major,
-/// `wx.len()` values per row).
-fn reduce_rows(image: ArrayView2<f64>, wx: &[(usize, Vec<f64>)]) -> Vec<f64> {
-    let across = wx.len();
-    let lines: Vec<Cow<[f64]>> = image
-        .rows()
-        .into_iter()
-        .map(|row| match row.to_slice() {
-            Some(line) => Cow::Borrowed(line),
-            None => Cow::Owned(row.to_vec()),
-        })
-        .collect();
-    let mut rows = vec![0.0; lines.len() * across];
-    for (block, sums) in lines
-        .chunks(ROWS_AT_ONCE)
-        .zip(rows.chunks_mut(ROWS_AT_ONCE * across))
-    {
-        match <&[Cow<[f64]>; ROWS_AT_ONCE]>::try_from(block) {
-            Ok(block) => reduce_block(block.each_ref().map(|line| &line[..]), wx, sums),
-            Err(_) => {
-                for (line, sums) in block.iter().zip(sums.chunks_exact_mut(across)) {
-                    reduce_block([&line[..]], wx, sums);
-                }
+/// Up to [`ROWS_AT_ONCE`] lines reduced along x by the weights `wx` into `sums` (a row of
+/// `wx.len()` per line).
+fn reduce_lines(lines: &[Cow<[f64]>], wx: &[(usize, Vec<f64>)], sums: &mut [f64]) {
+    match <&[Cow<[f64]>; ROWS_AT_ONCE]>::try_from(lines) {
+        Ok(block) => reduce_block(block.each_ref().map(|line| &line[..]), wx, sums),
+        Err(_) => {
+            for (line, sums) in lines.iter().zip(sums.chunks_exact_mut(wx.len())) {
+                reduce_block([&line[..]], wx, sums);
             }
         }
     }
-    // Divided apart from the sums, so that the divisions run four at a time.
-    let covered: Vec<f64> = wx.iter().map(|(_, q)| q.iter().sum()).collect();
-    for row in rows.chunks_exact_mut(across) {
-        for (sum, c) in row.iter_mut().zip(&covered) {
-            *sum /= c;
-        }
-    }
-    rows
 }
 
 /// `N` lines reduced along x into `sums` (`N` rows of `wx.len()`): each sum is Σ qᵢ·vᵢ in

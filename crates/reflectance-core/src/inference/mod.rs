@@ -626,10 +626,14 @@ pub fn locate(
 ) -> Result<LocateResponse, InferenceError> {
     let decode_error = |source| InferenceError::Decode { part: "", source };
     let photo = Photo::open(bytes, options).map_err(decode_error)?;
-    let (chosen, ranked, copy) =
-        analysis::locate_photo_ranked(&photo, &model.extractor).map_err(decode_error)?;
-    let mut warnings = photo.warnings().to_vec();
     let (width, height) = photo.size();
+    let side = preview.then_some(PREVIEW_SIDE.min(width.max(height)));
+    let analysis::LocatedPhoto {
+        chosen,
+        alternatives: ranked,
+        preview_png,
+    } = analysis::locate_photo_ranked(&photo, &model.extractor, side).map_err(decode_error)?;
+    let mut warnings = photo.warnings().to_vec();
     let candidates = ranked
         .iter()
         .take(CANDIDATES)
@@ -655,9 +659,6 @@ pub fn locate(
         geometry,
         candidates,
         warnings,
-        preview: preview.then(|| {
-            let side = PREVIEW_SIDE.min(width.max(height));
-            display::data_url(&display::preview_png(copy.image.luminance.view(), side))
-        }),
+        preview: preview_png.map(|png| display::data_url(&png)),
     })
 }

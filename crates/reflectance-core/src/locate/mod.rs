@@ -10,10 +10,10 @@ pub(crate) mod fit;
 pub mod mask;
 
 pub use crate::image::circle::Circle;
+use crate::image::plane::Plane;
 pub use detect::clean::{MIN_CONFIDENCE, detect_clean};
 pub use detect::{ACCEPTANCE, Acceptance, Found, chosen_by};
 pub use mask::fit_mask;
-use ndarray::ArrayView2;
 use serde::{Deserialize, Serialize};
 
 /// Radii below this are refused.
@@ -231,7 +231,7 @@ fn check_alone(circle: &Circle) -> Result<(), GeometryError> {
 /// Find the sphere in a photograph ([`crate::locate::detect`]: table tops, scenes, JPEG), with the
 /// circle a clean background gives ([`detect_clean`]) as one more candidate. The
 /// confidence is the fraction of the rim with a clear edge on the circle.
-pub fn detect(luminance: ArrayView2<f64>) -> Result<Geometry, GeometryError> {
+pub fn detect(luminance: impl Plane) -> Result<Geometry, GeometryError> {
     detect_ranked(luminance).0
 }
 
@@ -241,9 +241,7 @@ pub const ALTERNATIVE_CONFIDENCE: f64 = 0.3;
 /// [`detect`]'s answer, and the distinct circles it weighed, most confident first, those
 /// with a clear rim along at least [`ALTERNATIVE_CONFIDENCE`] of their circumference: what a
 /// person may pick when the first is not the sphere.
-pub fn detect_ranked(
-    luminance: ArrayView2<f64>,
-) -> (Result<Geometry, GeometryError>, Vec<Geometry>) {
+pub fn detect_ranked(luminance: impl Plane) -> (Result<Geometry, GeometryError>, Vec<Geometry>) {
     let ranked = match candidates(luminance) {
         Ok(ranked) => ranked,
         Err(e) => return (Err(e), vec![]),
@@ -261,7 +259,7 @@ pub fn detect_ranked(
 
 /// Every distinct circle [`detect`] weighs, ranked (balls first, then by confidence), before
 /// [`chosen_by`] takes one or refuses: what a measurement of the acceptance rule reads.
-pub fn candidates(luminance: ArrayView2<f64>) -> Result<Vec<Found>, GeometryError> {
+pub fn candidates(luminance: impl Plane) -> Result<Vec<Found>, GeometryError> {
     detect::find_spheres(luminance, |small| {
         detect_clean(small).ok().map(|g| g.circle())
     })

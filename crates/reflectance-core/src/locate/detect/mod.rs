@@ -39,6 +39,7 @@ pub(crate) mod clean;
 mod vote;
 
 use crate::image::circle::Circle;
+use crate::image::plane::Plane;
 use crate::locate::MIN_RADIUS;
 use ndarray::{Array2, ArrayView2};
 use vote::{Edge, edge_points, rim_coverage, rough_circles};
@@ -186,10 +187,10 @@ fn same_sphere(a: &Circle, b: &Circle) -> bool {
 /// first, then by confidence; [`chosen`] says which is taken). The circle `clean` finds on
 /// the reduced copy (a segmentation of a clean background) is examined with the candidates.
 pub fn find_spheres(
-    luminance: ArrayView2<f64>,
+    luminance: impl Plane,
     clean: impl Fn(ArrayView2<f64>) -> Option<Circle>,
 ) -> Result<Vec<Found>, NotFound> {
-    let (h, w) = luminance.dim();
+    let (h, w) = luminance.size();
     if h < 2 * MIN_RADIUS as usize || w < 2 * MIN_RADIUS as usize {
         return Err(NotFound(format!(
             "the image ({w}×{h}) is too small to hold a sphere"
@@ -250,7 +251,7 @@ struct Working<'a> {
 
 /// `found` as distinct circles, the most confident tried as elongated outlines, judged for
 /// ball-likeness ([`judge_ball_likeness`]), balls first, then by confidence.
-fn ranked(luminance: ArrayView2<f64>, found: Vec<Found>, working: &Working) -> Vec<Found> {
+fn ranked(luminance: impl Plane, found: Vec<Found>, working: &Working) -> Vec<Found> {
     let mut distinct = distinct_circles(found);
     // A sphere off the lens's axis, among the most confident: as the lens draws it.
     for f in distinct.iter_mut().take(ELONGATE_FIRST) {
@@ -282,7 +283,7 @@ fn distinct_circles(mut found: Vec<Found>) -> Vec<Found> {
 
 /// Mark the circles that are not balls: a flat inside, or a concentric circle with a flat
 /// band between them.
-fn judge_ball_likeness(found: &mut [Found], luminance: ArrayView2<f64>, working: &Working) {
+fn judge_ball_likeness(found: &mut [Found], luminance: impl Plane, working: &Working) {
     for f in found.iter_mut() {
         let on_work = f.circle.reduced(working.scale);
         f.ball_like = if on_work.r >= SMALL_ON_WORK || working.scale >= 1.0 {
@@ -308,8 +309,8 @@ fn ball_like(image: ArrayView2<f64>, edges: &[Edge], circle: &Circle) -> bool {
 /// A working copy of `circle`'s surroundings in `luminance` (to 1.8 r, as far as [`ringed`]
 /// looks), reduced so that its radius there is at most [`JUDGED_RADIUS`], in the units `norm`
 /// gives; and the circle on it.
-fn surroundings(luminance: ArrayView2<f64>, circle: &Circle, norm: f64) -> (Array2<f64>, Circle) {
-    let (h, w) = luminance.dim();
+fn surroundings(luminance: impl Plane, circle: &Circle, norm: f64) -> (Array2<f64>, Circle) {
+    let (h, w) = luminance.size();
     let reach = 1.8 * circle.r;
     let span = |centre: f64, n: usize| {
         let lo = (centre - reach).floor().clamp(0.0, n as f64) as usize;
@@ -317,18 +318,13 @@ fn surroundings(luminance: ArrayView2<f64>, circle: &Circle, norm: f64) -> (Arra
         lo..hi
     };
     let (rows, cols) = (span(circle.cy, h), span(circle.cx, w));
-    let crop = luminance.slice(ndarray::s![rows.clone(), cols.clone()]);
     let factor = (JUDGED_RADIUS / circle.r).min(1.0);
     let shifted = Circle {
         cx: circle.cx - cols.start as f64,
         cy: circle.cy - rows.start as f64,
         r: circle.r,
     };
-    let small = if factor < 1.0 {
-        crate::image::resample::downsample(crop, factor)
-    } else {
-        crop.to_owned()
-    };
+    let small = luminance.part(rows, cols, factor);
     (encoded(small.view(), norm), shifted.reduced(factor))
 }
 
@@ -387,9 +383,10 @@ fn flat_band(work: ArrayView2<f64>, circle: &Circle, inner: f64, outer: f64) -> 
 
 /// Small balls in a large photograph (under a tenth of the shorter side): the vote again on a
 /// copy twice [`WORK_SIZE`] across, where they are twice as many pixels across.
-fn small_balls(luminance: ArrayView2<f64>) -> Vec<(Circle, f64)> {
+fn small_balls(luminance: impl Plane) -> Vec<(Circle, f64)> {
     let (small, scale) = reduced_to(luminance, 2 * WORK_SIZE);
     let (work, _) = working_copy(small.view());
+    drop(small);
     let edges = edge_points(work.view());
     let (wh, ww) = work.dim();
     let min_r = (MIN_RADIUS * scale).max(6.0);
@@ -401,19 +398,15 @@ fn small_balls(luminance: ArrayView2<f64>) -> Vec<(Circle, f64)> {
 }
 
 /// A copy at most [`WORK_SIZE`] across, and its scale.
-fn reduced(luminance: ArrayView2<f64>) -> (Array2<f64>, f64) {
+fn reduced(luminance: impl Plane) -> (Array2<f64>, f64) {
     reduced_to(luminance, WORK_SIZE)
 }
 
 /// A copy at most `size` across, and its scale.
-fn reduced_to(luminance: ArrayView2<f64>, size: usize) -> (Array2<f64>, f64) {
-    let (h, w) = luminance.dim();
+fn reduced_to(luminance: impl Plane, size: usize) -> (Array2<f64>, f64) {
+    let (h, w) = luminance.size();
     let scale = (size as f64 / h.max(w) as f64).min(1.0);
-    if scale < 1.0 {
-        (crate::image::resample::downsample(luminance, scale), scale)
-    } else {
-        (luminance.to_owned(), 1.0)
-    }
+    (luminance.part(0..h, 0..w, scale), scale)
 }
 
 /// `small` gamma-encoded (so that edges in the shadows count as much as in the light) in
@@ -438,16 +431,16 @@ fn quantile(mut values: Vec<f64>, q: f64) -> f64 {
 }
 
 /// Bilinear sample of the image at (x, y) (clamped to the image).
-fn sample(image: ArrayView2<f64>, x: f64, y: f64) -> f64 {
-    let (h, w) = image.dim();
+fn sample(image: impl Plane, x: f64, y: f64) -> f64 {
+    let (h, w) = image.size();
     let x = x.clamp(0.0, (w - 1) as f64);
     let y = y.clamp(0.0, (h - 1) as f64);
     // Truncation is the floor of the clamped, non-negative coordinates (and no libm call).
     let (x0, y0) = (x as usize, y as usize);
     let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
     let (fx, fy) = (x - x0 as f64, y - y0 as f64);
-    let top = image[[y0, x0]] * (1.0 - fx) + image[[y0, x1]] * fx;
-    let bottom = image[[y1, x0]] * (1.0 - fx) + image[[y1, x1]] * fx;
+    let top = image.value(y0, x0) * (1.0 - fx) + image.value(y0, x1) * fx;
+    let bottom = image.value(y1, x0) * (1.0 - fx) + image.value(y1, x1) * fx;
     top * (1.0 - fy) + bottom * fy
 }
 
@@ -494,7 +487,7 @@ impl Slopes {
 /// The luminance sampled `n` times every `step` px along the ray at angle `theta` through
 /// the rim of `circle`, from `window` px inside it outwards.
 fn ray_profile(
-    image: ArrayView2<f64>,
+    image: impl Plane,
     circle: &Circle,
     theta: f64,
     window: f64,
@@ -522,7 +515,7 @@ pub(crate) struct RimSlopes {
 /// [`RimSlopes`] of `steps` samples along the ray at angle `theta` through the rim of
 /// `circle`, from `window` px inside it outwards.
 pub(crate) fn rim_slopes(
-    image: ArrayView2<f64>,
+    image: impl Plane,
     circle: &Circle,
     theta: f64,
     window: f64,
@@ -533,7 +526,7 @@ pub(crate) fn rim_slopes(
 
 /// [`rim_slopes`] with slopes taken as `slopes` says.
 fn rim_slopes_over(
-    image: ArrayView2<f64>,
+    image: impl Plane,
     circle: &Circle,
     theta: f64,
     window: f64,
@@ -559,14 +552,14 @@ fn rim_slopes_over(
 /// `window` px of the rim: (x, y, contrast) per ray that has a clear edge. Slopes are taken
 /// over one pixel every quarter pixel, and the steepest is interpolated between samples:
 /// for a step blurred by any symmetric lens, the step itself.
-fn rim_points(image: ArrayView2<f64>, outline: &Outline, window: f64) -> Vec<(f64, f64, f64)> {
+fn rim_points(image: impl Plane, outline: &Outline, window: f64) -> Vec<(f64, f64, f64)> {
     rim_points_over(image, outline, window, SHARP)
 }
 
 /// [`rim_points`] with slopes taken as `slopes` says (a blurred rim's edge spans more than
 /// a pixel).
 fn rim_points_over(
-    image: ArrayView2<f64>,
+    image: impl Plane,
     outline: &Outline,
     window: f64,
     slopes: Slopes,
@@ -622,7 +615,7 @@ fn rim_points_over(
 
 /// Whether the luminance at (x, y) changes mostly along the direction (ux, uy): a rim's
 /// edge runs along the circle; a texture's edges (wood grain, a tiled floor) run every way.
-fn radial(image: ArrayView2<f64>, x: f64, y: f64, ux: f64, uy: f64) -> bool {
+fn radial(image: impl Plane, x: f64, y: f64, ux: f64, uy: f64) -> bool {
     let gx = sample(image, x + 1.5, y) - sample(image, x - 1.5, y);
     let gy = sample(image, x, y + 1.5) - sample(image, x, y - 1.5);
     let magnitude = length(gx, gy);
@@ -798,9 +791,9 @@ fn fit_outline(points: &[(f64, f64, f64)], start: &Outline) -> Option<Outline> {
 
 /// The fraction of the rim with a clear edge on `outline`, of the rays that cross it inside
 /// the frame (or of [`UNCUT`] of them); None when less than [`MIN_VISIBLE`] is inside.
-fn rim_confidence(luminance: ArrayView2<f64>, outline: &Outline) -> Option<f64> {
+fn rim_confidence(luminance: impl Plane, outline: &Outline) -> Option<f64> {
     let circle = outline.circle();
-    let visible = visible_rays(&circle, luminance.dim());
+    let visible = visible_rays(&circle, luminance.size());
     if visible < (MIN_VISIBLE * RAYS as f64).ceil() as usize {
         return None;
     }
@@ -834,7 +827,7 @@ const SOFT_WIDTH: f64 = 0.05;
 /// The share of `visible` rays with a clear edge on `outline`, slopes taken as `slopes` says,
 /// the edge within 1 % of r, 1 px or `spread` px of the outline, whichever is the most.
 fn rim_share(
-    luminance: ArrayView2<f64>,
+    luminance: impl Plane,
     outline: &Outline,
     visible: usize,
     slopes: Slopes,
@@ -858,7 +851,7 @@ fn rim_share(
 /// for a step blurred by a Gaussian of σ), from its 25–75 % rise (1.35 σ), which noise on the
 /// flat parts does not reach. Each level's crossing is where as many samples lie below it as a
 /// step would put there.
-fn edge_width(luminance: ArrayView2<f64>, outline: &Outline) -> f64 {
+fn edge_width(luminance: impl Plane, outline: &Outline) -> f64 {
     let window = 0.04 * outline.r0 + 4.0;
     let steps = (2.0 * window / RIM_STEP).ceil() as usize + 1;
     let widths: Vec<f64> = (0..RAYS)
@@ -901,7 +894,7 @@ const TRY_ELONGATED: std::ops::Range<f64> = 0.25..0.9;
 /// uncertainty (px). A circle whose first fit lands where an earlier one's did is the same
 /// circle, and is refined once.
 fn refine_all(
-    luminance: ArrayView2<f64>,
+    luminance: impl Plane,
     small: (ArrayView2<f64>, f64),
     candidates: Vec<(Circle, f64)>,
 ) -> Vec<Found> {
@@ -934,7 +927,7 @@ const COARSE_FIT_MIN_RADIUS: f64 = 40.0;
 /// copy `small` (at `scale`) when the circle is large there: its rim is as sharp relative to
 /// r, and the wide window costs a fraction of the samples.
 fn first_fit(
-    luminance: ArrayView2<f64>,
+    luminance: impl Plane,
     (small, scale): (ArrayView2<f64>, f64),
     rough: Circle,
     slack: f64,
@@ -955,7 +948,7 @@ fn first_fit(
 
 /// The narrow fit on the full image after the first (the window set by the rough radius
 /// `rough_r`), and its confidence.
-fn narrow_fit(luminance: ArrayView2<f64>, first: Circle, rough_r: f64) -> Option<Found> {
+fn narrow_fit(luminance: impl Plane, first: Circle, rough_r: f64) -> Option<Found> {
     let points = rim_points(luminance, &Outline::of(&first), 0.015 * rough_r + 2.0);
     let circle = robust_fit(&points, &first)?;
     if circle.r < MIN_RADIUS {
@@ -970,7 +963,7 @@ fn narrow_fit(luminance: ArrayView2<f64>, first: Circle, rough_r: f64) -> Option
 }
 
 /// `found` as an elongated outline, when that puts a clear edge under more of its rim.
-fn elongated(luminance: ArrayView2<f64>, found: &Found) -> Option<Found> {
+fn elongated(luminance: impl Plane, found: &Found) -> Option<Found> {
     if !TRY_ELONGATED.contains(&found.confidence) {
         return None;
     }
@@ -988,8 +981,8 @@ fn elongated(luminance: ArrayView2<f64>, found: &Found) -> Option<Found> {
 /// Only what a lens or a rescaling can draw is kept: longer away from the picture's centre,
 /// by no more than the widest lens would at that distance from it, or by at most
 /// [`ANY_ELONGATION`] any way.
-fn elongate(luminance: ArrayView2<f64>, circle: &Circle) -> Option<Outline> {
-    let (h, w) = luminance.dim();
+fn elongate(luminance: impl Plane, circle: &Circle) -> Option<Outline> {
+    let (h, w) = luminance.size();
     let from_centre = |c: (f64, f64)| (c.0 - 0.5 * (w as f64 - 1.0), c.1 - 0.5 * (h as f64 - 1.0));
     let (dx, dy) = from_centre((circle.cx, circle.cy));
     // The widest lenses in use see about 84° across the diagonal: focal length ≥ 0.55 of it.

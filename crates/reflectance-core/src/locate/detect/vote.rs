@@ -45,16 +45,23 @@ pub(super) fn edge_points(image: ArrayView2<f64>) -> Vec<Edge> {
     if h < 3 || w < 3 {
         return Vec::new();
     }
-    let mut gx = Array2::<f64>::zeros((h, w));
-    let mut gy = Array2::<f64>::zeros((h, w));
-    for y in 1..h - 1 {
-        for x in 1..w - 1 {
-            let p = |dy: usize, dx: usize| image[[y + dy - 1, x + dx - 1]];
-            gx[[y, x]] = (p(0, 2) + 2.0 * p(1, 2) + p(2, 2)) - (p(0, 0) + 2.0 * p(1, 0) + p(2, 0));
-            gy[[y, x]] = (p(2, 0) + 2.0 * p(2, 1) + p(2, 2)) - (p(0, 0) + 2.0 * p(0, 1) + p(0, 2));
+    // The gradient is computed again where an edge is kept rather than stored for every
+    // pixel: two planes fewer of the working copy's size.
+    let gradient = |y: usize, x: usize| {
+        let p = |dy: usize, dx: usize| image[[y + dy - 1, x + dx - 1]];
+        (
+            (p(0, 2) + 2.0 * p(1, 2) + p(2, 2)) - (p(0, 0) + 2.0 * p(1, 0) + p(2, 0)),
+            (p(2, 0) + 2.0 * p(2, 1) + p(2, 2)) - (p(0, 0) + 2.0 * p(0, 1) + p(0, 2)),
+        )
+    };
+    let inner = |y: usize, x: usize| (1..h - 1).contains(&y) && (1..w - 1).contains(&x);
+    let magnitude = Array2::from_shape_fn((h, w), |(y, x)| match inner(y, x) {
+        true => {
+            let (gx, gy) = gradient(y, x);
+            length(gx, gy)
         }
-    }
-    let magnitude = Array2::from_shape_fn((h, w), |p| length(gx[p], gy[p]));
+        false => 0.0,
+    });
     let positive: Vec<f64> = magnitude.iter().copied().filter(|&m| m > 0.0).collect();
     if positive.is_empty() {
         return Vec::new();
@@ -67,7 +74,8 @@ pub(super) fn edge_points(image: ArrayView2<f64>) -> Vec<Edge> {
             if m <= threshold {
                 continue;
             }
-            let (ux, uy) = (gx[[y, x]] / m, gy[[y, x]] / m);
+            let (gx, gy) = gradient(y, x);
+            let (ux, uy) = (gx / m, gy / m);
             // Neighbours along the gradient: keep local maxima only.
             let (sx, sy) = (ux.round() as isize, uy.round() as isize);
             let at = |dx: isize, dy: isize| {
@@ -182,9 +190,6 @@ fn vote(
     max_r: f64,
 ) -> Vec<(f64, f64, f64, f64)> {
     let bins = ((max_r / min_r).ln() / RADIUS_RATIO.ln()).ceil() as usize + 1;
-    let mut maps: Vec<VoteMap> = (0..bins)
-        .map(|bin| VoteMap::new((CELL_SHARE * bin_radius(min_r, bin)).max(CELL), (h, w)))
-        .collect();
     // Radii one working pixel apart, per bin.
     let mut radii: Vec<Vec<f64>> = vec![Vec::new(); bins];
     for r in (0..).map(|k| min_r + k as f64).take_while(|&r| r <= max_r) {
@@ -205,9 +210,12 @@ fn vote(
         })
         .collect();
     // A line stops voting at its first vote outside the picture. One map at a time, so that
-    // the map being filled stays in the cache.
+    // the map being filled stays in the cache and only one is held.
     let mut inside = vec![true; lines.len()];
-    for (map, radii) in maps.iter_mut().zip(&radii) {
+    let mut found: Vec<(f64, f64, f64, f64, f64)> = Vec::new();
+    for (bin, radii) in radii.iter().enumerate() {
+        let r = bin_radius(min_r, bin);
+        let mut map = VoteMap::new((CELL_SHARE * r).max(CELL), (h, w));
         // In the map's cells.
         let k = 1.0 / map.cell;
         for (&(x, y, ux, uy, sector), inside) in lines.iter().zip(inside.iter_mut()) {
@@ -219,12 +227,8 @@ fn vote(
                 .iter()
                 .all(|&r| map.add(x0 + r * dx, y0 + r * dy, sector));
         }
-    }
-    let mut found: Vec<(f64, f64, f64, f64, f64)> = Vec::new();
-    for (bin, map) in maps.iter().enumerate() {
-        let r = bin_radius(min_r, bin);
         found.extend(
-            bin_peaks(map, r, (h, w))
+            bin_peaks(&map, r, (h, w))
                 .into_iter()
                 .map(|(score, x, y)| (score, x, y, r, map.cell)),
         );
