@@ -385,8 +385,7 @@ fn flat_band(work: ArrayView2<f64>, circle: &Circle, inner: f64, outer: f64) -> 
 /// copy twice [`WORK_SIZE`] across, where they are twice as many pixels across.
 fn small_balls(luminance: impl Plane) -> Vec<(Circle, f64)> {
     let (small, scale) = reduced_to(luminance, 2 * WORK_SIZE);
-    let (work, _) = working_copy(small.view());
-    drop(small);
+    let (work, _) = working_copy_of(small);
     let edges = edge_points(work.view());
     let (wh, ww) = work.dim();
     let min_r = (MIN_RADIUS * scale).max(6.0);
@@ -412,14 +411,31 @@ fn reduced_to(luminance: impl Plane, size: usize) -> (Array2<f64>, f64) {
 /// `small` gamma-encoded (so that edges in the shadows count as much as in the light) in
 /// units of its 99th percentile, and smoothed (σ = 1 px); and the factor to those units.
 fn working_copy(small: ArrayView2<f64>) -> (Array2<f64>, f64) {
-    let p99 = quantile(small.iter().copied().collect(), 0.99);
-    let norm = if p99 > 0.0 { 1.0 / p99 } else { 1.0 };
+    let norm = p99_norm(small);
     (encoded(small, norm), norm)
+}
+
+/// [`working_copy`] made from `small` itself (it is not needed after).
+fn working_copy_of(mut small: Array2<f64>) -> (Array2<f64>, f64) {
+    let norm = p99_norm(small.view());
+    small.mapv_inplace(|v| gamma_encoded(v, norm));
+    (crate::image::blur::gaussian_blur(small.view(), 1.0), norm)
+}
+
+/// The factor that puts the 99th percentile of `small` at 1 (1 for a black copy).
+fn p99_norm(small: ArrayView2<f64>) -> f64 {
+    let p99 = quantile(small.iter().copied().collect(), 0.99);
+    if p99 > 0.0 { 1.0 / p99 } else { 1.0 }
+}
+
+/// A linear value times `norm`, clamped and gamma-encoded as the working copies are.
+fn gamma_encoded(v: f64, norm: f64) -> f64 {
+    (v * norm).clamp(0.0, 4.0).powf(1.0 / 2.2)
 }
 
 /// `image` times `norm`, gamma-encoded and smoothed as [`working_copy`] makes it.
 fn encoded(image: ArrayView2<f64>, norm: f64) -> Array2<f64> {
-    let encoded = image.mapv(|v| (v * norm).clamp(0.0, 4.0).powf(1.0 / 2.2));
+    let encoded = image.mapv(|v| gamma_encoded(v, norm));
     crate::image::blur::gaussian_blur(encoded.view(), 1.0)
 }
 
