@@ -279,3 +279,45 @@ fn a_highlight_on_a_matte_answer_brings_the_glossy_classes_in() {
     assert!(!warnings.contains("shows a highlight"), "{warnings}");
     assert!(!labels(&matte).contains(&"white_shiny"), "{matte}");
 }
+
+/// ward11 on the README's sphere reduced to a radius of 55 px, below the 80 px its unwrap
+/// reads without upsampling: a blur of α 0.02 spans about a pixel there, so the set holds
+/// both classes of each pair that differs only in it (Figure 12's D/K, E/G, F/H, I/J), and
+/// a warning names the radius; at the sphere's own 85 px, neither.
+#[test]
+fn a_sphere_too_small_to_show_a_fine_blur_keeps_both_of_its_pairs() {
+    let dir = temp("small");
+    let small = dir.join("small.png");
+    let original = fixtures().join("features/sphere_rgb8.png");
+    let sphere = image::open(&original).unwrap();
+    let factor = 55.0 / 85.0;
+    let size = |n: u32| (f64::from(n) * factor).round() as u32;
+    sphere
+        .resize_exact(
+            size(sphere.width()),
+            size(sphere.height()),
+            image::imageops::FilterType::Triangle,
+        )
+        .save(&small)
+        .unwrap();
+    let at = |c: f64| format!("{}", (c + 0.5) * factor - 0.5);
+    let (cx, cy) = (at(96.5), at(94.25));
+    let flags = ["--white", "0.8", "--cx", &cx, "--cy", &cy, "--r", "55"];
+    let answer = classify_with("models/ward11", &small, &flags);
+    let set = labels(&answer);
+    for (sharp, blurred) in [("D", "K"), ("E", "G"), ("F", "H"), ("I", "J")] {
+        assert_eq!(set.contains(&sharp), set.contains(&blurred), "{set:?}");
+    }
+    let warnings = answer["warnings"].to_string();
+    assert!(
+        warnings.contains("(55 px) is below the 80 px"),
+        "{warnings}"
+    );
+    let full = classify("models/ward11", &original, &[]);
+    let warnings = full["warnings"].to_string();
+    assert!(!warnings.contains("below the 80 px"), "{warnings}");
+    assert!(
+        labels(&full).contains(&"J") && !labels(&full).contains(&"I"),
+        "{full}"
+    );
+}

@@ -177,6 +177,10 @@ pub struct Decision {
     pub shading: Option<Shading>,
     /// The set took in glossy classes because the sphere shows a highlight ([`add_glossy`]).
     pub glossy_added: bool,
+    /// The set took in classes that differ only in a blur the sphere is too small to show
+    /// ([`add_blur_alike`]): the radius it was read at, and the radius below which the
+    /// unwrap upsamples (px).
+    pub blur_added: Option<(f64, f64)>,
     /// The classifier's standardized inputs.
     pub z: Vec<f64>,
 }
@@ -246,6 +250,17 @@ pub fn decide(model: &ModelFile, values: &[f64], context: Context) -> Result<Dec
         (Some(set), Some(s)) if s.shows_highlight() => add_glossy(model, &head, output.class, set),
         _ => false,
     };
+    let read_at = match model.features.config.working_radius {
+        Some(working) => context.radius.min(working),
+        None => context.radius,
+    };
+    let upsampled_below = model.features.config.unwrap.r0;
+    let blur_added = match &mut set {
+        Some(set) if read_at < upsampled_below => {
+            add_blur_alike(model, &head, read_at, set).then_some((read_at, upsampled_below))
+        }
+        _ => None,
+    };
     let verdict = head.domain.map(|d| d.verdict(&z, values));
     Ok(Decision {
         request: context.request,
@@ -259,6 +274,7 @@ pub fn decide(model: &ModelFile, values: &[f64], context: Context) -> Result<Dec
         envelope,
         shading,
         glossy_added,
+        blur_added,
         z,
     })
 }
@@ -586,6 +602,31 @@ fn prediction_set(
         }
     }
     Some(set)
+}
+
+/// A blur of α spans about α·r pixels at the centre of a sphere of radius r: under this
+/// many the pyramid's finest scale does not show it.
+pub const RESOLVED_BLUR_PX: f64 = 2.0;
+
+/// A sphere read at radius `read_at` (px) below the unwrap's `r0` (its image upsampled, its
+/// finest scales interpolated) cannot show a blur of α below [`RESOLVED_BLUR_PX`] /
+/// `read_at`: every class that differs from a member of `set` only by such a blur
+/// ([`Ward::blur_alike`]) joins it. Whether one did.
+fn add_blur_alike(file: &ModelFile, head: &Head, read_at: f64, set: &mut Vec<usize>) -> bool {
+    let classes = &head.classifier.classes;
+    let ward = |k: usize| file.ward_of(&classes[k]);
+    let unresolved = RESOLVED_BLUR_PX / read_at;
+    let members = set.clone();
+    for k in 0..classes.len() {
+        let alike = members.iter().any(|&m| match (ward(m), ward(k)) {
+            (Some(a), Some(b)) => a.blur_alike(&b, unresolved),
+            _ => false,
+        });
+        if alike && !set.contains(&k) {
+            set.push(k);
+        }
+    }
+    set.len() > members.len()
 }
 
 /// A sphere that shows a highlight brighter than its diffuse shading is not matte: when the

@@ -486,6 +486,17 @@ pub const NO_SETS_WARNING: &str = "this model version has no prediction-set cali
 pub const HIGHLIGHT_WARNING: &str = "the sphere shows a highlight brighter than its diffuse \
     shading, which no matte surface makes: the prediction set also holds the glossy classes \
     alike to its matte ones";
+/// The set took in classes that differ only in a blur the sphere is too small to show: read
+/// at `read_at` px, below the `upsampled_below` px under which the unwrap upsamples.
+pub fn blur_warning(read_at: f64, upsampled_below: f64) -> String {
+    let alpha = crate::inference::RESOLVED_BLUR_PX / read_at;
+    format!(
+        "the sphere's radius ({read_at:.0} px) is below the {upsampled_below:.0} px the model \
+         reads without upsampling: a blur of α up to {alpha:.3} spans under 2 px there, so the \
+         prediction set also holds the classes that differ only in such a blur"
+    )
+}
+
 /// The warning of an answer given without a white reference by the classifier without white.
 pub const WITHOUT_WHITE_WARNING: &str = "answered without a white reference: only features that \
     do not depend on the image's brightness were read, so classes that differ mainly in \
@@ -664,6 +675,9 @@ impl Classified {
         }
         if d.glossy_added {
             warnings.push(HIGHLIGHT_WARNING.to_string());
+        }
+        if let Some((read_at, upsampled_below)) = d.blur_added {
+            warnings.push(blur_warning(read_at, upsampled_below));
         }
         warnings.extend(
             self.analysis

@@ -82,6 +82,20 @@ impl Ward {
         (metal(self) && dark_coat(other)) || (dark_coat(self) && metal(other))
     }
 
+    /// Whether the two differ only in how sharply they mirror, both at most `alpha` rough:
+    /// reflecting (ρs > 0), their diffuse parts within 10 % and specular parts within 25 % of
+    /// each other, their α different. A sphere too small to show a blur of `alpha` shows them
+    /// alike (the paper's pairs of Figure 12, sharp against α = 0.02).
+    pub fn blur_alike(&self, other: &Ward, alpha: f64) -> bool {
+        let near = |a: f64, b: f64, share: f64| (a - b).abs() <= share * a.max(b);
+        self.alpha != other.alpha
+            && self.alpha.max(other.alpha) <= alpha
+            && self.rho_s > 0.0
+            && other.rho_s > 0.0
+            && near(self.rho_d, other.rho_d, 0.1)
+            && near(self.rho_s, other.rho_s, 0.25)
+    }
+
     /// Whether `self` is matte and `other` a glossy dielectric (ρs > 0, ρd ≥ 0.02) with a
     /// diffuse reflectance within a factor 2 of it: what a matte answer becomes when the
     /// sphere shows a highlight, which no matte surface makes ([`crate::features::lighting`]).
@@ -212,5 +226,39 @@ mod tests {
         assert!(ward(0.1, 0.0, 0.0).glossy_alike(&black_shiny));
         assert!(!white_matte.glossy_alike(&ward(0.25, 0.05, 0.01)));
         assert!(!white_matte.glossy_alike(&chrome) && !white_shiny.glossy_alike(&white_matte));
+    }
+
+    #[test]
+    fn the_paper_s_sharp_and_slightly_blurred_pairs_are_blur_alike() {
+        // Figure 12's pairs: D and K, E and G, F and H, I and J (α 0 against 0.02).
+        let pairs = [
+            (ward(0.0, 0.75, 0.0), ward(0.0, 0.75, 0.02)),
+            (ward(0.05, 0.05, 0.0), ward(0.05, 0.05, 0.02)),
+            (ward(0.7, 0.2, 0.0), ward(0.7, 0.25, 0.02)),
+            (ward(0.25, 0.1, 0.0), ward(0.25, 0.1, 0.02)),
+        ];
+        for (sharp, blurred) in pairs {
+            assert!(sharp.blur_alike(&blurred, 0.025) && blurred.blur_alike(&sharp, 0.025));
+            // A sphere large enough to show α 0.02 tells them apart.
+            assert!(!sharp.blur_alike(&blurred, 0.015));
+        }
+        // Not: the same class, two matte ones, another tone or another coat.
+        let e = ward(0.05, 0.05, 0.0);
+        assert!(!e.blur_alike(&e, 0.1));
+        assert!(!ward(0.1, 0.0, 0.0).blur_alike(&ward(0.1, 0.0, 0.02), 0.1));
+        assert!(!e.blur_alike(&ward(0.25, 0.1, 0.02), 0.1));
+        assert!(!e.blur_alike(&ward(0.05, 0.1, 0.02), 0.1));
+        // The paper's six classes hold no such pair.
+        let six = [
+            ward(0.1, 0.0, 0.0),
+            ward(0.1, 0.1, 0.01),
+            ward(0.0, 0.75, 0.0),
+            ward(0.25, 0.05, 0.01),
+            ward(0.9, 0.0, 0.0),
+            ward(0.7, 0.25, 0.01),
+        ];
+        for a in &six {
+            assert!(six.iter().all(|b| !a.blur_alike(b, 0.1)), "{a:?}");
+        }
     }
 }
