@@ -27,7 +27,8 @@ else
   CONNECTIONS=${CONNECTIONS:-32}
   TIMEOUT=${TIMEOUT:-2s}
 fi
-THREADS=${THREADS:-2}
+# wrk needs a connection per thread.
+THREADS=${THREADS:-$(( CONNECTIONS < 2 ? CONNECTIONS : 2 ))}
 PORT=${PORT:-18080}
 MODEL=${MODEL:-ward6}
 ROUTES=${ROUTES:-v1}

@@ -104,6 +104,7 @@ impl CpuPool {
     {
         let (tx, rx) = tokio::sync::oneshot::channel();
         self.pool.spawn_fifo(move || {
+            let running = reflectance_core::util::parallel::Running::start();
             let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work))
                 .unwrap_or_else(|panic| {
                     let what = panic
@@ -113,7 +114,7 @@ impl CpuPool {
                         .unwrap_or_default();
                     Err(ApiError::internal(format!("panic in CPU work: {what}")))
                 });
-            drop(permit);
+            drop((running, permit));
             let _ = tx.send(result);
         });
         async move {

@@ -3,12 +3,13 @@
 //! that a phone photograph is searched without a 64-bit plane of all its pixels.
 
 use super::resample;
+use crate::util::parallel;
 use ndarray::{Array2, ArrayView2};
 use std::borrow::Cow;
 use std::ops::Range;
 
 /// Linear luminance, `size()` = (height, width), read pixel by pixel or by part.
-pub trait Plane: Copy {
+pub trait Plane: Copy + Send + Sync {
     /// Height and width (px).
     fn size(self) -> (usize, usize);
     /// The luminance of pixel (`y`, `x`), inside the plane.
@@ -26,7 +27,11 @@ pub trait Plane: Copy {
             Cow::Owned(line)
         };
         match factor < 1.0 {
-            true => resample::downsample_lines(rows.map(line), (h, w), factor),
+            true => {
+                let parts = parallel::parts_for(h * w);
+                let line = |y: usize| line(rows.start + y);
+                resample::downsample_lines_in_parts(line, (h, w), factor, parts)
+            }
             false => {
                 let values = rows.flat_map(|y| line(y).into_owned()).collect();
                 Array2::from_shape_vec((h, w), values).expect("h × w values")

@@ -8,6 +8,7 @@
 //! change between r = 116 and r = 400 renders of a chrome sphere drops from 0.95 to 0.04).
 
 use crate::image::circle::Circle;
+use crate::util::parallel::fill_rows_in_parts;
 use ndarray::{Array2, ArrayView2};
 use std::borrow::Cow;
 
@@ -52,13 +53,51 @@ pub fn downsample_lines<'a>(
     factor: f64,
 ) -> Array2<f64> {
     let (wy, wx) = (axis_weights(h, factor), axis_weights(w, factor));
+    let mut out = vec![0.0; wy.len() * wx.len()];
+    reduce_rows(lines.take(h), 0, &wy, &wx, &mut out);
+    Array2::from_shape_vec((wy.len(), wx.len()), out).expect("the shape of the weights")
+}
+
+/// [`downsample_lines`] with the output rows dealt in bands among `parts` threads, each
+/// reading the lines its band needs (`line(y)`, line `y` of the `h` × `w` image): the same
+/// bits, since an output row is made from its own lines only.
+pub fn downsample_lines_in_parts<'a>(
+    line: impl Fn(usize) -> Cow<'a, [f64]> + Sync,
+    (h, w): (usize, usize),
+    factor: f64,
+    parts: usize,
+) -> Array2<f64> {
+    let (wy, wx) = (axis_weights(h, factor), axis_weights(w, factor));
+    let mut out = vec![0.0; wy.len() * wx.len()];
+    fill_rows_in_parts(parts, &mut out, wx.len(), |rows, band| {
+        let band_weights = &wy[rows];
+        let start = band_weights.first().map_or(0, |(first, _)| *first);
+        let end = band_weights
+            .iter()
+            .map(|(first, weights)| first + weights.len())
+            .max()
+            .map_or(start, |end| end.min(h));
+        reduce_rows((start..end).map(&line), start, band_weights, &wx, band);
+    });
+    Array2::from_shape_vec((wy.len(), wx.len()), out).expect("the shape of the weights")
+}
+
+/// The output rows `wy` (each its first line and the lines' weights), reduced along x by `wx`,
+/// into `out`, from `lines` given top to bottom from line `base` on: each line is reduced along x when it
+/// comes and each output row made once its lines are in, so that neither the lines nor their
+/// reduced rows are ever held whole.
+fn reduce_rows<'a>(
+    mut lines: impl Iterator<Item = Cow<'a, [f64]>>,
+    mut base: usize,
+    wy: &[(usize, Vec<f64>)],
+    wx: &[(usize, Vec<f64>)],
+    out: &mut [f64],
+) {
     let across = wx.len();
     let covered: Vec<f64> = wx.iter().map(|(_, q)| q.iter().sum()).collect();
-    let mut out = vec![0.0; wy.len() * across];
     let mut outputs = wy.iter().zip(out.chunks_exact_mut(across)).peekable();
     // The lines reduced along x and still needed: rows `base..` of the image.
-    let (mut window, mut base) = (Vec::new(), 0);
-    let mut lines = lines.take(h);
+    let mut window = Vec::new();
     loop {
         let block: Vec<Cow<[f64]>> = lines.by_ref().take(ROWS_AT_ONCE).collect();
         if block.is_empty() {
@@ -66,7 +105,7 @@ pub fn downsample_lines<'a>(
         }
         let start = window.len();
         window.resize(start + block.len() * across, 0.0);
-        reduce_lines(&block, &wx, &mut window[start..]);
+        reduce_lines(&block, wx, &mut window[start..]);
         // Divided apart from the sums, so that the divisions run four at a time.
         for row in window[start..].chunks_exact_mut(across) {
             for (sum, c) in row.iter_mut().zip(&covered) {
@@ -89,7 +128,6 @@ pub fn downsample_lines<'a>(
         window.drain(..done * across);
         base += done;
     }
-    Array2::from_shape_vec((wy.len(), across), out).expect("the shape of the weights")
 }
 
 /// Columns summed at once by the second pass, in registers.
@@ -185,6 +223,27 @@ pub fn to_radius(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_bands_reduced_apart_are_the_whole_reduction_to_the_bit() {
+        let image = Array2::from_shape_fn((157, 93), |(y, x)| {
+            ((y * 31 + x * 17) % 101) as f64 / 7.0 + (x as f64 * 0.3).sin()
+        });
+        for factor in [0.37, 0.5, 0.1, 0.93] {
+            let whole = downsample(image.view(), factor);
+            for parts in 1..=4 {
+                let line = |y: usize| Cow::Owned(image.row(y).to_vec());
+                let banded = downsample_lines_in_parts(line, image.dim(), factor, parts);
+                assert_eq!(banded.dim(), whole.dim());
+                let bits = |a: &Array2<f64>| a.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(
+                    bits(&banded),
+                    bits(&whole),
+                    "factor {factor}, {parts} parts"
+                );
+            }
+        }
+    }
 
     #[test]
     fn halving_averages_two_by_two_blocks() {

@@ -2,6 +2,7 @@
 //! seeded random number generator and sharding (`--shard I/N`, `merge`).
 
 pub mod durable;
+pub mod parallel;
 pub mod progress;
 pub mod rng;
 pub mod shard;

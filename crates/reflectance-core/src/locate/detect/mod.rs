@@ -41,6 +41,7 @@ mod vote;
 use crate::image::circle::Circle;
 use crate::image::plane::Plane;
 use crate::locate::MIN_RADIUS;
+use crate::util::parallel::{self, map_in_parts};
 use ndarray::{Array2, ArrayView2};
 use vote::{Edge, edge_points, rim_coverage, rough_circles};
 
@@ -416,10 +417,9 @@ fn working_copy(small: ArrayView2<f64>) -> (Array2<f64>, f64) {
 }
 
 /// [`working_copy`] made from `small` itself (it is not needed after).
-fn working_copy_of(mut small: Array2<f64>) -> (Array2<f64>, f64) {
+fn working_copy_of(small: Array2<f64>) -> (Array2<f64>, f64) {
     let norm = p99_norm(small.view());
-    small.mapv_inplace(|v| gamma_encoded(v, norm));
-    (crate::image::blur::gaussian_blur(small.view(), 1.0), norm)
+    (encoded_from(small, norm), norm)
 }
 
 /// The factor that puts the 99th percentile of `small` at 1 (1 for a black copy).
@@ -435,8 +435,17 @@ fn gamma_encoded(v: f64, norm: f64) -> f64 {
 
 /// `image` times `norm`, gamma-encoded and smoothed as [`working_copy`] makes it.
 fn encoded(image: ArrayView2<f64>, norm: f64) -> Array2<f64> {
-    let encoded = image.mapv(|v| gamma_encoded(v, norm));
-    crate::image::blur::gaussian_blur(encoded.view(), 1.0)
+    encoded_from(image.to_owned(), norm)
+}
+
+/// [`encoded`] made from `image` itself; a large one in bands, one per core.
+fn encoded_from(mut image: Array2<f64>, norm: f64) -> Array2<f64> {
+    let parts = parallel::parts_for(image.len());
+    match image.as_slice_mut() {
+        Some(values) => parallel::update_in_parts(parts, values, |v| gamma_encoded(v, norm)),
+        None => image.mapv_inplace(|v| gamma_encoded(v, norm)),
+    }
+    crate::image::blur::gaussian_blur_in_parts(image.view(), 1.0, parts)
 }
 
 /// The `q` quantile of non-empty `values`.
@@ -914,19 +923,22 @@ fn refine_all(
     small: (ArrayView2<f64>, f64),
     candidates: Vec<(Circle, f64)>,
 ) -> Vec<Found> {
-    let mut first_fits: Vec<Circle> = Vec::new();
-    let mut found = Vec::new();
-    for (rough, slack) in candidates {
-        let Some(circle) = first_fit(luminance, small, rough, slack) else {
-            continue;
-        };
-        if first_fits.iter().any(|c| same_fit(c, &circle)) {
-            continue;
+    let parts = parallel::parts();
+    let first = map_in_parts(parts, &candidates, |&(rough, slack)| {
+        first_fit(luminance, small, rough, slack).map(|circle| (circle, rough.r))
+    });
+    let mut distinct: Vec<(Circle, f64)> = Vec::new();
+    for (circle, rough_r) in first.into_iter().flatten() {
+        if !distinct.iter().any(|(c, _)| same_fit(c, &circle)) {
+            distinct.push((circle, rough_r));
         }
-        first_fits.push(circle);
-        found.extend(narrow_fit(luminance, circle, rough.r));
     }
-    found
+    map_in_parts(parts, &distinct, |&(circle, rough_r)| {
+        narrow_fit(luminance, circle, rough_r)
+    })
+    .into_iter()
+    .flatten()
+    .collect()
 }
 
 /// Two first fits that landed on the same circle: centres and radii within a tenth of a

@@ -5,7 +5,9 @@
 
 use super::{UNCUT, length, quantile};
 use crate::image::circle::Circle;
+use crate::util::parallel::{self, in_parts};
 use ndarray::{Array2, ArrayView2};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Candidate centres examined, and radii per centre.
 const CANDIDATES: usize = 16;
@@ -20,7 +22,7 @@ pub(super) fn rough_circles(
     (min_r, max_r): (f64, f64),
 ) -> Vec<(Circle, f64)> {
     let mut out = Vec::new();
-    for (cx, cy, r_bin, cell) in vote(edges, dims, min_r, max_r) {
+    for (cx, cy, r_bin, cell) in vote(edges, dims, (min_r, max_r), parallel::parts()) {
         for r in radii(edges, cx, cy, r_bin / RADIUS_RATIO, r_bin * RADIUS_RATIO) {
             let rough = Circle { cx, cy, r }.enlarged(scale);
             out.push((rough, (1.5 + 0.5 * cell) / scale));
@@ -55,22 +57,31 @@ pub(super) fn edge_points(image: ArrayView2<f64>) -> Vec<Edge> {
         )
     };
     let inner = |y: usize, x: usize| (1..h - 1).contains(&y) && (1..w - 1).contains(&x);
-    let magnitude = Array2::from_shape_fn((h, w), |(y, x)| match inner(y, x) {
-        true => {
-            let (gx, gy) = gradient(y, x);
-            length(gx, gy)
+    // Row bands, one per core for a large copy, put together in row order.
+    let parts = parallel::parts_for(h * w);
+    let mut magnitude = vec![0.0; h * w];
+    parallel::fill_rows_in_parts(parts, &mut magnitude, w, |rows, band| {
+        for (y, row) in rows.zip(band.chunks_mut(w)) {
+            for (x, m) in row.iter_mut().enumerate() {
+                if inner(y, x) {
+                    let (gx, gy) = gradient(y, x);
+                    *m = length(gx, gy);
+                }
+            }
         }
-        false => 0.0,
     });
     let positive: Vec<f64> = magnitude.iter().copied().filter(|&m| m > 0.0).collect();
     if positive.is_empty() {
         return Vec::new();
     }
     let threshold = 0.15 * quantile(positive, 0.98);
-    let mut edges = Vec::new();
-    for y in 1..h - 1 {
+    let ridge = |y: usize, edges: &mut Vec<Edge>| {
+        if !(1..h - 1).contains(&y) {
+            return;
+        }
+        let at = |y: usize, x: usize| magnitude[y * w + x];
         for x in 1..w - 1 {
-            let m = magnitude[[y, x]];
+            let m = at(y, x);
             if m <= threshold {
                 continue;
             }
@@ -78,10 +89,9 @@ pub(super) fn edge_points(image: ArrayView2<f64>) -> Vec<Edge> {
             let (ux, uy) = (gx / m, gy / m);
             // Neighbours along the gradient: keep local maxima only.
             let (sx, sy) = (ux.round() as isize, uy.round() as isize);
-            let at = |dx: isize, dy: isize| {
-                magnitude[[(y as isize + dy) as usize, (x as isize + dx) as usize]]
-            };
-            if m < at(sx, sy) || m < at(-sx, -sy) {
+            let along =
+                |dx: isize, dy: isize| at((y as isize + dy) as usize, (x as isize + dx) as usize);
+            if m < along(sx, sy) || m < along(-sx, -sy) {
                 continue;
             }
             edges.push(Edge {
@@ -91,8 +101,8 @@ pub(super) fn edge_points(image: ArrayView2<f64>) -> Vec<Edge> {
                 uy,
             });
         }
-    }
-    edges
+    };
+    parallel::rows_in_parts(h, parts, |rows, edges| rows.for_each(|y| ridge(y, edges)))
 }
 
 /// Consecutive radius bins of the vote differ by this factor.
@@ -125,47 +135,64 @@ impl VoteCell {
     }
 }
 
-/// One radius bin's vote map: its cell size and dimensions, and its cells.
-struct VoteMap {
+/// The cells of one radius bin's vote map: their size (working pixels) and how many there
+/// are across and down.
+#[derive(Clone, Copy)]
+struct Grid {
     cell: f64,
     cw: usize,
     ch: usize,
+}
+
+impl Grid {
+    fn new(cell: f64, (h, w): (usize, usize)) -> Self {
+        Grid {
+            cell,
+            cw: (w as f64 / cell).ceil() as usize,
+            ch: (h as f64 / cell).ceil() as usize,
+        }
+    }
+
+    /// Whether (x, y) (in cells) lies on the map.
+    fn holds(self, x: f64, y: f64) -> bool {
+        x >= 0.0 && y >= 0.0 && x < self.cw as f64 && y < self.ch as f64
+    }
+}
+
+/// One radius bin's vote map: its grid and its cells.
+struct VoteMap {
+    grid: Grid,
     cells: Vec<VoteCell>,
 }
 
 impl VoteMap {
-    fn new(cell: f64, (h, w): (usize, usize)) -> Self {
-        let (ch, cw) = (
-            (h as f64 / cell).ceil() as usize,
-            (w as f64 / cell).ceil() as usize,
-        );
+    fn new(grid: Grid) -> Self {
         VoteMap {
-            cell,
-            cw,
-            ch,
-            cells: vec![VoteCell::default(); ch * cw],
+            grid,
+            cells: vec![VoteCell::default(); grid.ch * grid.cw],
         }
     }
 
     /// A vote at (x, y) (in cells) from `sector`; false when outside the map.
     fn add(&mut self, x: f64, y: f64, sector: u16) -> bool {
-        if !(x >= 0.0 && y >= 0.0 && x < self.cw as f64 && y < self.ch as f64) {
+        if !self.grid.holds(x, y) {
             return false;
         }
         // SAFETY: x and y are not NaN and lie in [0, width) and [0, height), which a u32
         // holds: their integer parts are representable (this skips the saturating casts'
         // checks in the vote's innermost loop).
         let (x, y) = unsafe { (x.to_int_unchecked::<u32>(), y.to_int_unchecked::<u32>()) };
-        self.cells[y as usize * self.cw + x as usize].add(sector);
+        self.cells[y as usize * self.grid.cw + x as usize].add(sector);
         true
     }
 
     /// The sectors seen in the cell (x, y) and its neighbours.
     fn seen_around(&self, x: usize, y: usize) -> u16 {
+        let Grid { cw, ch, .. } = self.grid;
         let mut around = 0u16;
-        for yy in y.saturating_sub(1)..(y + 2).min(self.ch) {
-            for xx in x.saturating_sub(1)..(x + 2).min(self.cw) {
-                around |= self.cells[yy * self.cw + xx].directions();
+        for yy in y.saturating_sub(1)..(y + 2).min(ch) {
+            for xx in x.saturating_sub(1)..(x + 2).min(cw) {
+                around |= self.cells[yy * cw + xx].directions();
             }
         }
         around
@@ -186,18 +213,45 @@ fn bin_radius(min_r: f64, bin: usize) -> f64 {
 fn vote(
     edges: &[Edge],
     (h, w): (usize, usize),
-    min_r: f64,
-    max_r: f64,
+    (min_r, max_r): (f64, f64),
+    parts: usize,
 ) -> Vec<(f64, f64, f64, f64)> {
+    let (radii, lines) = (bin_radii(min_r, max_r), lines_of(edges));
+    // Each part walks the bins in order and votes in the next bin no part has taken yet (a part
+    // that falls behind takes fewer), so the bins' peaks come tagged with their bin.
+    let taken: Vec<AtomicBool> = radii.iter().map(|_| AtomicBool::new(false)).collect();
+    let mut by_bin: Vec<(usize, Vec<Peak>)> = in_parts(parts, |_, _| {
+        vote_bins(&lines, &radii, min_r, (h, w), |bin| {
+            !taken[bin].swap(true, Ordering::Relaxed)
+        })
+    })
+    .into_iter()
+    .flatten()
+    .collect();
+    by_bin.sort_by_key(|&(bin, _)| bin);
+    let mut found: Vec<Peak> = by_bin.into_iter().flat_map(|(_, peaks)| peaks).collect();
+    found.sort_by(|a, b| b.0.total_cmp(&a.0));
+    found.truncate(CANDIDATES);
+    found
+        .into_iter()
+        .map(|(_, x, y, r, cell)| (x, y, r, cell))
+        .collect()
+}
+
+/// The radii one working pixel apart from `min_r` to `max_r`, per bin.
+fn bin_radii(min_r: f64, max_r: f64) -> Vec<Vec<f64>> {
     let bins = ((max_r / min_r).ln() / RADIUS_RATIO.ln()).ceil() as usize + 1;
-    // Radii one working pixel apart, per bin.
     let mut radii: Vec<Vec<f64>> = vec![Vec::new(); bins];
     for r in (0..).map(|k| min_r + k as f64).take_while(|&r| r <= max_r) {
         let bin = (((r / min_r).ln() / RADIUS_RATIO.ln()) as usize).min(bins - 1);
         radii[bin].push(r);
     }
-    // Each edge point's line, on each side: (x, y, unit step towards the centre, sector).
-    let lines: Vec<(f64, f64, f64, f64, u16)> = edges
+    radii
+}
+
+/// Each edge point's line, on each side.
+fn lines_of(edges: &[Edge]) -> Vec<Line> {
+    edges
         .iter()
         .flat_map(|e| {
             [-1.0, 1.0].map(|side: f64| {
@@ -208,44 +262,82 @@ fn vote(
                 (e.x, e.y, side * e.ux, side * e.uy, sector)
             })
         })
-        .collect();
-    // A line stops voting at its first vote outside the picture. One map at a time, so that
-    // the map being filled stays in the cache and only one is held.
+        .collect()
+}
+
+/// An edge point's line on one side: its point, its unit step towards the centre and the
+/// sector of the direction from the centre to it.
+type Line = (f64, f64, f64, f64, u16);
+/// A vote map's peak: (score, x, y, radius, cell size).
+type Peak = (f64, f64, f64, f64, f64);
+
+/// The peaks of the bins `mine` picks, each with its bin. A line stops voting at its first vote
+/// outside the picture, as it would in one walk through every bin: in a bin it does not vote
+/// in, a line leaves the map iff its last radius's vote would. (A line starts inside the
+/// picture and its votes move monotonically away along a straight line, so the votes on a
+/// convex map are an unbroken run from the first.) One map at a time per part, so that the map
+/// being filled stays in the cache.
+fn vote_bins(
+    lines: &[Line],
+    radii: &[Vec<f64>],
+    min_r: f64,
+    dims: (usize, usize),
+    mine: impl Fn(usize) -> bool,
+) -> Vec<(usize, Vec<Peak>)> {
     let mut inside = vec![true; lines.len()];
-    let mut found: Vec<(f64, f64, f64, f64, f64)> = Vec::new();
+    let mut found = Vec::new();
     for (bin, radii) in radii.iter().enumerate() {
         let r = bin_radius(min_r, bin);
-        let mut map = VoteMap::new((CELL_SHARE * r).max(CELL), (h, w));
-        // In the map's cells.
-        let k = 1.0 / map.cell;
-        for (&(x, y, ux, uy, sector), inside) in lines.iter().zip(inside.iter_mut()) {
-            if !*inside {
-                continue;
-            }
-            let (x0, y0, dx, dy) = (x * k, y * k, ux * k, uy * k);
-            *inside = radii
-                .iter()
-                .all(|&r| map.add(x0 + r * dx, y0 + r * dy, sector));
+        let grid = Grid::new((CELL_SHARE * r).max(CELL), dims);
+        if !mine(bin) {
+            follow(lines, radii, grid, &mut inside);
+            continue;
         }
-        found.extend(
-            bin_peaks(&map, r, (h, w))
-                .into_iter()
-                .map(|(score, x, y)| (score, x, y, r, map.cell)),
-        );
+        let mut map = VoteMap::new(grid);
+        cast(&mut map, lines, radii, &mut inside);
+        let peaks = bin_peaks(&map, r, dims)
+            .into_iter()
+            .map(|(score, x, y)| (score, x, y, r, grid.cell))
+            .collect();
+        found.push((bin, peaks));
     }
-    found.sort_by(|a, b| b.0.total_cmp(&a.0));
-    found.truncate(CANDIDATES);
     found
-        .into_iter()
-        .map(|(_, x, y, r, cell)| (x, y, r, cell))
-        .collect()
+}
+
+/// The votes of the lines still `inside` at `radii`, into `map`; a line whose vote falls
+/// outside it stops there and is no longer inside.
+fn cast(map: &mut VoteMap, lines: &[Line], radii: &[f64], inside: &mut [bool]) {
+    let k = 1.0 / map.grid.cell;
+    for (&(x, y, ux, uy, sector), inside) in lines.iter().zip(inside.iter_mut()) {
+        if !*inside {
+            continue;
+        }
+        // In the map's cells.
+        let (x0, y0, dx, dy) = (x * k, y * k, ux * k, uy * k);
+        *inside = radii
+            .iter()
+            .all(|&r| map.add(x0 + r * dx, y0 + r * dy, sector));
+    }
+}
+
+/// Which lines [`cast`] would leave inside after `radii` on `grid`, without casting a vote:
+/// those whose vote at the last radius falls on the map.
+fn follow(lines: &[Line], radii: &[f64], grid: Grid, inside: &mut [bool]) {
+    let Some(&r) = radii.last() else {
+        return;
+    };
+    let k = 1.0 / grid.cell;
+    for (&(x, y, ux, uy, _), inside) in lines.iter().zip(inside.iter_mut()) {
+        let (x0, y0, dx, dy) = (x * k, y * k, ux * k, uy * k);
+        *inside = *inside && grid.holds(x0 + r * dx, y0 + r * dy);
+    }
 }
 
 /// The best peaks of one bin's vote map (radius `r`) as (score, x, y): votes per unit of
 /// circumference (and of cell size) times the square of the share of directions seen, on
 /// the part of the circle inside the picture.
 fn bin_peaks(map: &VoteMap, r: f64, (h, w): (usize, usize)) -> Vec<(f64, f64, f64)> {
-    let (ch, cw, cell) = (map.ch, map.cw, map.cell);
+    let Grid { cell, cw, ch } = map.grid;
     let grid = Array2::from_shape_fn((ch, cw), |(y, x)| map.cells[y * cw + x].votes());
     let smooth = crate::image::blur::gaussian_blur(grid.view(), 1.0);
     // A circle's centre cell gathers about one vote per edge point per pixel of cell.
@@ -388,4 +480,72 @@ fn radii(edges: &[Edge], cx: f64, cy: f64, min_r: f64, max_r: f64) -> Vec<f64> {
         }
     }
     chosen
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A bright disc cut by the picture's right edge, a smaller one inside, and a bar: lines
+    /// that leave the picture at every radius bin.
+    fn scene() -> Array2<f64> {
+        Array2::from_shape_fn((150, 200), |(y, x)| {
+            let (x, y) = (x as f64, y as f64);
+            let big = (x - 170.0).hypot(y - 80.0) < 50.0;
+            let small = (x - 60.0).hypot(y - 50.0) < 20.0;
+            let bar = (20.0..110.0).contains(&x) && (115.0..125.0).contains(&y);
+            if big || small || bar { 0.9 } else { 0.1 }
+        })
+    }
+
+    #[test]
+    fn the_vote_split_between_threads_is_the_vote_of_one_to_the_bit() {
+        let image = crate::image::blur::gaussian_blur(scene().view(), 1.0);
+        let edges = edge_points(image.view());
+        let dims = image.dim();
+        let one = vote(&edges, dims, (6.0, 120.0), 1);
+        assert!(!one.is_empty(), "the scene's circles are voted for");
+        let bits = |found: &[(f64, f64, f64, f64)]| -> Vec<[u64; 4]> {
+            found
+                .iter()
+                .map(|&(x, y, r, cell)| [x, y, r, cell].map(f64::to_bits))
+                .collect()
+        };
+        for parts in 2..=3 {
+            let split = vote(&edges, dims, (6.0, 120.0), parts);
+            assert_eq!(bits(&split), bits(&one), "{parts} parts");
+        }
+    }
+
+    #[test]
+    fn following_a_bin_leaves_inside_the_lines_its_votes_would() {
+        // Lines grazing the right edge of a 301 px wide picture leave it at every radius; the
+        // maps' cells overhang the edge by different amounts, so a line that left one map may
+        // fall on a later one, where only the walk's memory keeps it from voting.
+        let dims = (1000, 301);
+        let lines: Vec<Line> = (0..400)
+            .map(|k| {
+                let ux = f64::from(k) * 0.0001;
+                (299.0, 10.0, ux, (1.0 - ux * ux).sqrt(), (k % 16) as u16)
+            })
+            .collect();
+        let radii = bin_radii(6.0, 300.0);
+        let (mut cast_inside, mut followed) = (vec![true; lines.len()], vec![true; lines.len()]);
+        let mut back_on_a_later_map = 0;
+        for (bin, radii) in radii.iter().enumerate() {
+            let r = bin_radius(6.0, bin);
+            let grid = Grid::new((CELL_SHARE * r).max(CELL), dims);
+            let before = cast_inside.clone();
+            cast(&mut VoteMap::new(grid), &lines, radii, &mut cast_inside);
+            follow(&lines, radii, grid, &mut followed);
+            assert_eq!(followed, cast_inside, "bin {bin}");
+            let mut fresh = vec![true; lines.len()];
+            cast(&mut VoteMap::new(grid), &lines, radii, &mut fresh);
+            back_on_a_later_map += (0..lines.len())
+                .filter(|&l| !before[l] && !radii.is_empty() && fresh[l])
+                .count();
+        }
+        assert!(cast_inside.iter().any(|&i| !i) && cast_inside.iter().any(|&i| i));
+        assert!(back_on_a_later_map > 0, "no line fell on a later map");
+    }
 }
